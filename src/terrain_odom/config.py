@@ -1,0 +1,321 @@
+"""Typed configuration, loaded from YAML and validated on load.
+
+The defaults of these dataclasses are the values in ``config/default.yaml``
+(a test keeps the two equal). Noise values are standard deviations:
+``sigma_p0`` and ``sigma_pb`` in the state's units, ``sigma_r`` in the
+measurement's units, and ``sigma_q`` as continuous-time noise densities in
+units per square-root second (the discrete process noise over a step of
+``dt`` seconds is ``sigma_q**2 * dt``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import typing
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from terrain_odom.errors import ConfigError
+
+__all__ = [
+    "FORMAT_VERSION",
+    "RobotConfig",
+    "IcrState",
+    "PoseIcrSigmas",
+    "PoseSigmas",
+    "IcrSigmas",
+    "IcrLimits",
+    "EkfConfig",
+    "TerrainConfig",
+    "EvaluationConfig",
+    "Config",
+    "load_config",
+    "config_to_dict",
+]
+
+FORMAT_VERSION = 1
+
+
+@dataclass(frozen=True)
+class RobotConfig:
+    """Robot geometry.
+
+    Attributes
+    ----------
+    wheel_radius : float
+        Wheel (sprocket) radius, m; converts ``omega_l, omega_r`` to surface speed.
+    track_width : float
+        Nominal track width ``B``, m (distance between track centre lines).
+    """
+
+    wheel_radius: float = 0.1
+    track_width: float = 0.5
+
+
+@dataclass(frozen=True)
+class IcrState:
+    """ICR parameters ``y_l, y_r, x_icr`` (m) and slip factor ``alpha``."""
+
+    y_l: float = 0.25
+    y_r: float = -0.25
+    x_icr: float = 0.0
+    alpha: float = 1.0
+
+
+@dataclass(frozen=True)
+class PoseIcrSigmas:
+    """Standard deviations for every state: pose (m, m, rad) and ICR parameters."""
+
+    x: float = 1.0
+    y: float = 1.0
+    yaw: float = 0.5
+    y_l: float = 0.5
+    y_r: float = 0.5
+    x_icr: float = 0.5
+    alpha: float = 0.1
+
+
+@dataclass(frozen=True)
+class PoseSigmas:
+    """Standard deviations of a pose measurement: m, m, rad."""
+
+    x: float = 0.05
+    y: float = 0.05
+    yaw: float = 0.02
+
+
+@dataclass(frozen=True)
+class IcrSigmas:
+    """Standard deviations of the ICR parameters (m, m, m, dimensionless)."""
+
+    y_l: float = 0.5
+    y_r: float = 0.5
+    x_icr: float = 0.5
+    alpha: float = 0.1
+
+
+@dataclass(frozen=True)
+class IcrLimits:
+    """Physical bounds the ICR state is kept in after every update.
+
+    Attributes
+    ----------
+    half_width_min, half_width_max : float
+        Bounds of ``y_l`` and ``-y_r``, m (``y_l - y_r`` never reaches 0).
+    x_icr_max : float
+        Bound of ``|x_icr|``, m.
+    alpha_min, alpha_max : float
+        Bounds of the slip factor.
+    """
+
+    half_width_min: float = 0.05
+    half_width_max: float = 20.0
+    x_icr_max: float = 10.0
+    alpha_min: float = 0.3
+    alpha_max: float = 1.5
+
+
+@dataclass(frozen=True)
+class EkfConfig:
+    """Tuning of the ICR extended Kalman filter (Chen et al. 2023, eq. 4-16).
+
+    Attributes
+    ----------
+    estimate_alpha : bool
+        Add the longitudinal slip factor ``alpha`` to the state.
+    initial : IcrState
+        Initial ICR parameters.
+    sigma_p0 : PoseIcrSigmas
+        Initial standard deviations (``P0``).
+    sigma_q : PoseIcrSigmas
+        Process noise densities, unit / sqrt(s).
+    sigma_r : PoseSigmas
+        Pose measurement noise.
+    sigma_pb : IcrSigmas
+        Standard deviations the ICR block of ``P`` is reset to on a confirmed
+        terrain change (``P_B``).
+    sigma_pb_per_terrain : dict of str to IcrSigmas
+        Optional ``P_B`` per terrain label, overriding ``sigma_pb``.
+    limits : IcrLimits
+        Bounds of the ICR state.
+    """
+
+    estimate_alpha: bool = True
+    initial: IcrState = field(default_factory=IcrState)
+    sigma_p0: PoseIcrSigmas = field(default_factory=PoseIcrSigmas)
+    sigma_q: PoseIcrSigmas = field(
+        default_factory=lambda: PoseIcrSigmas(
+            x=0.05, y=0.05, yaw=0.02, y_l=0.02, y_r=0.02, x_icr=0.02, alpha=0.002
+        )
+    )
+    sigma_r: PoseSigmas = field(default_factory=PoseSigmas)
+    sigma_pb: IcrSigmas = field(default_factory=IcrSigmas)
+    sigma_pb_per_terrain: dict[str, IcrSigmas] = field(default_factory=dict)
+    limits: IcrLimits = field(default_factory=IcrLimits)
+
+
+@dataclass(frozen=True)
+class TerrainConfig:
+    """Terrain adaptation.
+
+    Attributes
+    ----------
+    adapt : bool
+        Reset the ICR covariance to ``P_B`` on a confirmed terrain change.
+    confirm : int
+        Consecutive observations of a new label needed to confirm a change
+        (Chen et al.: 2 frames).
+    memory : bool
+        On returning to a terrain seen before, restore its last ICR estimate.
+    memory_min_dwell : float
+        Seconds on a terrain before its estimate is remembered, s.
+    """
+
+    adapt: bool = True
+    confirm: int = 2
+    memory: bool = True
+    memory_min_dwell: float = 10.0
+
+
+@dataclass(frozen=True)
+class EvaluationConfig:
+    """Model-odometry metric settings: ``horizon`` is ``h_e`` in metres."""
+
+    horizon: float = 2.0
+
+
+@dataclass(frozen=True)
+class Config:
+    """The whole configuration of a run."""
+
+    format_version: int = FORMAT_VERSION
+    robot: RobotConfig = field(default_factory=RobotConfig)
+    ekf: EkfConfig = field(default_factory=EkfConfig)
+    terrain: TerrainConfig = field(default_factory=TerrainConfig)
+    evaluation: EvaluationConfig = field(default_factory=EvaluationConfig)
+
+
+# Fields that may be zero or negative; every other float must be > 0.
+_SIGNED = {"y_r", "x_icr"}
+_NON_NEGATIVE_PARENTS = {"sigma_q"}
+
+
+def _check_float(value: Any, where: str, name: str, parent: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ConfigError(f"{where}: must be a number, got {value!r}")
+    value = float(value)
+    if not math.isfinite(value):
+        raise ConfigError(f"{where}: must be finite, got {value!r}")
+    if parent == "initial" and name in _SIGNED:
+        return value
+    if parent in _NON_NEGATIVE_PARENTS:
+        if value < 0.0:
+            raise ConfigError(f"{where}: must be >= 0, got {value!r}")
+    elif value <= 0.0:
+        raise ConfigError(f"{where}: must be > 0, got {value!r}")
+    return value
+
+
+def _build(default: Any, data: Any, where: str) -> Any:
+    """Return dataclass instance ``default`` updated from a mapping.
+
+    Keys left out keep the values of ``default``; unknown keys are rejected.
+    """
+    cls = type(default)
+    if not isinstance(data, Mapping):
+        raise ConfigError(f"{where}: expected a mapping of keys, got {type(data).__name__}")
+    hints = typing.get_type_hints(cls)
+    known = {f.name for f in dataclasses.fields(cls)}
+    unknown = sorted(str(k) for k in set(data) - known)
+    if unknown:
+        raise ConfigError(f"{where}: unknown key(s) {unknown}; allowed: {sorted(known)}")
+    values = {}
+    parent = where.rsplit(".", 1)[-1]
+    # Per-terrain overrides last: their missing keys come from the final sigma_pb.
+    for name, raw in sorted(data.items(), key=lambda item: item[0] == "sigma_pb_per_terrain"):
+        key = f"{where}.{name}"
+        hint = hints[name]
+        if dataclasses.is_dataclass(hint):
+            values[name] = _build(getattr(default, name), raw, key)
+        elif hint is bool:
+            if not isinstance(raw, bool):
+                raise ConfigError(f"{key}: must be true or false, got {raw!r}")
+            values[name] = raw
+        elif hint is int:
+            if isinstance(raw, bool) or not isinstance(raw, int) or raw < 1:
+                raise ConfigError(f"{key}: must be a whole number >= 1, got {raw!r}")
+            values[name] = raw
+        elif hint is float:
+            values[name] = _check_float(raw, key, name, parent)
+        else:  # sigma_pb_per_terrain: dict[str, IcrSigmas], missing keys from sigma_pb
+            if not isinstance(raw, Mapping):
+                raise ConfigError(f"{key}: expected a mapping of terrain label to sigmas")
+            base = values.get("sigma_pb", default.sigma_pb)
+            values[name] = {str(k): _build(base, v, f"{key}.{k}") for k, v in raw.items()}
+    return dataclasses.replace(default, **values)
+
+
+def _check_consistency(cfg: Config, where: str) -> None:
+    ini, lim = cfg.ekf.initial, cfg.ekf.limits
+    if not ini.y_l > 0.0 > ini.y_r:
+        raise ConfigError(
+            f"{where}: ekf.initial needs y_l > 0 > y_r (left ICR left of the body), "
+            f"got y_l={ini.y_l}, y_r={ini.y_r}"
+        )
+    if not lim.half_width_min < lim.half_width_max:
+        raise ConfigError(f"{where}: ekf.limits.half_width_min must be < half_width_max")
+    if not lim.alpha_min <= ini.alpha <= lim.alpha_max:
+        raise ConfigError(f"{where}: ekf.initial.alpha must lie in [alpha_min, alpha_max]")
+    if cfg.format_version != FORMAT_VERSION:
+        raise ConfigError(
+            f"{where}: format_version {cfg.format_version} is not supported "
+            f"(this version of terrain-odom reads {FORMAT_VERSION})"
+        )
+
+
+def load_config(path: str | Path | None = None) -> Config:
+    """Load and validate a YAML configuration.
+
+    Parameters
+    ----------
+    path : str or Path, optional
+        YAML file. Keys left out take the defaults of :class:`Config` (which
+        are those of ``config/default.yaml``); ``None`` returns the defaults.
+
+    Returns
+    -------
+    Config
+
+    Raises
+    ------
+    ConfigError
+        Naming the file and the key of the first invalid or unknown entry.
+    """
+    if path is None:
+        return Config()
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ConfigError(f"{path}: config file not found") from None
+    except OSError as exc:
+        raise ConfigError(f"{path}: cannot read config file ({exc.strerror})") from None
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        line = f", line {mark.line + 1}" if mark is not None else ""
+        raise ConfigError(f"{path}{line}: not valid YAML") from None
+    cfg = _build(Config(), data or {}, str(path))
+    _check_consistency(cfg, str(path))
+    return cfg
+
+
+def config_to_dict(cfg: Config) -> dict[str, Any]:
+    """Return the configuration as plain data (for reports and YAML)."""
+    return dataclasses.asdict(cfg)

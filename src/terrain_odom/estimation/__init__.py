@@ -1,0 +1,19 @@
+"""Online estimators: the ICR EKF and the terrain change tracker."""
+
+from terrain_odom.estimation.icr_ekf import (
+    STATE_NAMES,
+    IcrEkf,
+    TerrainChange,
+    icr_step,
+    icr_step_jacobian,
+)
+from terrain_odom.estimation.terrain import TerrainTracker
+
+__all__ = [
+    "STATE_NAMES",
+    "IcrEkf",
+    "TerrainChange",
+    "TerrainTracker",
+    "icr_step",
+    "icr_step_jacobian",
+]
