@@ -1,0 +1,541 @@
+"""Odometry error metrics: model error over spatial windows and ATE.
+
+Spatial-window error (Baril et al., CRV 2020, section IV). A window starts at
+every row with a full pose measurement and ends at the first later full-pose
+row of the same segment whose measured path length from the start is at
+least ``horizon`` (2 m by default); windows that never reach it are dropped.
+The path length is the sum of the distances between consecutive measured
+positions. The kinematic model is integrated from the *measured* start pose
+over the wheel rows ``start .. end - 1`` (row ``k`` held for
+``t[k+1] - t[k]``, zero-order hold) and compared with the measured end pose:
+
+- translational error per metre = ``|p_pred - p_meas| / length`` (m/m),
+- angular error per metre = ``|wrap(yaw_pred - yaw_meas)| / length`` (deg/m).
+
+For a model integrated from the measured start pose the translational error
+before division equals evo's RPE ``translation_part`` on the same index pairs
+(``|t(Q_rel^-1 P_rel)|`` with ``P_rel`` the model's relative motion).
+
+The twist comes from a callable ``twist_fn(v_l, v_r, window_index)``, so the
+same code serves constant models and estimators whose parameters change
+per window (each window uses only the estimate available at its start).
+
+ATE. :func:`absolute_trajectory_error` aligns an estimated planar trajectory
+to measured positions with the rigid SE(2) transform that minimises the
+squared position error (Umeyama without scale) and returns the RMSE.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from terrain_odom.kinematics.integration import integrate, wrap_angle
+from terrain_odom.kinematics.models import KinematicModel, twist_icr
+from terrain_odom.types import WheelLog
+
+__all__ = [
+    "DEFAULT_HORIZON",
+    "TwistFn",
+    "Windows",
+    "WindowErrors",
+    "ErrorStats",
+    "ErrorSummary",
+    "SE2Alignment",
+    "AteResult",
+    "spatial_windows",
+    "model_twist",
+    "icr_twist_from_rows",
+    "predict_window_ends",
+    "window_errors",
+    "summarize",
+    "align_se2",
+    "absolute_trajectory_error",
+]
+
+Twist = tuple[np.ndarray, np.ndarray, np.ndarray]
+TwistFn = Callable[[np.ndarray, np.ndarray, np.ndarray], Twist]
+"""``twist_fn(v_l, v_r, window_index) -> (v_x, v_y, omega)``.
+
+``v_l, v_r`` have shape ``(W, K)`` (track speeds, m/s, one row per window),
+``window_index`` has shape ``(W,)`` (indices into the :class:`Windows`, so
+per-window parameters are ``params[window_index][:, None]``); the returned
+twist (m/s, m/s, rad/s) must broadcast to ``(W, K)``.
+"""
+
+DEFAULT_HORIZON = 2.0  # m, Baril et al.'s spatial window h_e
+_CHUNK_ELEMENTS = 1 << 16  # max W * K integrated at once (bounds memory)
+
+
+@dataclass(frozen=True)
+class Windows:
+    """Spatial evaluation windows of a log.
+
+    Attributes
+    ----------
+    start, end : ndarray of int, shape (W,)
+        Log rows of the start and end pose measurements (``start < end``).
+    length : ndarray, shape (W,)
+        Measured path length between start and end, m (``>= horizon``).
+    """
+
+    start: np.ndarray
+    end: np.ndarray
+    length: np.ndarray
+
+    def __len__(self) -> int:
+        return int(self.start.shape[0])
+
+
+@dataclass(frozen=True)
+class WindowErrors:
+    """Prediction errors of a model over the windows of a log.
+
+    Attributes
+    ----------
+    windows : Windows
+        The evaluated windows (``W`` of them).
+    predicted : ndarray, shape (W, 3)
+        Predicted end pose ``x, y, yaw`` (m, m, rad).
+    translation : ndarray, shape (W,)
+        Distance between predicted and measured end position, m.
+    rotation : ndarray, shape (W,)
+        Absolute wrapped yaw difference at the end, rad.
+    """
+
+    windows: Windows
+    predicted: np.ndarray
+    translation: np.ndarray
+    rotation: np.ndarray
+
+    @property
+    def translation_per_m(self) -> np.ndarray:
+        """Translational error per metre travelled, shape (W,), m/m."""
+        return self.translation / self.windows.length
+
+    @property
+    def rotation_per_m(self) -> np.ndarray:
+        """Angular error per metre travelled, shape (W,), deg/m."""
+        return np.degrees(self.rotation) / self.windows.length
+
+
+@dataclass(frozen=True)
+class ErrorStats:
+    """Distribution summary of one error (NaN statistics when ``count == 0``)."""
+
+    median: float
+    q25: float
+    q75: float
+    mean: float
+    count: int
+
+    def to_dict(self) -> dict[str, float | int | None]:
+        """JSON-ready dict; NaN becomes ``None``."""
+        return {
+            "median": _json_float(self.median),
+            "q25": _json_float(self.q25),
+            "q75": _json_float(self.q75),
+            "mean": _json_float(self.mean),
+            "count": self.count,
+        }
+
+
+@dataclass(frozen=True)
+class ErrorSummary:
+    """Summary of window errors.
+
+    Attributes
+    ----------
+    translation : ErrorStats
+        Translational error per metre, m/m.
+    rotation : ErrorStats
+        Angular error per metre, deg/m.
+    """
+
+    translation: ErrorStats
+    rotation: ErrorStats
+
+    def to_dict(self) -> dict[str, dict[str, float | int | None]]:
+        """JSON-ready dict keyed ``translation_m_per_m`` and ``rotation_deg_per_m``."""
+        return {
+            "translation_m_per_m": self.translation.to_dict(),
+            "rotation_deg_per_m": self.rotation.to_dict(),
+        }
+
+
+@dataclass(frozen=True)
+class SE2Alignment:
+    """A planar rigid transform ``p -> R(angle) p + translation``.
+
+    Attributes
+    ----------
+    angle : float
+        Rotation angle, rad, in (-pi, pi].
+    translation : ndarray, shape (2,)
+        Translation, m.
+    """
+
+    angle: float
+    translation: np.ndarray
+
+    @property
+    def rotation(self) -> np.ndarray:
+        """Rotation matrix, shape (2, 2)."""
+        c, s = math.cos(self.angle), math.sin(self.angle)
+        return np.array([[c, -s], [s, c]])
+
+    def apply(self, xy: ArrayLike) -> np.ndarray:
+        """Transform positions of shape (..., 2), m."""
+        return np.asarray(xy, dtype=float) @ self.rotation.T + self.translation
+
+
+@dataclass(frozen=True)
+class AteResult:
+    """Absolute trajectory error after SE(2) alignment.
+
+    Attributes
+    ----------
+    rmse : float
+        Root-mean-square position error after alignment, m.
+    alignment : SE2Alignment
+        Transform applied to the estimate to align it with the reference.
+    count : int
+        Number of rows compared.
+    """
+
+    rmse: float
+    alignment: SE2Alignment
+    count: int
+
+    def to_dict(self) -> dict[str, float | int | list[float]]:
+        """JSON-ready dict: ``rmse_m``, ``angle_rad``, ``translation_m``, ``count``."""
+        return {
+            "rmse_m": self.rmse,
+            "angle_rad": self.alignment.angle,
+            "translation_m": self.alignment.translation.tolist(),
+            "count": self.count,
+        }
+
+
+def _json_float(value: float) -> float | None:
+    return None if math.isnan(value) else float(value)
+
+
+def _segment_runs(segment: np.ndarray) -> np.ndarray:
+    """Run id per row, shape (N,): increments at every change of ``segment``."""
+    seg = np.asarray(segment)
+    return np.concatenate([[0], np.cumsum(seg[1:] != seg[:-1])])
+
+
+def _measured_path(log: WheelLog, runs: np.ndarray) -> np.ndarray:
+    """Cumulative measured path length per row, shape (N,), m (NaN without position).
+
+    The distance between consecutive measured positions of different
+    segments counts as zero, so differences within a segment are path lengths.
+    """
+    rows = np.flatnonzero(log.has_position)
+    steps = np.zeros(rows.size)
+    steps[1:] = np.linalg.norm(np.diff(log.pose[rows, :2], axis=0), axis=1)
+    steps[1:][runs[rows][1:] != runs[rows][:-1]] = 0.0
+    path = np.full(len(log), np.nan)
+    path[rows] = np.cumsum(steps)
+    return path
+
+
+def spatial_windows(log: WheelLog, horizon: float = DEFAULT_HORIZON) -> Windows:
+    """Find the spatial evaluation windows of a log.
+
+    Parameters
+    ----------
+    log : WheelLog
+        Log with pose measurements (``N`` rows).
+    horizon : float, optional
+        Minimum measured path length of a window ``h_e``, m (> 0).
+
+    Returns
+    -------
+    Windows
+        One window per full-pose row that reaches ``horizon`` within its
+        segment, in row order.
+
+    Examples
+    --------
+    Poses every 0.5 m along x, a segment change after row 5:
+
+    >>> n = 8
+    >>> pose = np.c_[0.5 * np.arange(n), np.zeros(n), np.zeros(n)]
+    >>> log = WheelLog(np.arange(n, dtype=float), np.ones(n), np.ones(n), pose,
+    ...                None, np.array([0] * 6 + [1] * 2))
+    >>> w = spatial_windows(log, horizon=1.0)
+    >>> w.start.tolist(), w.end.tolist(), w.length.tolist()
+    ([0, 1, 2, 3], [2, 3, 4, 5], [1.0, 1.0, 1.0, 1.0])
+    """
+    if not horizon > 0.0:
+        raise ValueError(f"window horizon must be > 0 m, got {horizon}")
+    runs = _segment_runs(log.segment)
+    path = _measured_path(log, runs)
+    rows = np.flatnonzero(log.has_pose)
+    p = path[rows]
+    j = np.searchsorted(p, p + horizon, side="left")
+    inside = j < rows.size
+    j_in = np.minimum(j, rows.size - 1)
+    keep = inside & (runs[rows[j_in]] == runs[rows])
+    start, end = rows[keep], rows[j_in[keep]]
+    return Windows(start=start, end=end, length=path[end] - path[start])
+
+
+def _chunks(n_steps: np.ndarray) -> list[np.ndarray]:
+    """Group window indices so that padding stays < 2x and memory is bounded.
+
+    Windows are bucketed by ``ceil(log2(n_steps))``; each bucket is split so
+    that ``len(chunk) * 2**bucket <= _CHUNK_ELEMENTS`` (at least one window).
+    """
+    bucket = np.ceil(np.log2(n_steps)).astype(int)
+    chunks = []
+    for b in np.unique(bucket):
+        idx = np.flatnonzero(bucket == b)
+        per_chunk = max(1, _CHUNK_ELEMENTS >> int(b))
+        chunks.extend(idx[i : i + per_chunk] for i in range(0, idx.size, per_chunk))
+    return chunks
+
+
+def predict_window_ends(log: WheelLog, windows: Windows, twist_fn: TwistFn) -> np.ndarray:
+    """Integrate the model over every window from its measured start pose.
+
+    Windows are integrated together as ``(W, K)`` arrays padded with
+    ``dt = 0`` and a zero twist (in a few memory-bounded chunks of similar
+    ``K``); ``twist_fn`` sees the padding too, filled with real log speeds.
+
+    Parameters
+    ----------
+    log : WheelLog
+        The log the windows belong to.
+    windows : Windows
+        Windows from :func:`spatial_windows`.
+    twist_fn : TwistFn
+        ``twist_fn(v_l, v_r, window_index) -> (v_x, v_y, omega)``.
+
+    Returns
+    -------
+    ndarray, shape (W, 3)
+        Predicted pose ``x, y, yaw`` (m, m, rad) at each window's end row.
+    """
+    dt_row = np.append(np.diff(log.t), 0.0)
+    n_steps = windows.end - windows.start
+    predicted = np.empty((len(windows), 3))
+    for idx in _chunks(n_steps):
+        k = n_steps[idx, None]
+        step = np.arange(k.max())
+        valid = step < k
+        rows = windows.start[idx, None] + np.minimum(step, k - 1)
+        twist = twist_fn(log.v_l[rows], log.v_r[rows], idx)
+        v_x, v_y, omega = (np.where(valid, np.broadcast_to(c, rows.shape), 0.0) for c in twist)
+        dt = np.where(valid, dt_row[rows], 0.0)
+        poses = integrate(v_x, v_y, omega, dt, start=log.pose[windows.start[idx]])
+        predicted[idx] = poses[:, -1]
+    return predicted
+
+
+def window_errors(log: WheelLog, windows: Windows, twist_fn: TwistFn) -> WindowErrors:
+    """Errors of a model's predicted end poses over spatial windows.
+
+    Parameters
+    ----------
+    log : WheelLog
+        The log the windows belong to.
+    windows : Windows
+        Windows from :func:`spatial_windows`.
+    twist_fn : TwistFn
+        ``twist_fn(v_l, v_r, window_index) -> (v_x, v_y, omega)``; see
+        :func:`model_twist` and :func:`icr_twist_from_rows`.
+
+    Returns
+    -------
+    WindowErrors
+        Per-window absolute errors (m, rad); ``translation_per_m`` and
+        ``rotation_per_m`` give them per metre.
+
+    Examples
+    --------
+    Straight line at 1 m/s, measured exactly, a model 10 % too fast:
+
+    >>> from terrain_odom.kinematics.models import get_model
+    >>> n = 6
+    >>> pose = np.c_[np.arange(n, dtype=float), np.zeros(n), np.zeros(n)]
+    >>> log = WheelLog(np.arange(n, dtype=float), np.ones(n), np.ones(n), pose,
+    ...                None, np.zeros(n, dtype=int))
+    >>> fast = model_twist(get_model("edd-sym"), [1.1, 1.0])
+    >>> err = window_errors(log, spatial_windows(log), fast)
+    >>> err.translation_per_m.round(12).tolist()
+    [0.1, 0.1, 0.1, 0.1]
+    """
+    predicted = predict_window_ends(log, windows, twist_fn)
+    measured = log.pose[windows.end]
+    return WindowErrors(
+        windows=windows,
+        predicted=predicted,
+        translation=np.linalg.norm(predicted[:, :2] - measured[:, :2], axis=1),
+        rotation=np.abs(wrap_angle(predicted[:, 2] - measured[:, 2])),
+    )
+
+
+def _stats(values: np.ndarray) -> ErrorStats:
+    if values.size == 0:
+        return ErrorStats(math.nan, math.nan, math.nan, math.nan, 0)
+    q25, median, q75 = np.percentile(values, [25.0, 50.0, 75.0])
+    return ErrorStats(float(median), float(q25), float(q75), float(values.mean()), values.size)
+
+
+def summarize(errors: WindowErrors) -> ErrorSummary:
+    """Median, quartiles, mean and count of the per-metre window errors.
+
+    Returns
+    -------
+    ErrorSummary
+        ``translation`` in m/m and ``rotation`` in deg/m.
+    """
+    return ErrorSummary(
+        translation=_stats(errors.translation_per_m), rotation=_stats(errors.rotation_per_m)
+    )
+
+
+def model_twist(
+    model: KinematicModel, params: ArrayLike, track_width: float | None = None
+) -> TwistFn:
+    """Twist callable of a kinematic model with constant or per-window parameters.
+
+    Parameters
+    ----------
+    model : KinematicModel
+        The model, e.g. ``get_model("idd")``.
+    params : array_like, shape (P,) or (W, P)
+        Parameters in ``model.param_names`` order; one row per window for
+        per-window parameters.
+    track_width : float, optional
+        Nominal track width ``B``, m, for models with ``needs_track_width``.
+
+    Returns
+    -------
+    TwistFn
+        ``twist_fn(v_l, v_r, window_index)``.
+    """
+    p = np.asarray(params, dtype=float)
+    if p.ndim not in (1, 2) or p.shape[-1] != len(model.param_names):
+        raise ValueError(
+            f"model {model.name!r} takes parameters {model.param_names} as shape (P,) or "
+            f"(W, P) with P = {len(model.param_names)}, got shape {p.shape}"
+        )
+    if model.needs_track_width and track_width is None:
+        raise ValueError(f"model {model.name!r} needs the nominal track_width")
+
+    def twist_fn(v_l: np.ndarray, v_r: np.ndarray, window_index: np.ndarray) -> Twist:
+        return model.twist(v_l, v_r, p if p.ndim == 1 else p[window_index], track_width)
+
+    return twist_fn
+
+
+def icr_twist_from_rows(
+    windows: Windows,
+    y_l: ArrayLike,
+    y_r: ArrayLike,
+    x_icr: ArrayLike,
+    alpha: ArrayLike = 1.0,
+) -> TwistFn:
+    """Twist callable of the ICR model with parameters given per log row.
+
+    Each window uses the parameters of its start row only (the estimate
+    available when the window starts); other rows are never read.
+
+    Parameters
+    ----------
+    windows : Windows
+        The windows the callable will be evaluated on.
+    y_l, y_r, x_icr : array_like, shape (N,)
+        ICR coordinates per log row, m (see :func:`~terrain_odom.kinematics.twist_icr`).
+    alpha : array_like, shape (N,) or scalar, optional
+        Longitudinal slip factor per log row.
+
+    Returns
+    -------
+    TwistFn
+        ``twist_fn(v_l, v_r, window_index)``.
+    """
+    rows = windows.start
+    per_window = [
+        np.broadcast_to(np.asarray(a, dtype=float), np.shape(y_l))[rows]
+        for a in (y_l, y_r, x_icr, alpha)
+    ]
+
+    def twist_fn(v_l: np.ndarray, v_r: np.ndarray, window_index: np.ndarray) -> Twist:
+        return twist_icr(v_l, v_r, *(a[window_index][:, None] for a in per_window))
+
+    return twist_fn
+
+
+def align_se2(source_xy: ArrayLike, target_xy: ArrayLike) -> SE2Alignment:
+    """Rigid planar transform that best maps ``source`` onto ``target``.
+
+    Closed-form least squares (Kabsch/Umeyama without scale) with the
+    reflection guard, so the result is a proper rotation.
+
+    Parameters
+    ----------
+    source_xy, target_xy : array_like, shape (M, 2)
+        Corresponding positions, m; ``M >= 2``.
+
+    Returns
+    -------
+    SE2Alignment
+        ``T`` minimising ``sum |T(source_i) - target_i|^2``.
+
+    Examples
+    --------
+    >>> src = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 2.0]])
+    >>> a = align_se2(src, src @ np.array([[0.0, -1.0], [1.0, 0.0]]).T + [3.0, 4.0])
+    >>> round(a.angle, 9), a.translation.round(9).tolist()
+    (1.570796327, [3.0, 4.0])
+    """
+    src = np.asarray(source_xy, dtype=float)
+    dst = np.asarray(target_xy, dtype=float)
+    if src.shape != dst.shape or src.ndim != 2 or src.shape[1] != 2 or src.shape[0] < 2:
+        raise ValueError(
+            f"need two (M, 2) position arrays with M >= 2, got {src.shape} and {dst.shape}"
+        )
+    mu_src, mu_dst = src.mean(axis=0), dst.mean(axis=0)
+    cov = (dst - mu_dst).T @ (src - mu_src)
+    u, _, vt = np.linalg.svd(cov)
+    guard = np.diag([1.0, np.sign(np.linalg.det(u) * np.linalg.det(vt))])
+    rot = u @ guard @ vt
+    angle = float(wrap_angle(math.atan2(rot[1, 0], rot[0, 0])))
+    return SE2Alignment(angle=angle, translation=mu_dst - rot @ mu_src)
+
+
+def absolute_trajectory_error(est_xy: ArrayLike, ref_xy: ArrayLike) -> AteResult:
+    """Absolute trajectory error (position RMSE) after SE(2) alignment.
+
+    Parameters
+    ----------
+    est_xy : array_like, shape (N, 2)
+        Estimated positions per log row, m.
+    ref_xy : array_like, shape (N, 2)
+        Measured positions at the same rows, m; NaN where not measured.
+        Only rows finite in both are used (at least 2).
+
+    Returns
+    -------
+    AteResult
+        RMSE (m), the alignment applied to the estimate and the row count.
+    """
+    est = np.asarray(est_xy, dtype=float)
+    ref = np.asarray(ref_xy, dtype=float)
+    if est.shape != ref.shape:
+        raise ValueError(f"estimate and reference shapes differ: {est.shape} vs {ref.shape}")
+    both = np.isfinite(est).all(axis=-1) & np.isfinite(ref).all(axis=-1)
+    alignment = align_se2(est[both], ref[both])
+    residual = alignment.apply(est[both]) - ref[both]
+    rmse = float(np.sqrt(np.mean(np.sum(residual**2, axis=1))))
+    return AteResult(rmse=rmse, alignment=alignment, count=int(both.sum()))
