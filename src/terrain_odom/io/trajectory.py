@@ -1,0 +1,314 @@
+"""Writing and reading estimated trajectories.
+
+Two formats:
+
+* a CSV file with a header (any columns, e.g. ``t,x,y,yaw,terrain``), written
+  row by row by :class:`TrajectoryWriter` so that an interrupted run keeps the
+  rows it computed, and read back by :func:`read_trajectory_csv`;
+* the TUM format (``timestamp tx ty tz qx qy qz qw``, space separated) of the
+  trajectory-evaluation tools (e.g. ``evo``), written by :func:`write_tum`.
+
+Floats are written with the shortest text that reads back to the same float
+(``repr``); NaN is written as an empty cell, as in the wheel-log format.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import numbers
+import os
+import secrets
+import time
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from types import TracebackType
+
+import numpy as np
+
+from terrain_odom.io.wheel_log import _CsvTable, _floats_or_nan, _read_csv
+
+__all__ = ["TrajectoryWriter", "read_trajectory_csv", "write_tum"]
+
+StrPath = str | os.PathLike[str]
+"""A file path."""
+
+Cell = str | float | np.floating | np.integer
+"""A value of one CSV cell: text, or a real number (Python or numpy)."""
+
+
+class TrajectoryWriter:
+    r"""Stream a CSV trajectory to disk, one row at a time.
+
+    The header is written on opening. Rows are flushed to the operating system
+    (and synced to disk) when ``flush_rows`` rows are pending or when
+    ``flush_seconds`` of wall time have passed since the last flush (checked at
+    each write), and on :meth:`close`; so when a run is interrupted, the file
+    holds every row up to the last flush.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Output file; created or overwritten. Its directory must exist.
+    columns : sequence of str, shape (C,)
+        Column names, unique and non-empty, in file order.
+    flush_rows : int, optional
+        Flush once this many rows are pending (default 1000).
+    flush_seconds : float, optional
+        Flush at the first write this long after the last flush, s (default 1).
+
+    Raises
+    ------
+    ValueError
+        If ``columns`` is empty, has an empty or repeated name, or the flush
+        settings are not positive.
+    OSError
+        If the file cannot be created.
+
+    Notes
+    -----
+    Cell values: a ``str`` is written as is (quoted by the CSV rules if
+    needed); an integer as an integer; any other real number with
+    ``repr(float(value))``, which round-trips exactly, except NaN, written as
+    an empty cell.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> folder = tempfile.TemporaryDirectory()
+    >>> path = pathlib.Path(folder.name) / "trajectory.csv"
+    >>> with TrajectoryWriter(path, ["t", "x", "terrain"]) as writer:
+    ...     writer.write({"t": 0.1, "x": float("nan"), "terrain": "grass"})
+    >>> path.read_text()
+    't,x,terrain\n0.1,,grass\n'
+    >>> folder.cleanup()
+    """
+
+    def __init__(
+        self,
+        path: StrPath,
+        columns: Sequence[str],
+        *,
+        flush_rows: int = 1000,
+        flush_seconds: float = 1.0,
+    ) -> None:
+        self._columns = _checked_columns(columns)
+        self._column_set = frozenset(self._columns)
+        if flush_rows < 1 or not flush_seconds > 0:
+            raise ValueError(
+                f"need flush_rows >= 1 and flush_seconds > 0, got {flush_rows}, {flush_seconds}"
+            )
+        self._flush_rows = flush_rows
+        self._flush_seconds = flush_seconds
+        self._file = open(path, "w", encoding="utf-8", newline="")
+        self._csv = csv.writer(self._file, lineterminator="\n")
+        self._csv.writerow(self._columns)
+        self._pending = 0
+        self.flush()
+
+    @property
+    def columns(self) -> tuple[str, ...]:
+        """Column names, in file order."""
+        return self._columns
+
+    @property
+    def closed(self) -> bool:
+        """Whether :meth:`close` has been called."""
+        return self._file.closed
+
+    def write(self, row: Mapping[str, Cell]) -> None:
+        """Append one row.
+
+        Parameters
+        ----------
+        row : mapping of str to str or real number
+            One value per column; its keys must be exactly :attr:`columns`.
+
+        Raises
+        ------
+        ValueError
+            If the writer is closed or the keys differ from the columns.
+        TypeError
+            If a value is neither a str nor a real number.
+        """
+        if self.closed:
+            raise ValueError("write to a closed TrajectoryWriter")
+        if row.keys() != self._column_set:
+            missing = [c for c in self._columns if c not in row]
+            unknown = [k for k in row if k not in self._column_set]
+            raise ValueError(f"row keys differ from columns: missing {missing}, extra {unknown}")
+        self._csv.writerow([_format_cell(row[column]) for column in self._columns])
+        self._pending += 1
+        if (
+            self._pending >= self._flush_rows
+            or time.monotonic() - self._last_flush >= self._flush_seconds
+        ):
+            self.flush()
+
+    def flush(self) -> None:
+        """Push every written row to the operating system and sync it to disk."""
+        self._file.flush()
+        os.fsync(self._file.fileno())
+        self._pending = 0
+        self._last_flush = time.monotonic()
+
+    def close(self) -> None:
+        """Flush and close the file; closing again does nothing."""
+        if not self.closed:
+            self.flush()
+            self._file.close()
+
+    def __enter__(self) -> TrajectoryWriter:
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        traceback: TracebackType | None,
+    ) -> None:
+        self.close()
+
+
+def read_trajectory_csv(path: StrPath) -> dict[str, np.ndarray]:
+    """Read a CSV trajectory such as one written by :class:`TrajectoryWriter`.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        CSV file with a header row.
+
+    Returns
+    -------
+    dict of str to ndarray, each of shape (N,)
+        One array per column, in file order. A column whose non-empty cells are
+        all numbers is float64 with NaN for empty cells; any other column is a
+        str array of the stripped cells. A file with only a header gives empty
+        float64 arrays.
+
+    Raises
+    ------
+    InputFileError
+        If the file is missing, unreadable or empty, a column name is empty or
+        repeated, or a row has the wrong number of cells; the one-line message
+        names the file, line and column.
+    """
+    table = _read_csv(path)
+    for index, column in enumerate(table.header):
+        if not column:
+            raise table.error(f"column {index + 1} of the header has no name")
+        if table.header.index(column) != index:
+            raise table.error("column appears more than once in the header", column=column)
+    return {column: _column_array(table, column) for column in table.header}
+
+
+def write_tum(path: StrPath, t: np.ndarray, x: np.ndarray, y: np.ndarray, yaw: np.ndarray) -> None:
+    """Write a planar trajectory in the TUM format, atomically.
+
+    Each line is ``timestamp tx ty tz qx qy qz qw`` with ``tz = 0`` and the
+    quaternion of a rotation by ``yaw`` about z. The text goes to a temporary
+    file in the same directory, which then replaces ``path``, so readers never
+    see a partial file.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Output file; created or replaced. Its directory must exist.
+    t : ndarray, shape (N,)
+        Timestamps, s.
+    x, y : ndarray, shape (N,)
+        Position, m.
+    yaw : ndarray, shape (N,)
+        Heading, rad, counter-clockwise.
+
+    Raises
+    ------
+    ValueError
+        If the arrays are not 1-D of one length or hold a non-finite value.
+    OSError
+        If the file cannot be written.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> folder = tempfile.TemporaryDirectory()
+    >>> path = pathlib.Path(folder.name) / "trajectory.tum"
+    >>> write_tum(path, np.array([0.5]), np.array([1.0]), np.array([2.0]), np.array([np.pi]))
+    >>> path.read_text().splitlines()[1]
+    '0.5 1.0 2.0 0.0 0.0 0.0 1.0 6.123233995736766e-17'
+    >>> folder.cleanup()
+    """
+    columns = _tum_columns(t, x, y, yaw)
+    lines = ["# timestamp tx ty tz qx qy qz qw\n"]
+    lines += [" ".join(map(repr, values)) + "\n" for values in columns.T.tolist()]
+    _write_atomically(Path(path), "".join(lines))
+
+
+def _checked_columns(columns: Sequence[str]) -> tuple[str, ...]:
+    """``columns`` as a tuple, after checking the names are non-empty and unique."""
+    names = tuple(columns)
+    if not names:
+        raise ValueError("a trajectory needs at least one column")
+    for name in names:
+        if not isinstance(name, str) or not name.strip() or name != name.strip():
+            raise ValueError(f"column names must be non-empty, unpadded strings: {name!r}")
+        if names.count(name) > 1:
+            raise ValueError(f"column {name!r} is given more than once")
+    return names
+
+
+def _format_cell(value: Cell) -> str:
+    """Text of one CSV cell (see :class:`TrajectoryWriter`)."""
+    if isinstance(value, str):
+        return value
+    if isinstance(value, numbers.Integral) and not isinstance(value, bool):
+        return str(int(value))
+    if isinstance(value, numbers.Real) and not isinstance(value, bool):
+        number = float(value)
+        return "" if math.isnan(number) else repr(number)
+    raise TypeError(f"cannot write {type(value).__name__} {value!r} to a trajectory cell")
+
+
+def _column_array(table: _CsvTable, column: str) -> np.ndarray:
+    """One column as float64 (NaN for empty cells) if all its cells are numbers, else str."""
+    cells = [cell.strip() for cell in table.cells(column)]
+    try:
+        return _floats_or_nan(cells)
+    except ValueError:
+        return np.array(cells, dtype=str)
+
+
+def _tum_columns(t: np.ndarray, x: np.ndarray, y: np.ndarray, yaw: np.ndarray) -> np.ndarray:
+    """Rows ``t x y z qx qy qz qw`` of a TUM file as an array of shape (8, N)."""
+    arrays = {
+        name: np.asarray(values, dtype=np.float64)
+        for name, values in (("t", t), ("x", x), ("y", y), ("yaw", yaw))
+    }
+    shape = arrays["t"].shape
+    for name, array in arrays.items():
+        if array.ndim != 1 or array.shape != shape:
+            raise ValueError(
+                f"t, x, y, yaw must be 1-D of one length; {name} has shape {array.shape}, "
+                f"t has {shape}"
+            )
+        bad = np.flatnonzero(~np.isfinite(array))
+        if bad.size:
+            raise ValueError(f"{name}[{bad[0]}] is {array[bad[0]]}, not a finite number")
+    half = 0.5 * arrays["yaw"]
+    zero = np.zeros_like(half)
+    return np.stack(
+        [arrays["t"], arrays["x"], arrays["y"], zero, zero, zero, np.sin(half), np.cos(half)]
+    )
+
+
+def _write_atomically(path: Path, text: str) -> None:
+    """Write ``text`` to ``path`` through a synced temporary file and :func:`os.replace`."""
+    temporary = path.with_name(f".{path.name}.{secrets.token_hex(4)}.tmp")
+    try:
+        with open(temporary, "x", encoding="utf-8", newline="") as handle:
+            handle.write(text)
+            handle.flush()
+            os.fsync(handle.fileno())
+        os.replace(temporary, path)
+    finally:
+        temporary.unlink(missing_ok=True)

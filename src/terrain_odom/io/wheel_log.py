@@ -1,0 +1,437 @@
+"""Reader of wheel logs, the CSV input format of terrain-odom.
+
+A wheel log is a comma-separated text file (UTF-8) whose first line is a header
+naming the columns; every following non-empty line is one sample. Header names
+and cells are stripped of surrounding whitespace; unknown columns are ignored.
+The columns:
+
+``t``
+    Time, s. Finite, strictly increasing within a segment.
+``v_l, v_r`` *or* ``omega_l, omega_r``
+    Left/right track surface speeds, m/s, or wheel angular speeds, rad/s
+    (multiplied by ``wheel_radius`` on read). Exactly one pair; every cell
+    finite.
+``x, y, yaw`` (optional)
+    Measured pose, m, m, rad, in a fixed world frame. Either all three columns
+    or ``yaw`` alone (heading-only sensor). A cell is empty (or ``nan``) on rows
+    without a measurement; ``x`` and ``y`` are given or missing together, while
+    ``yaw`` may be given alone. ``yaw`` is wrapped to (-pi, pi].
+``terrain`` (optional)
+    Non-empty terrain label per row.
+``segment`` (optional, default 0)
+    Integer id of the contiguous piece the row belongs to. Rows of a segment are
+    consecutive; time may jump (or restart) between segments.
+
+Every problem raises :class:`~terrain_odom.errors.InputFileError` with a
+one-line message naming the file, the 1-based file line (header = line 1) and
+the column, e.g. ``log.csv, line 17, column 'v_l': 'abc' is not a number``.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+import os
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass
+from operator import itemgetter
+from typing import TextIO
+
+import numpy as np
+
+from terrain_odom.errors import InputFileError
+from terrain_odom.types import WheelLog
+
+__all__ = ["read_wheel_log"]
+
+Source = str | os.PathLike[str] | TextIO
+"""A file path, or an open text handle (e.g. :class:`io.StringIO`)."""
+
+_SPEED_PAIRS = (("v_l", "v_r"), ("omega_l", "omega_r"))
+_POSE_COLUMNS = ("x", "y", "yaw")
+_KNOWN_COLUMNS = ("t", *_SPEED_PAIRS[0], *_SPEED_PAIRS[1], *_POSE_COLUMNS, "terrain", "segment")
+_MAX_SHOWN_CHARS = 40
+_EMPTY_AS_NAN = {"": "nan"}
+
+
+@dataclass(frozen=True)
+class _CsvTable:
+    """The raw cells of a CSV file with a header, for conversion and messages.
+
+    Attributes
+    ----------
+    name : str
+        File name used in messages.
+    header : list of str, shape (C,)
+        Column names, stripped of surrounding whitespace.
+    rows : list of list of str, shape (N, C)
+        Data rows, unstripped cells; every row has exactly C cells.
+    lines : sequence of int, shape (N,)
+        1-based file line on which each data row starts.
+    """
+
+    name: str
+    header: list[str]
+    rows: list[list[str]]
+    lines: Sequence[int]
+
+    def __len__(self) -> int:
+        return len(self.rows)
+
+    @property
+    def header_text(self) -> str:
+        """The header as one shortened, quoted string for messages."""
+        return _shown(",".join(self.header))
+
+    def error(
+        self, message: str, *, row: int | None = None, column: str | None = None
+    ) -> InputFileError:
+        """Build the one-line error about data row ``row`` (the header if None) and ``column``."""
+        line = 1 if row is None else self.lines[row]
+        where = f"{self.name}, line {line}" + ("" if column is None else f", column {column!r}")
+        return InputFileError(f"{where}: {message}")
+
+    def cells(self, column: str) -> list[str]:
+        """Unstripped cells of ``column``, one per data row."""
+        return list(map(itemgetter(self.header.index(column)), self.rows))
+
+    def convert(
+        self,
+        column: str,
+        parse: Callable[[str], object],
+        dtype: type[np.generic],
+        complaint: Callable[[str], str],
+    ) -> np.ndarray:
+        """Convert every cell of ``column`` with ``parse`` into an array of ``dtype``.
+
+        The fast path converts the whole column at once; only if it fails is
+        the column walked again to find the first bad cell, which is reported
+        with ``complaint(cell)``.
+        """
+        cells = self.cells(column)
+        try:
+            return np.fromiter(map(parse, cells), dtype=dtype, count=len(cells))
+        except (ValueError, OverflowError):
+            for row, cell in enumerate(cells):
+                if not _converts(cell, parse, dtype):
+                    raise self.error(complaint(cell), row=row, column=column) from None
+            raise
+
+    def require_columns(self, *columns: str, reason: str) -> None:
+        """Raise if any of ``columns`` is missing from the header; ``reason`` says why needed."""
+        for column in columns:
+            if column not in self.header:
+                raise self.error(
+                    f"missing column {column!r} ({reason}); header is {self.header_text}"
+                )
+
+
+def read_wheel_log(source: Source, *, wheel_radius: float | None = None) -> WheelLog:
+    r"""Read a wheel log (see the module docstring for the format).
+
+    Parameters
+    ----------
+    source : str, os.PathLike or text handle
+        Path of the CSV file, or an open text handle positioned at the header.
+    wheel_radius : float, optional
+        Wheel radius, m. Required (> 0) when the log gives wheel angular speeds
+        ``omega_l, omega_r``; ignored when it gives surface speeds ``v_l, v_r``.
+
+    Returns
+    -------
+    WheelLog
+        Float64 ``t``, ``v_l``, ``v_r`` of shape (N,) and ``pose`` of shape
+        (N, 3) with NaN where not measured; ``terrain`` a str array or None;
+        ``segment`` int64. ``source`` is the path as given, the handle's
+        ``name``, or ``'<stream>'``.
+
+    Raises
+    ------
+    InputFileError
+        If the file is missing, unreadable, empty or breaks the format; the
+        one-line message names the file, line and column.
+
+    Examples
+    --------
+    >>> import io
+    >>> log = read_wheel_log(io.StringIO("t,v_l,v_r,yaw\n0.0,1.0,1.2,\n0.1,1.0,1.2,3.5\n"))
+    >>> log.v_r.tolist(), log.has_yaw.tolist()
+    ([1.2, 1.2], [False, True])
+    >>> round(float(log.pose[1, 2]), 4)  # wrapped to (-pi, pi]
+    -2.7832
+    """
+    table = _read_csv(source)
+    if not table.rows:
+        raise table.error("no data rows after the header")
+    _check_known_columns_unique(table)
+    table.require_columns("t", reason="time, s")
+    speeds = _wheel_speed_columns(table, wheel_radius)
+    pose_columns = _pose_columns(table)
+    segment = _segments(table)
+    t = _times(table, segment)
+    v_l, v_r = (_finite_floats(table, column) for column in speeds)
+    if speeds == _SPEED_PAIRS[1]:
+        v_l, v_r = v_l * wheel_radius, v_r * wheel_radius
+    return WheelLog(
+        t=t,
+        v_l=v_l,
+        v_r=v_r,
+        pose=_pose(table, pose_columns),
+        terrain=_terrain(table),
+        segment=segment,
+        source=table.name,
+    )
+
+
+def _read_csv(source: Source) -> _CsvTable:
+    """Read all records of a CSV file with a header; empty lines are skipped.
+
+    Raises
+    ------
+    InputFileError
+        If the file cannot be read, is empty, or a row's cell count differs
+        from the header's.
+    """
+    with _open_text(source) as (handle, name):
+        try:
+            rows, lines = _records(handle)
+        except UnicodeDecodeError as exc:
+            raise InputFileError(f"{name}: not a UTF-8 text file ({exc.reason})") from None
+        except csv.Error as exc:
+            raise InputFileError(f"{name}: not a valid CSV file ({exc})") from None
+    if not rows:
+        raise InputFileError(f"{name}: file is empty; expected a header line naming the columns")
+    header = [cell.strip() for cell in rows[0]]
+    table = _CsvTable(name=name, header=header, rows=rows[1:], lines=lines[1:])
+    _check_ragged(table)
+    return table
+
+
+@contextmanager
+def _open_text(source: Source) -> Iterator[tuple[TextIO, str]]:
+    """Yield a text handle on ``source`` and its name for messages."""
+    if not isinstance(source, (str, os.PathLike)):
+        name = getattr(source, "name", None)
+        yield source, name if isinstance(name, str) else "<stream>"
+        return
+    name = os.fspath(source)
+    try:
+        handle = open(source, encoding="utf-8-sig", newline="")
+    except FileNotFoundError:
+        raise InputFileError(f"{name}: file does not exist") from None
+    except OSError as exc:
+        raise InputFileError(f"{name}: cannot open ({exc.strerror or exc})") from None
+    with handle:
+        yield handle, name
+
+
+def _records(handle: TextIO) -> tuple[list[list[str]], Sequence[int]]:
+    """Non-empty CSV records of ``handle`` and the 1-based file line each starts on.
+
+    The common case, one record per line and no empty line, is parsed in one
+    pass without per-row Python code; otherwise the text is parsed again while
+    tracking line numbers.
+    """
+    text = handle.read()
+    reader = csv.reader(io.StringIO(text, newline=""))
+    rows = list(reader)
+    if reader.line_num == len(rows) and all(rows):
+        return rows, range(1, len(rows) + 1)
+    reader = csv.reader(io.StringIO(text, newline=""))
+    rows, lines = [], []
+    start = 1
+    for row in reader:
+        if row:
+            rows.append(row)
+            lines.append(start)
+        start = reader.line_num + 1
+    return rows, lines
+
+
+def _check_ragged(table: _CsvTable) -> None:
+    """Raise on the first data row whose cell count differs from the header's."""
+    n_columns = len(table.header)
+    lengths = np.fromiter(map(len, table.rows), dtype=np.intp, count=len(table))
+    bad = np.flatnonzero(lengths != n_columns)
+    if bad.size == 0:
+        return
+    row = int(bad[0])
+    found = int(lengths[row])
+    column = table.header[found] if found < n_columns else None  # first missing cell, if any
+    message = f"row has {found} cells but the header has {n_columns}"
+    raise table.error(message, row=row, column=column)
+
+
+def _check_known_columns_unique(table: _CsvTable) -> None:
+    """Raise if a column this reader uses appears more than once in the header."""
+    for column in _KNOWN_COLUMNS:
+        if table.header.count(column) > 1:
+            raise table.error("column appears more than once in the header", column=column)
+
+
+def _wheel_speed_columns(table: _CsvTable, wheel_radius: float | None) -> tuple[str, str]:
+    """Pick the wheel-speed column pair and check ``wheel_radius`` if it is needed."""
+    present = [pair for pair in _SPEED_PAIRS if any(c in table.header for c in pair)]
+    if not present:
+        raise table.error(
+            "missing wheel-speed columns; need 'v_l,v_r' (surface speed, m/s) "
+            f"or 'omega_l,omega_r' (rad/s); header is {table.header_text}"
+        )
+    if len(present) > 1:
+        raise table.error(
+            "both 'v_l,v_r' and 'omega_l,omega_r' wheel-speed columns are present; "
+            "keep only one pair"
+        )
+    pair = present[0]
+    table.require_columns(*pair, reason=f"wheel speeds come as the pair {','.join(pair)}")
+    if pair == _SPEED_PAIRS[1] and not (wheel_radius is not None and 0 < wheel_radius < math.inf):
+        raise table.error(
+            f"wheel speeds are angular (omega_l,omega_r, rad/s): a wheel radius > 0 m is "
+            f"needed to convert them to surface speeds (got {wheel_radius})"
+        )
+    return pair
+
+
+def _pose_columns(table: _CsvTable) -> tuple[str, ...]:
+    """Return the pose columns present: all of ``x, y, yaw``, ``yaw`` alone, or none."""
+    present = tuple(c for c in _POSE_COLUMNS if c in table.header)
+    if present in ((), ("yaw",), _POSE_COLUMNS):
+        return present
+    missing = [c for c in _POSE_COLUMNS if c not in present]
+    raise table.error(
+        f"missing column {missing[0]!r}: pose columns must be 'x,y,yaw', 'yaw' alone, "
+        f"or none (found {','.join(present)})"
+    )
+
+
+def _times(table: _CsvTable, segment: np.ndarray) -> np.ndarray:
+    """Column ``t``, s; finite and strictly increasing within each segment."""
+    t = _finite_floats(table, "t")
+    same_segment = segment[1:] == segment[:-1]
+    bad = np.flatnonzero(same_segment & ~(t[1:] > t[:-1]))
+    if bad.size:
+        k = int(bad[0])
+        raise table.error(
+            f"time {float(t[k + 1])!r} s is not after {float(t[k])!r} s on line "
+            f"{table.lines[k]}; time must strictly increase within a segment "
+            f"(segment {int(segment[k])})",
+            row=k + 1,
+            column="t",
+        )
+    return t
+
+
+def _finite_floats(table: _CsvTable, column: str) -> np.ndarray:
+    """Column ``column`` as float64; every cell must be a finite number."""
+    values = table.convert(column, float, np.float64, _not_a_number)
+    _raise_on_first(table, column, ~np.isfinite(values), "{cell} is not a finite number")
+    return values
+
+
+def _optional_floats(table: _CsvTable, column: str) -> np.ndarray:
+    """Column ``column`` as float64 with NaN for empty (or ``nan``) cells; no infinities."""
+    try:  # fast path: no Python-level call per cell, but no whitespace-only cells either
+        values = _floats_or_nan(table.cells(column))
+    except ValueError:
+        values = table.convert(column, _float_or_nan, np.float64, _not_a_number)
+    _raise_on_first(table, column, np.isinf(values), "{cell} is not a finite number")
+    return values
+
+
+def _pose(table: _CsvTable, columns: Sequence[str]) -> np.ndarray:
+    """Pose ``x, y, yaw`` of shape (N, 3), NaN where not measured; yaw wrapped."""
+    pose = np.full((len(table), 3), np.nan)
+    for column in columns:
+        pose[:, _POSE_COLUMNS.index(column)] = _optional_floats(table, column)
+    has_x, has_y = ~np.isnan(pose[:, 0]), ~np.isnan(pose[:, 1])
+    _raise_on_first(table, "y", has_x & ~has_y, "missing while x is given; give both or neither")
+    _raise_on_first(table, "x", has_y & ~has_x, "missing while y is given; give both or neither")
+    pose[:, 2] = _wrap_angle(pose[:, 2])
+    return pose
+
+
+def _terrain(table: _CsvTable) -> np.ndarray | None:
+    """Column ``terrain`` as a str array, or None if absent; labels must be non-empty."""
+    if "terrain" not in table.header:
+        return None
+    cells = table.cells("terrain")
+    stripped = {label: label.strip() for label in set(cells)}  # few distinct labels
+    labels = np.array(list(map(stripped.__getitem__, cells)), dtype=str)
+    _raise_on_first(table, "terrain", labels == "", "empty label; every row needs a terrain")
+    return labels
+
+
+def _segments(table: _CsvTable) -> np.ndarray:
+    """Column ``segment`` as int64 (zeros if absent); each id forms one contiguous run."""
+    if "segment" not in table.header:
+        return np.zeros(len(table), dtype=np.int64)
+    segment = table.convert("segment", int, np.int64, _not_an_integer)
+    starts = np.flatnonzero(np.r_[True, segment[1:] != segment[:-1]])
+    _, first = np.unique(segment[starts], return_index=True)
+    if first.size < starts.size:
+        repeat = int(starts[np.setdiff1d(np.arange(starts.size), first)[0]])
+        raise table.error(
+            f"segment {int(segment[repeat])} starts again after other segments; "
+            "rows of a segment must be consecutive",
+            row=repeat,
+            column="segment",
+        )
+    return segment
+
+
+def _raise_on_first(table: _CsvTable, column: str, bad: np.ndarray, problem: str) -> None:
+    """Raise about the first row where ``bad`` is True.
+
+    ``problem`` is the message; ``{cell}`` in it is replaced by the quoted cell.
+    """
+    rows = np.flatnonzero(bad)
+    if rows.size:
+        row = int(rows[0])
+        cell = table.rows[row][table.header.index(column)].strip()
+        raise table.error(problem.format(cell=_shown(cell)), row=row, column=column)
+
+
+def _converts(cell: str, parse: Callable[[str], object], dtype: type[np.generic]) -> bool:
+    """Whether ``parse(cell)`` succeeds and fits in ``dtype``."""
+    try:
+        np.asarray(parse(cell), dtype=dtype)
+    except (ValueError, OverflowError):
+        return False
+    return True
+
+
+def _floats_or_nan(cells: list[str]) -> np.ndarray:
+    """Cells as float64, exactly-empty ones as NaN; ValueError if another cell is no number."""
+    return np.fromiter(map(float, map(_EMPTY_AS_NAN.get, cells, cells)), np.float64, len(cells))
+
+
+def _float_or_nan(cell: str) -> float:
+    """Parse a float; an empty (whitespace-only) cell is NaN."""
+    return float(cell) if cell.strip() else math.nan
+
+
+def _not_a_number(cell: str) -> str:
+    """Message for a cell that is not a number."""
+    text = cell.strip()
+    return f"{_shown(text)} is not a number" if text else "empty cell, expected a number"
+
+
+def _not_an_integer(cell: str) -> str:
+    """Message for a cell that is not an integer."""
+    text = cell.strip()
+    return f"{_shown(text)} is not an integer" if text else "empty cell, expected an integer"
+
+
+def _shown(text: str) -> str:
+    """``repr`` of ``text`` shortened for a one-line message."""
+    if len(text) > _MAX_SHOWN_CHARS:
+        text = text[: _MAX_SHOWN_CHARS - 3] + "..."
+    return repr(text)
+
+
+def _wrap_angle(angle: np.ndarray) -> np.ndarray:
+    """Wrap angles (rad) to (-pi, pi]; angles already inside stay bit-exact, NaN stays NaN."""
+    inside = (angle > -np.pi) & (angle <= np.pi)
+    return np.where(inside, angle, np.pi - np.mod(np.pi - angle, 2.0 * np.pi))
