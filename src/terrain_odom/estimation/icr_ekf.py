@@ -124,12 +124,16 @@ class TerrainChange:
         Terrain before and after.
     restored : bool
         Whether a remembered ICR estimate of ``label`` was restored.
+    reset : bool
+        Whether the ICR covariance was reset to ``P_B`` (False when terrain
+        adaptation is off and the change is only recorded).
     """
 
     t: float
     previous: str | None
     label: str
     restored: bool
+    reset: bool = True
 
 
 class _Filter(ExtendedKalmanFilter):
@@ -190,12 +194,11 @@ class IcrEkf:
         self.terrain: str | None = None
         self._terrain_since = 0.0
         self._memory: dict[str, np.ndarray] = {}
-        self.changes: list[TerrainChange] = []
         self.last_nis = float("nan")
 
     # ----------------------------------------------------------------- state
-    def _sigmas(self, sig: object) -> np.ndarray:
-        return np.array([getattr(sig, name) for name in self.names], dtype=float)
+    def _sigmas(self, sig: object, names: tuple[str, ...] | None = None) -> np.ndarray:
+        return np.array([getattr(sig, n) for n in names or self.names], dtype=float)
 
     @property
     def x(self) -> np.ndarray:
@@ -325,7 +328,7 @@ class IcrEkf:
 
     def _pb_variances(self, label: str) -> np.ndarray:
         sig: IcrSigmas = self.config.sigma_pb_per_terrain.get(label, self.config.sigma_pb)
-        return self._sigmas(sig)[3:] ** 2
+        return self._sigmas(sig, self.names[3:]) ** 2
 
     def reset_on_terrain_change(self, label: str) -> TerrainChange:
         """Apply a confirmed change to terrain ``label``.
@@ -340,7 +343,7 @@ class IcrEkf:
         Returns
         -------
         TerrainChange
-            What was done, also appended to :attr:`changes`.
+            What was done.
         """
         label = str(label)
         tc = self.terrain_config
@@ -356,7 +359,6 @@ class IcrEkf:
         P[:, 3:] = 0.0
         P[3:, 3:] = np.diag(self._pb_variances(label))
         change = TerrainChange(self.t, previous, label, bool(restored))
-        self.changes.append(change)
         logger.info("terrain %s -> %s at t=%.2f s (restored=%s)", previous, label, self.t, restored)
         self.set_terrain(label)
         return change

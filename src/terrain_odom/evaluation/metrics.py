@@ -55,6 +55,7 @@ __all__ = [
     "summarize",
     "align_se2",
     "absolute_trajectory_error",
+    "dead_reckon",
 ]
 
 Twist = tuple[np.ndarray, np.ndarray, np.ndarray]
@@ -539,3 +540,37 @@ def absolute_trajectory_error(est_xy: ArrayLike, ref_xy: ArrayLike) -> AteResult
     residual = alignment.apply(est[both]) - ref[both]
     rmse = float(np.sqrt(np.mean(np.sum(residual**2, axis=1))))
     return AteResult(rmse=rmse, alignment=alignment, count=int(both.sum()))
+
+
+def dead_reckon(log: WheelLog, v_x: ArrayLike, v_y: ArrayLike, omega: ArrayLike) -> np.ndarray:
+    """Integrate per-row twists over each segment from its first measured pose.
+
+    Row ``k``'s twist is held from ``t[k]`` to ``t[k+1]``. Nothing is
+    integrated across a segment change; rows before a segment's first full
+    pose measurement (and whole segments without one) are NaN.
+
+    Parameters
+    ----------
+    log : WheelLog
+        Times, segments and pose measurements.
+    v_x, v_y, omega : array_like, shape (N,)
+        Body twist of each row (m/s, m/s, rad/s).
+
+    Returns
+    -------
+    ndarray, shape (N, 3)
+        Dead-reckoned ``x, y, yaw``.
+    """
+    v_x, v_y, omega = (np.asarray(a, dtype=float) for a in (v_x, v_y, omega))
+    out = np.full((len(log), 3), np.nan)
+    has_pose = log.has_pose
+    breaks = (np.flatnonzero(np.diff(log.segment)) + 1).tolist()
+    for first, stop in zip([0, *breaks], [*breaks, len(log)]):
+        rows = np.flatnonzero(has_pose[first:stop])
+        if rows.size == 0:
+            continue
+        k0 = first + int(rows[0])
+        steps = slice(k0, stop - 1)
+        dt = np.diff(log.t[k0:stop])
+        out[k0:stop] = integrate(v_x[steps], v_y[steps], omega[steps], dt, start=log.pose[k0])
+    return out

@@ -1,0 +1,154 @@
+"""Run the ICR EKF over a wheel log, row by row.
+
+Row ``k`` of a log holds the wheel speeds at ``t[k]``, held until
+``t[k+1]``; the filter predicts over ``[t[k-1], t[k]]`` with the speeds of
+row ``k-1``, then fuses the pose measurement of row ``k`` if there is one. The
+pose is anchored at the first pose measurement of every log segment and is
+never propagated across a segment break. Terrain labels (from the log or a
+classifier) pass through a :class:`TerrainTracker`; a confirmed change resets
+the ICR covariance to ``P_B`` (and restores a remembered estimate).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from terrain_odom.config import Config
+from terrain_odom.estimation.icr_ekf import IcrEkf, TerrainChange
+from terrain_odom.estimation.terrain import TerrainTracker
+from terrain_odom.types import WheelLog
+
+__all__ = ["OdometryRow", "OdometryResult", "run_icr_ekf"]
+
+
+@dataclass(frozen=True)
+class OdometryRow:
+    """The filter's estimate after processing one log row.
+
+    Attributes
+    ----------
+    index : int
+        Row of the log.
+    t : float
+        Time, s.
+    state : ndarray, shape (n,)
+        ``x, y, yaw, y_l, y_r, x_icr(, alpha)``.
+    std : ndarray, shape (n,)
+        Standard deviation of each state.
+    terrain : str
+        Confirmed terrain label, ``""`` if none.
+    """
+
+    index: int
+    t: float
+    state: np.ndarray
+    std: np.ndarray
+    terrain: str
+
+
+@dataclass
+class OdometryResult:
+    """Everything an EKF run over a log produced.
+
+    Attributes
+    ----------
+    names : tuple of str
+        State names, in column order of ``states``.
+    states, stds : ndarray, shape (N, n)
+        Estimate and standard deviation after each row.
+    terrain : ndarray of str, shape (N,)
+        Confirmed terrain per row (``""`` before any label).
+    changes : list of TerrainChange
+        Confirmed terrain changes, with the log time of each.
+    n_updates : int
+        Pose measurements fused.
+    """
+
+    names: tuple[str, ...]
+    states: np.ndarray
+    stds: np.ndarray
+    terrain: np.ndarray
+    changes: list[TerrainChange] = field(default_factory=list)
+    n_updates: int = 0
+
+
+def run_icr_ekf(
+    log: WheelLog,
+    config: Config,
+    *,
+    labels: Sequence[str] | None = None,
+    on_row: Callable[[OdometryRow], None] | None = None,
+) -> OdometryResult:
+    """Estimate pose and ICRs over a whole log.
+
+    Parameters
+    ----------
+    log : WheelLog
+        Wheel speeds and pose measurements.
+    config : Config
+        Filter and terrain settings; ``config.terrain.adapt`` switches the
+        covariance reset on terrain changes.
+    labels : sequence of str, shape (N,), optional
+        Terrain label observed at each row (e.g. ``log.terrain``); ``None``
+        runs without terrain information.
+    on_row : callable, optional
+        Called with an :class:`OdometryRow` after every row (to stream output).
+
+    Returns
+    -------
+    OdometryResult
+    """
+    if labels is not None and len(labels) != len(log):
+        raise ValueError(f"labels has {len(labels)} entries for a log of {len(log)} rows")
+    ekf = IcrEkf(config.ekf, config.terrain)
+    ekf.t = float(log.t[0]) if len(log) else 0.0
+    tracker = TerrainTracker(config.terrain.confirm)
+    n_rows, n_state = len(log), len(ekf.names)
+    states = np.empty((n_rows, n_state))
+    stds = np.empty((n_rows, n_state))
+    terrain = np.full(n_rows, "", dtype=object)
+    anchored = False
+    n_updates = 0
+    changes: list[TerrainChange] = []
+    for k in range(n_rows):
+        if k > 0 and log.segment[k] != log.segment[k - 1]:
+            anchored = False  # a break: nothing is integrated across it
+            ekf.t = float(log.t[k])
+        elif k > 0:
+            ekf.predict(log.v_l[k - 1], log.v_r[k - 1], float(log.t[k] - log.t[k - 1]))
+        if labels is not None:
+            change = _observe_terrain(ekf, tracker, str(labels[k]), adapt=config.terrain.adapt)
+            if change is not None:
+                changes.append(change)
+        z = log.pose[k]
+        if np.all(np.isfinite(z)) and not anchored:
+            ekf.reset_pose(z)
+            anchored = True
+        elif np.any(np.isfinite(z)) and anchored:
+            ekf.update(z)
+            n_updates += 1
+        states[k], stds[k] = ekf.x, ekf.std
+        terrain[k] = ekf.terrain or ""
+        if on_row is not None:
+            on_row(OdometryRow(k, float(log.t[k]), states[k], stds[k], terrain[k]))
+    return OdometryResult(ekf.names, states, stds, terrain.astype(str), changes, n_updates)
+
+
+def _observe_terrain(
+    ekf: IcrEkf, tracker: TerrainTracker, label: str, *, adapt: bool
+) -> TerrainChange | None:
+    """Feed one label; name the first terrain, reset on a confirmed change."""
+    confirmed = tracker.observe(label)
+    if ekf.terrain is None:
+        ekf.set_terrain(tracker.current or label)
+        return None
+    if confirmed is None:
+        return None
+    if adapt:
+        return ekf.reset_on_terrain_change(confirmed)
+    change = TerrainChange(ekf.t, ekf.terrain, confirmed, restored=False, reset=False)
+    ekf.set_terrain(confirmed)
+    return change

@@ -1,0 +1,276 @@
+"""What the command line runs: file in, computation, files out.
+
+Each function here is a plain Python API (usable from a notebook) that reads
+its inputs, calls the pure core (``kinematics``, ``estimation``,
+``evaluation``) and writes its outputs incrementally or atomically.
+"""
+
+from __future__ import annotations
+
+import enum
+import time
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from tqdm import tqdm
+
+from terrain_odom import __version__
+from terrain_odom.config import Config, config_to_dict, load_config
+from terrain_odom.errors import InputFileError
+from terrain_odom.estimation.odometry import OdometryRow, run_icr_ekf
+from terrain_odom.evaluation import (
+    absolute_trajectory_error,
+    dead_reckon,
+    icr_twist_from_rows,
+    model_twist,
+    spatial_windows,
+    summarize,
+    window_errors,
+)
+from terrain_odom.io import TrajectoryWriter, read_trajectory_csv, read_wheel_log, write_tum
+from terrain_odom.io.params import ModelParams, read_params
+from terrain_odom.io.report import write_json
+from terrain_odom.kinematics import get_model, twist_icr
+from terrain_odom.types import WheelLog
+
+__all__ = ["TerrainSource", "RunSummary", "run", "evaluate", "trajectory_columns"]
+
+REPORT_FORMAT_VERSION = 1
+
+
+class TerrainSource(enum.Enum):
+    """Where terrain labels for the adaptive reset come from."""
+
+    AUTO = "auto"  # the log's terrain column if it has one
+    LOG = "log"  # the log's terrain column, required
+    NONE = "none"  # no terrain information: plain ICR EKF
+
+
+@dataclass(frozen=True)
+class RunSummary:
+    """Paths and figures of a finished run."""
+
+    trajectory_csv: Path
+    trajectory_tum: Path
+    report_json: Path
+    rows: int
+    seconds: float
+
+
+def trajectory_columns(state_names: tuple[str, ...]) -> list[str]:
+    """Column order of ``trajectory.csv`` for a filter with these states."""
+    extra = [n for n in state_names if n not in ("x", "y", "yaw", "y_l", "y_r", "x_icr")]
+    return (
+        ["t", "x", "y", "yaw", "y_l", "y_r", "x_icr", "terrain"]
+        + extra
+        + [f"std_{n}" for n in state_names]
+    )
+
+
+def _labels(log: WheelLog, source: TerrainSource) -> np.ndarray | None:
+    if source is TerrainSource.NONE:
+        return None
+    if log.terrain is None:
+        if source is TerrainSource.LOG:
+            raise InputFileError(
+                f"{log.source}: --terrain-from-log needs a 'terrain' column, the log has none"
+            )
+        return None
+    return log.terrain
+
+
+def run(
+    wheels: str | Path,
+    out_dir: str | Path,
+    *,
+    config: Config | None = None,
+    config_path: str | Path | None = None,
+    terrain: TerrainSource = TerrainSource.AUTO,
+    progress: bool | None = None,
+) -> RunSummary:
+    """Run the terrain-adaptive ICR EKF over a wheel log and write the results.
+
+    Parameters
+    ----------
+    wheels : str or Path
+        Wheel log (CSV, see the README for the format).
+    out_dir : str or Path
+        Output directory (created): ``trajectory.csv`` (streamed row by row),
+        ``trajectory.tum`` and ``report.json``.
+    config : Config, optional
+        Configuration; loaded from ``config_path`` (or the defaults) if omitted.
+    config_path : str or Path, optional
+        YAML configuration file.
+    terrain : TerrainSource
+        Source of the labels driving the covariance reset.
+    progress : bool, optional
+        Show a progress bar; ``None`` shows it only on a terminal.
+
+    Returns
+    -------
+    RunSummary
+    """
+    started = time.perf_counter()
+    cfg = config if config is not None else load_config(config_path)
+    log = read_wheel_log(wheels, wheel_radius=cfg.robot.wheel_radius)
+    labels = _labels(log, terrain)
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    state_names = ("x", "y", "yaw", "y_l", "y_r", "x_icr") + (
+        ("alpha",) if cfg.ekf.estimate_alpha else ()
+    )
+    columns = trajectory_columns(state_names)
+    csv_path = out / "trajectory.csv"
+    bar = tqdm(total=len(log), unit="row", disable=None if progress is None else not progress)
+    with TrajectoryWriter(csv_path, columns) as writer, bar:
+
+        def on_row(row: OdometryRow) -> None:
+            values: dict[str, Any] = {"t": row.t, "terrain": row.terrain}
+            values.update(zip(state_names, row.state.tolist()))
+            values.update((f"std_{n}", s) for n, s in zip(state_names, row.std.tolist()))
+            writer.write(values)
+            bar.update(1)
+
+        result = run_icr_ekf(log, cfg, labels=labels, on_row=on_row)
+    states = result.states
+    tum_path = out / "trajectory.tum"
+    write_tum(tum_path, log.t, states[:, 0], states[:, 1], states[:, 2])
+    seconds = time.perf_counter() - started
+    report = {
+        "format_version": REPORT_FORMAT_VERSION,
+        "terrain_odom_version": __version__,
+        "command": "run",
+        "inputs": {"wheels": str(Path(wheels).resolve()), "config": _path_or_none(config_path)},
+        "terrain_source": terrain.value if labels is not None else "none",
+        "config": config_to_dict(cfg),
+        "counts": {
+            "rows": len(log),
+            "pose_measurements": int(np.count_nonzero(np.isfinite(log.pose).any(axis=1))),
+            "updates": result.n_updates,
+            "segments": int(np.count_nonzero(np.diff(log.segment)) + 1) if len(log) else 0,
+            "terrain_changes": len(result.changes),
+        },
+        "terrain_changes": [asdict(c) for c in result.changes],
+        "final_state": dict(zip(state_names, states[-1].tolist())),
+        "final_std": dict(zip(state_names, result.stds[-1].tolist())),
+        "outputs": {"trajectory_csv": csv_path.name, "trajectory_tum": tum_path.name},
+        "run_time_s": seconds,
+    }
+    report_path = out / "report.json"
+    write_json(report_path, report)
+    return RunSummary(csv_path, tum_path, report_path, len(log), seconds)
+
+
+def _path_or_none(path: str | Path | None) -> str | None:
+    return None if path is None else str(Path(path).resolve())
+
+
+def _read_run(run_dir: Path, log: WheelLog) -> dict[str, np.ndarray]:
+    path = run_dir / "trajectory.csv"
+    if not path.is_file():
+        raise InputFileError(f"{path}: no trajectory.csv in the run directory")
+    traj = read_trajectory_csv(path)
+    missing = [c for c in ("t", "y_l", "y_r", "x_icr") if c not in traj]
+    if missing:
+        raise InputFileError(f"{path}: missing column(s) {missing}")
+    if len(traj["t"]) != len(log) or not np.allclose(traj["t"], log.t, rtol=0, atol=1e-6):
+        raise InputFileError(
+            f"{path}: its {len(traj['t'])} rows do not match the {len(log)} rows of "
+            f"{log.source} (was the run made from this log?)"
+        )
+    return traj
+
+
+def _model_entry(log: WheelLog, windows: Any, twist_fn: Any, rows_twist: tuple) -> dict:
+    errors = window_errors(log, windows, twist_fn)
+    reckoned = dead_reckon(log, *rows_twist)
+    ate = absolute_trajectory_error(reckoned[:, :2], log.pose[:, :2])
+    return {**summarize(errors).to_dict(), "ate_dead_reckoning": ate.to_dict()}
+
+
+def evaluate(
+    run_dir: str | Path | None,
+    wheels: str | Path,
+    *,
+    config: Config | None = None,
+    config_path: str | Path | None = None,
+    params: list[str | Path] | None = None,
+    horizon: float | None = None,
+    out: str | Path | None = None,
+) -> dict[str, Any]:
+    """Model-odometry errors of the nominal model, an EKF run and parameter files.
+
+    For every full pose measurement of the log, each model is integrated from
+    that measured pose over the next ``horizon`` metres of measured travel and
+    compared with the measured pose there (Baril et al. 2020); the EKF uses at
+    each window start only the estimate it had then. Also reported: the ATE
+    (after SE(2) alignment) of each model dead-reckoned over every segment
+    from the segment's first measured pose.
+
+    Parameters
+    ----------
+    run_dir : str or Path, optional
+        Output directory of :func:`run` on the same log.
+    wheels : str or Path
+        The wheel log with pose measurements.
+    config, config_path : optional
+        Configuration (robot geometry, default horizon).
+    params : list of str or Path, optional
+        Parameter files of constant models (see :mod:`terrain_odom.io.params`).
+    horizon : float, optional
+        Evaluation horizon ``h_e``, m; ``config.evaluation.horizon`` if omitted.
+    out : str or Path, optional
+        Where to write the JSON result; ``run_dir/evaluation.json`` by default.
+
+    Returns
+    -------
+    dict
+        Per model: translational (m/m) and angular (deg/m) error statistics
+        and dead-reckoning ATE (m).
+    """
+    cfg = config if config is not None else load_config(config_path)
+    log = read_wheel_log(wheels, wheel_radius=cfg.robot.wheel_radius)
+    h_e = cfg.evaluation.horizon if horizon is None else float(horizon)
+    windows = spatial_windows(log, h_e)
+    if len(windows) == 0:
+        raise InputFileError(
+            f"{log.source}: no {h_e} m window with pose measurements at both ends; nothing to evaluate"
+        )
+    b_nominal = cfg.robot.track_width
+    idd = get_model("idd")
+    models: dict[str, Any] = {
+        f"idd (B={b_nominal:g} m)": _model_entry(
+            log, windows, model_twist(idd, [], b_nominal), idd.twist(log.v_l, log.v_r, [], b_nominal)
+        )
+    }
+    if run_dir is not None:
+        traj = _read_run(Path(run_dir), log)
+        alpha = traj.get("alpha", np.ones(len(log)))
+        icr = (traj["y_l"], traj["y_r"], traj["x_icr"], alpha)
+        models["ekf (online)"] = _model_entry(
+            log, windows, icr_twist_from_rows(windows, *icr), twist_icr(log.v_l, log.v_r, *icr)
+        )
+    for path in params or []:
+        mp: ModelParams = read_params(path)
+        model = get_model(mp.model)
+        values = mp.vector()
+        b = mp.track_width or b_nominal
+        models[f"{mp.model} ({Path(path).name})"] = _model_entry(
+            log, windows, model_twist(model, values, b), model.twist(log.v_l, log.v_r, values, b)
+        )
+    result = {
+        "format_version": REPORT_FORMAT_VERSION,
+        "terrain_odom_version": __version__,
+        "command": "evaluate",
+        "log": str(Path(wheels).resolve()),
+        "run": _path_or_none(run_dir),
+        "horizon_m": h_e,
+        "windows": len(windows),
+        "models": models,
+    }
+    target = Path(out) if out is not None else (Path(run_dir) / "evaluation.json" if run_dir else None)
+    if target is not None:
+        write_json(target, result)
+    return result
