@@ -1,0 +1,252 @@
+"""Tests of :mod:`terrain_odom.workflows`, the Python API behind the command line."""
+
+from __future__ import annotations
+
+import csv
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import terrain_odom.workflows as workflows
+from terrain_odom.config import Config, load_config
+from terrain_odom.errors import ConfigError, InputFileError
+from terrain_odom.estimation.odometry import OdometryRow
+from terrain_odom.io import read_trajectory_csv
+from terrain_odom.kinematics import integrate, twist_icr
+from terrain_odom.workflows import RunSummary, TerrainSource, evaluate, run
+
+N_ROWS = 200
+RATE_HZ = 20.0
+TRUE_ICR = {"y_l": 0.4, "y_r": -0.35, "x_icr": 0.1}
+INTERRUPT_AFTER = 150
+"""The wrapped on_row raises KeyboardInterrupt right after forwarding this many rows."""
+
+
+def synthetic_log(path: Path, *, n: int = N_ROWS) -> dict[str, np.ndarray]:
+    """Write a log of a robot driving arcs (exact ICR kinematics); poses every other row."""
+    t = np.arange(n) / RATE_HZ
+    phase = 2.0 * np.pi * t / 6.0
+    v_l = 0.9 + 0.4 * np.sin(phase)
+    v_r = 1.1 - 0.4 * np.sin(phase)
+    v_x, v_y, omega = twist_icr(v_l[:-1], v_r[:-1], **TRUE_ICR)
+    poses = integrate(v_x, v_y, omega, np.diff(t), start=[1.0, -2.0, 0.3])
+    with open(path, "w", encoding="utf-8", newline="") as handle:
+        writer = csv.writer(handle, lineterminator="\n")
+        writer.writerow(["t", "v_l", "v_r", "x", "y", "yaw", "terrain"])
+        for k in range(n):
+            pose = [repr(float(v)) for v in poses[k]] if k % 2 == 0 else ["", "", ""]
+            label = "grass" if k < n // 2 else "asphalt"
+            speeds = [repr(float(t[k])), repr(float(v_l[k])), repr(float(v_r[k]))]
+            writer.writerow([*speeds, *pose, label])
+    return {"t": t, "poses": poses}
+
+
+@pytest.fixture
+def log_path(tmp_path: Path) -> Path:
+    path = tmp_path / "log.csv"
+    synthetic_log(path)
+    return path
+
+
+def test_run_returns_summary_with_existing_paths(log_path: Path, tmp_path: Path) -> None:
+    out_dir = tmp_path / "nested" / "out"  # parents are created
+
+    summary = run(log_path, out_dir, progress=False)
+
+    assert isinstance(summary, RunSummary)
+    assert summary.rows == N_ROWS
+    assert summary.seconds > 0.0
+    assert summary.trajectory_csv == out_dir / "trajectory.csv"
+    assert summary.trajectory_tum == out_dir / "trajectory.tum"
+    assert summary.report_json == out_dir / "report.json"
+    for path in (summary.trajectory_csv, summary.trajectory_tum, summary.report_json):
+        assert path.is_file(), path
+    assert sorted(p.name for p in out_dir.iterdir()) == [
+        "report.json",
+        "trajectory.csv",
+        "trajectory.tum",
+    ]
+    traj = read_trajectory_csv(summary.trajectory_csv)
+    assert len(traj["t"]) == N_ROWS
+    tum_lines = summary.trajectory_tum.read_text(encoding="utf-8").splitlines()
+    assert tum_lines[0].startswith("#")
+    assert len(tum_lines) == N_ROWS + 1
+    report = json.loads(summary.report_json.read_text(encoding="utf-8"))
+    assert report["counts"]["rows"] == summary.rows
+    assert report["run_time_s"] == pytest.approx(summary.seconds, abs=1.0)
+
+
+def test_run_without_alpha_has_no_alpha_columns(log_path: Path, tmp_path: Path) -> None:
+    cfg_path = tmp_path / "no_alpha.yaml"
+    cfg_path.write_text("ekf:\n  estimate_alpha: false\n", encoding="utf-8")
+
+    summary = run(log_path, tmp_path / "out", config_path=cfg_path, progress=False)
+
+    header = summary.trajectory_csv.read_text(encoding="utf-8").splitlines()[0]
+    assert header == "t,x,y,yaw,y_l,y_r,x_icr,terrain,std_x,std_y,std_yaw,std_y_l,std_y_r,std_x_icr"
+    report = json.loads(summary.report_json.read_text(encoding="utf-8"))
+    assert "alpha" not in report["final_state"]
+    assert report["config"]["ekf"]["estimate_alpha"] is False
+
+
+def test_trajectory_columns() -> None:
+    assert workflows.trajectory_columns(("x", "y", "yaw", "y_l", "y_r", "x_icr", "alpha")) == [
+        "t", "x", "y", "yaw", "y_l", "y_r", "x_icr", "terrain", "alpha",
+        "std_x", "std_y", "std_yaw", "std_y_l", "std_y_r", "std_x_icr", "std_alpha",
+    ]
+
+
+def test_interrupted_run_keeps_streamed_rows(
+    log_path: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """KeyboardInterrupt in the middle: trajectory.csv holds every row written, no report.
+
+    The writer only flushes every 1000 rows / 1 s, but ``run`` uses it as a
+    context manager, whose exit flushes and closes: exactly the rows handed to
+    ``on_row`` before the interrupt are on disk.
+    """
+    real = workflows.run_icr_ekf
+    seen: list[OdometryRow] = []
+
+    def interrupted(log, config, *, labels=None, on_row=None):  # type: ignore[no-untyped-def]
+        assert on_row is not None  # run() streams through on_row
+
+        def forward(row: OdometryRow) -> None:
+            on_row(row)
+            seen.append(row)
+            if len(seen) == INTERRUPT_AFTER:
+                raise KeyboardInterrupt
+
+        return real(log, config, labels=labels, on_row=forward)
+
+    monkeypatch.setattr(workflows, "run_icr_ekf", interrupted)
+    out_dir = tmp_path / "out"
+
+    with pytest.raises(KeyboardInterrupt):
+        run(log_path, out_dir, progress=False)
+
+    assert len(seen) == INTERRUPT_AFTER
+    traj = read_trajectory_csv(out_dir / "trajectory.csv")
+    assert len(traj["t"]) == INTERRUPT_AFTER
+    np.testing.assert_array_equal(traj["t"], [row.t for row in seen])
+    np.testing.assert_array_equal(traj["t"], synthetic_log(tmp_path / "again.csv")["t"][:150])
+    for i, name in enumerate(("x", "y", "yaw", "y_l", "y_r", "x_icr", "alpha")):
+        np.testing.assert_array_equal(traj[name], [row.state[i] for row in seen], err_msg=name)
+        np.testing.assert_array_equal(
+            traj[f"std_{name}"], [row.std[i] for row in seen], err_msg=name
+        )
+    # the text ends with a complete line: no half-written row
+    text = (out_dir / "trajectory.csv").read_text(encoding="utf-8")
+    assert text.endswith("\n")
+    assert len(text.splitlines()) == INTERRUPT_AFTER + 1
+    # the report is written atomically after the loop: never reached, and no temp files
+    assert not (out_dir / "report.json").exists()
+    assert sorted(p.name for p in out_dir.iterdir()) == ["trajectory.csv"]
+
+
+def test_interrupt_does_not_clobber_previous_report(
+    log_path: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A re-run interrupted in the same directory leaves the old report.json valid JSON."""
+    out_dir = tmp_path / "out"
+    first = run(log_path, out_dir, progress=False)
+    before = first.report_json.read_text(encoding="utf-8")
+    real = workflows.run_icr_ekf
+
+    def interrupted(log, config, *, labels=None, on_row=None):  # type: ignore[no-untyped-def]
+        def forward(row: OdometryRow) -> None:
+            on_row(row)
+            if row.index == 9:
+                raise KeyboardInterrupt
+
+        return real(log, config, labels=labels, on_row=forward)
+
+    monkeypatch.setattr(workflows, "run_icr_ekf", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        run(log_path, out_dir, progress=False)
+
+    assert first.report_json.read_text(encoding="utf-8") == before
+    json.loads(before)
+    assert len(read_trajectory_csv(out_dir / "trajectory.csv")["t"]) == 10
+    assert not [p.name for p in out_dir.iterdir() if p.name.endswith(".tmp")]
+
+
+def test_report_embeds_the_config_used(log_path: Path, tmp_path: Path) -> None:
+    cfg_path = tmp_path / "custom.yaml"
+    cfg_path.write_text(
+        "ekf:\n  sigma_r: {x: 0.123, yaw: 0.031}\nterrain:\n  confirm: 3\n", encoding="utf-8"
+    )
+
+    summary = run(log_path, tmp_path / "out", config_path=cfg_path, progress=False)
+
+    report = json.loads(summary.report_json.read_text(encoding="utf-8"))
+    assert report["inputs"]["config"] == str(cfg_path.resolve())
+    sigma_r = report["config"]["ekf"]["sigma_r"]
+    assert sigma_r == {"x": 0.123, "y": 0.05, "yaw": 0.031}  # y keeps the default
+    assert report["config"]["terrain"]["confirm"] == 3
+    assert report["config"]["robot"] == {"wheel_radius": 0.1, "track_width": 0.5}
+    # the config was really used: the pose anchor's std is sigma_r, and the change
+    # is confirmed on the third 'asphalt' row
+    traj = read_trajectory_csv(summary.trajectory_csv)
+    assert traj["std_x"][0] == 0.123
+    assert traj["std_yaw"][0] == 0.031
+    (change,) = report["terrain_changes"]
+    assert change["t"] == pytest.approx((N_ROWS // 2 + 2) / RATE_HZ, abs=1e-9)
+
+
+def test_config_object_takes_precedence(log_path: Path, tmp_path: Path) -> None:
+    cfg_path = tmp_path / "ignored.yaml"
+    cfg_path.write_text("ekf:\n  sigma_r: {x: 0.5}\n", encoding="utf-8")
+    config = Config()
+
+    summary = run(log_path, tmp_path / "out", config=config, config_path=cfg_path, progress=False)
+
+    report = json.loads(summary.report_json.read_text(encoding="utf-8"))
+    assert report["config"]["ekf"]["sigma_r"]["x"] == 0.05
+
+
+def test_terrain_sources(log_path: Path, tmp_path: Path) -> None:
+    none = run(log_path, tmp_path / "none", terrain=TerrainSource.NONE, progress=False)
+    from_log = run(log_path, tmp_path / "log", terrain=TerrainSource.LOG, progress=False)
+
+    r_none = json.loads(none.report_json.read_text(encoding="utf-8"))
+    r_log = json.loads(from_log.report_json.read_text(encoding="utf-8"))
+    assert r_none["terrain_source"] == "none" and r_none["terrain_changes"] == []
+    assert r_log["terrain_source"] == "log"
+    assert [(c["previous"], c["label"]) for c in r_log["terrain_changes"]] == [
+        ("grass", "asphalt")
+    ]
+
+
+def test_errors_are_package_errors(log_path: Path, tmp_path: Path) -> None:
+    bad_cfg = tmp_path / "bad.yaml"
+    bad_cfg.write_text("ekf:\n  sigma_p0: {x: 0}\n", encoding="utf-8")
+    with pytest.raises(ConfigError, match=r"ekf\.sigma_p0\.x: must be > 0"):
+        run(log_path, tmp_path / "a", config_path=bad_cfg, progress=False)
+    with pytest.raises(InputFileError, match="does not exist"):
+        run(tmp_path / "missing.csv", tmp_path / "b", progress=False)
+    assert not (tmp_path / "a").exists() and not (tmp_path / "b").exists()
+
+
+def test_evaluate_returns_and_writes_result(log_path: Path, tmp_path: Path) -> None:
+    summary = run(log_path, tmp_path / "run", progress=False)
+    params = tmp_path / "true.yaml"
+    params.write_text(
+        "format_version: 1\nmodel: icr\nparams: {y_l: 0.4, y_r: -0.35, x_icr: 0.1}\n",
+        encoding="utf-8",
+    )
+
+    result = evaluate(summary.report_json.parent, log_path, params=[params], horizon=1.5)
+
+    on_disk = json.loads((tmp_path / "run" / "evaluation.json").read_text(encoding="utf-8"))
+    assert on_disk == json.loads(json.dumps(result))
+    assert result["horizon_m"] == 1.5
+    assert list(result["models"]) == ["idd (B=0.5 m)", "ekf (online)", "icr (true.yaml)"]
+    assert result["models"]["icr (true.yaml)"]["translation_m_per_m"]["median"] < 1e-6
+    assert result["models"]["idd (B=0.5 m)"]["translation_m_per_m"]["median"] > 0.05
+
+
+def test_load_config_default_is_builtin() -> None:
+    assert load_config(None) == Config()
