@@ -228,17 +228,18 @@ def _build(default: Any, data: Any, where: str) -> Any:
     """
     cls = type(default)
     if not isinstance(data, Mapping):
-        raise ConfigError(f"{where}: expected a mapping of keys, got {type(data).__name__}")
+        raise ConfigError(f"{where or 'top level'}: expected a mapping of keys, got {type(data).__name__}")
     hints = typing.get_type_hints(cls)
     known = {f.name for f in dataclasses.fields(cls)}
     unknown = sorted(str(k) for k in set(data) - known)
     if unknown:
-        raise ConfigError(f"{where}: unknown key(s) {unknown}; allowed: {sorted(known)}")
+        raise ConfigError(f"{where or 'top level'}: unknown key(s) {unknown}; allowed: {sorted(known)}")
     values = {}
     parent = where.rsplit(".", 1)[-1]
+    prefix = f"{where}." if where else ""
     # Per-terrain overrides last: their missing keys come from the final sigma_pb.
     for name, raw in sorted(data.items(), key=lambda item: item[0] == "sigma_pb_per_terrain"):
-        key = f"{where}.{name}"
+        key = f"{prefix}{name}"
         hint = hints[name]
         if dataclasses.is_dataclass(hint):
             values[name] = _build(getattr(default, name), raw, key)
@@ -260,20 +261,20 @@ def _build(default: Any, data: Any, where: str) -> Any:
     return dataclasses.replace(default, **values)
 
 
-def _check_consistency(cfg: Config, where: str) -> None:
+def _check_consistency(cfg: Config) -> None:
     ini, lim = cfg.ekf.initial, cfg.ekf.limits
     if not ini.y_l > 0.0 > ini.y_r:
         raise ConfigError(
-            f"{where}: ekf.initial needs y_l > 0 > y_r (left ICR left of the body), "
+            f"ekf.initial needs y_l > 0 > y_r (left ICR left of the body), "
             f"got y_l={ini.y_l}, y_r={ini.y_r}"
         )
     if not lim.half_width_min < lim.half_width_max:
-        raise ConfigError(f"{where}: ekf.limits.half_width_min must be < half_width_max")
+        raise ConfigError(f"ekf.limits.half_width_min must be < half_width_max")
     if not lim.alpha_min <= ini.alpha <= lim.alpha_max:
-        raise ConfigError(f"{where}: ekf.initial.alpha must lie in [alpha_min, alpha_max]")
+        raise ConfigError(f"ekf.initial.alpha must lie in [alpha_min, alpha_max]")
     if cfg.format_version != FORMAT_VERSION:
         raise ConfigError(
-            f"{where}: format_version {cfg.format_version} is not supported "
+            f"format_version {cfg.format_version} is not supported "
             f"(this version of terrain-odom reads {FORMAT_VERSION})"
         )
 
@@ -311,8 +312,11 @@ def load_config(path: str | Path | None = None) -> Config:
         mark = getattr(exc, "problem_mark", None)
         line = f", line {mark.line + 1}" if mark is not None else ""
         raise ConfigError(f"{path}{line}: not valid YAML") from None
-    cfg = _build(Config(), data or {}, str(path))
-    _check_consistency(cfg, str(path))
+    try:
+        cfg = _build(Config(), data or {}, "")
+        _check_consistency(cfg)
+    except ConfigError as exc:
+        raise ConfigError(f"{path}: {exc}") from None
     return cfg
 
 

@@ -117,6 +117,8 @@ def run(
     log = read_wheel_log(wheels, wheel_radius=cfg.robot.wheel_radius)
     labels = _labels(log, terrain)
     out = Path(out_dir)
+    if out.exists() and not out.is_dir():
+        raise InputFileError(f"{out}: --out must be a directory, but a file of that name exists")
     out.mkdir(parents=True, exist_ok=True)
     state_names = ("x", "y", "yaw", "y_l", "y_r", "x_icr") + (
         ("alpha",) if cfg.ekf.estimate_alpha else ()

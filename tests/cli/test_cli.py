@@ -277,12 +277,6 @@ def test_bad_params_file(
     assert not out_json.exists()
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="source bug: `run --out` naming an existing file raises FileExistsError from "
-    "Path.mkdir in workflows.run; cli.main only catches FileNotFoundError/IsADirectoryError/"
-    "PermissionError, so the user gets a traceback and exit code 1 instead of one line + exit 2",
-)
 def test_run_out_is_an_existing_file(
     log_path: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
@@ -292,12 +286,6 @@ def test_run_out_is_an_existing_file(
     assert not_a_dir.read_text() == "keep me\n"
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="source bug: `evaluate --out` into a missing directory reports the internal "
-    "temporary file ('.evaluation.json.XXXX.tmp', from io.report.write_json's mkstemp) "
-    "instead of the path the user gave",
-)
 def test_evaluate_out_in_missing_directory_names_the_given_path(
     log_path: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

@@ -30,7 +30,7 @@ __all__ = [
     "integrate",
 ]
 
-_SERIES_LIMIT = 1e-2  # |phi| below which the Taylor series is used (error < 1e-13)
+_SERIES_LIMIT = 1e-2  # |phi| below which the Taylor series is used (error < 1e-12)
 
 
 def wrap_angle(angle: ArrayLike) -> np.ndarray:

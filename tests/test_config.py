@@ -1,0 +1,77 @@
+"""Tests of configuration loading and validation."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from terrain_odom.config import Config, IcrSigmas, load_config
+from terrain_odom.errors import ConfigError
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def _write(tmp_path: Path, text: str) -> Path:
+    path = tmp_path / "cfg.yaml"
+    path.write_text(text)
+    return path
+
+
+def test_default_yaml_equals_builtin_defaults():
+    assert load_config(REPO / "config" / "default.yaml") == Config()
+    assert load_config(None) == Config()
+
+
+def test_every_shipped_config_loads():
+    for path in sorted((REPO / "config").glob("*.yaml")):
+        cfg = load_config(path)
+        assert cfg.ekf.initial.y_l > 0 > cfg.ekf.initial.y_r, path
+
+
+def test_warthog_geometry():
+    cfg = load_config(REPO / "config" / "warthog.yaml")
+    assert (cfg.robot.wheel_radius, cfg.robot.track_width) == (0.30, 1.08)
+
+
+def test_partial_file_keeps_other_defaults(tmp_path):
+    cfg = load_config(_write(tmp_path, "ekf:\n  sigma_q: {x: 0.3}\n"))
+    assert cfg.ekf.sigma_q.x == 0.3
+    assert cfg.ekf.sigma_q.y == Config().ekf.sigma_q.y  # not the class default of the dataclass
+    assert cfg.robot == Config().robot
+
+
+def test_per_terrain_pb_falls_back_to_sigma_pb(tmp_path):
+    text = "ekf:\n  sigma_pb_per_terrain: {sand: {y_l: 2.0}}\n  sigma_pb: {y_r: 0.7}\n"
+    cfg = load_config(_write(tmp_path, text))
+    assert cfg.ekf.sigma_pb_per_terrain["sand"] == IcrSigmas(2.0, 0.7, 0.5, 0.1)
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("robot:\n  wheel_radus: 0.3\n", r"cfg\.yaml: robot: unknown key\(s\) \['wheel_radus'\]"),
+        ("ekf:\n  sigma_r: {x: -0.1}\n", r"ekf\.sigma_r\.x: must be > 0, got -0\.1"),
+        ("ekf:\n  sigma_q: {x: -0.1}\n", r"ekf\.sigma_q\.x: must be >= 0"),
+        ("ekf:\n  sigma_r: {x: abc}\n", r"ekf\.sigma_r\.x: must be a number, got 'abc'"),
+        ("ekf:\n  sigma_r: {x: .nan}\n", r"ekf\.sigma_r\.x: must be finite"),
+        ("ekf:\n  estimate_alpha: 1\n", r"ekf\.estimate_alpha: must be true or false"),
+        ("terrain:\n  confirm: 0\n", r"terrain\.confirm: must be a whole number >= 1"),
+        ("ekf:\n  initial: {y_l: -0.2, y_r: 0.2}\n", r"ekf\.initial\.y_l: must be > 0"),
+        ("ekf:\n  initial: {y_r: 0.2}\n", r"ekf\.initial needs y_l > 0 > y_r"),
+        ("ekf:\n  initial: {alpha: 2.0}\n", r"alpha must lie in \[alpha_min, alpha_max\]"),
+        ("format_version: 2\n", r"format_version 2 is not supported"),
+        ("robot: 3\n", r"robot: expected a mapping"),
+        ("robot: [\n", r"line \d+: not valid YAML"),
+    ],
+)
+def test_invalid_config_names_file_and_key(tmp_path, text, message):
+    with pytest.raises(ConfigError, match=message) as info:
+        load_config(_write(tmp_path, text))
+    assert "cfg.yaml" in str(info.value)
+    assert "\n" not in str(info.value)
+
+
+def test_missing_config_file(tmp_path):
+    with pytest.raises(ConfigError, match="config file not found"):
+        load_config(tmp_path / "nope.yaml")
