@@ -56,6 +56,7 @@ __all__ = [
     "align_se2",
     "absolute_trajectory_error",
     "dead_reckon",
+    "settling_time",
 ]
 
 Twist = tuple[np.ndarray, np.ndarray, np.ndarray]
@@ -574,3 +575,52 @@ def dead_reckon(log: WheelLog, v_x: ArrayLike, v_y: ArrayLike, omega: ArrayLike)
         dt = np.diff(log.t[k0:stop])
         out[k0:stop] = integrate(v_x[steps], v_y[steps], omega[steps], dt, start=log.pose[k0])
     return out
+
+
+def settling_time(
+    t: ArrayLike,
+    values: ArrayLike,
+    final: ArrayLike,
+    tolerance: ArrayLike,
+    *,
+    t_from: float,
+) -> float:
+    """Time after ``t_from`` until ``values`` stay within ``tolerance`` of ``final``.
+
+    Parameters
+    ----------
+    t : array_like, shape (N,)
+        Times, s.
+    values : array_like, shape (N, P)
+        Estimates over time (e.g. ``y_l, y_r, x_icr, alpha``).
+    final : array_like, shape (P,)
+        Values to settle to.
+    tolerance : array_like, shape (P,)
+        Allowed absolute deviation per component.
+    t_from : float
+        Start of the clock (e.g. the terrain change, or the first motion after it), s.
+
+    Returns
+    -------
+    float
+        Seconds from ``t_from`` to the first time after which every component
+        stays inside its band until the end; ``inf`` if it is outside at the
+        last sample, 0 if it never leaves the band after ``t_from``.
+
+    Examples
+    --------
+    >>> t = np.arange(6.0)
+    >>> v = np.array([[0.0], [0.5], [0.95], [1.2], [1.05], [1.0]])
+    >>> settling_time(t, v, [1.0], [0.1], t_from=1.0)
+    3.0
+    """
+    t = np.asarray(t, dtype=float)
+    v = np.asarray(values, dtype=float).reshape(t.size, -1)
+    outside = np.any(np.abs(v - np.asarray(final, dtype=float)) > np.asarray(tolerance), axis=1)
+    outside &= t >= t_from
+    rows = np.flatnonzero(outside)
+    if rows.size == 0:
+        return 0.0
+    if rows[-1] == t.size - 1:
+        return float("inf")
+    return float(t[rows[-1] + 1] - t_from)

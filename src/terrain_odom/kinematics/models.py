@@ -429,6 +429,13 @@ MODELS: dict[str, KinematicModel] = {
             False,
             twist_icr,
         ),
+        KinematicModel(
+            "icr-slip",
+            ("y_l", "y_r", "x_icr", "alpha"),
+            ((0.05, _BIG), (-_BIG, -0.05), (-_BIG, _BIG), (0.0, 1.5)),
+            False,
+            twist_icr,
+        ),
     )
 }
 
