@@ -568,7 +568,7 @@ def test_get_model_unknown_name_lists_choices() -> None:
 
 def test_get_model_returns_registered_models() -> None:
     """get_model returns the registered model objects."""
-    assert set(MODELS) == {"idd", "edd-sym", "edd-asym", "roc", "linear", "icr"}
+    assert set(MODELS) == {"idd", "edd-sym", "edd-asym", "roc", "linear", "icr", "icr-slip"}
     for name, model in MODELS.items():
         assert get_model(name) is model
         assert model.name == name
@@ -591,3 +591,12 @@ def test_icr_model_bounds_keep_icrs_apart() -> None:
         model = MODELS[name]
         i_l, i_r = model.param_names.index("y_l"), model.param_names.index("y_r")
         assert model.bounds[i_l][0] > 0.0 > model.bounds[i_r][1]
+
+
+def test_icr_slip_is_edd_asym_with_one_slip_factor() -> None:
+    """icr-slip (the EKF's model) equals edd-asym with alpha_l = alpha_r."""
+    rng = np.random.default_rng(3)
+    v_l, v_r = rng.uniform(-2, 2, 50), rng.uniform(-2, 2, 50)
+    a = MODELS["icr-slip"].twist(v_l, v_r, [0.9, -0.7, 0.2, 0.93])
+    b = MODELS["edd-asym"].twist(v_l, v_r, [0.93, 0.93, 0.2, 0.9, -0.7])
+    np.testing.assert_allclose(np.array(a), np.array(b), rtol=1e-12, atol=1e-15)
