@@ -67,7 +67,7 @@ def fit_constant(model_name, logs, windows, x0, track_width):
 
     def residuals(p):
         out = []
-        for log, win in zip(logs, windows):
+        for log, win in zip(logs, windows, strict=True):
             pred = predict_window_ends(log, win, model_twist(model, p, track_width))
             meas = log.pose[win.end]
             res = pred - meas
@@ -76,13 +76,15 @@ def fit_constant(model_name, logs, windows, x0, track_width):
         r = np.concatenate(out)
         return np.where(np.isfinite(r), r, 1e3)
 
-    sol = least_squares(residuals, np.clip(x0, lo + 1e-6, hi - 1e-6), bounds=(lo, hi), x_scale="jac")
+    sol = least_squares(
+        residuals, np.clip(x0, lo + 1e-6, hi - 1e-6), bounds=(lo, hi), x_scale="jac"
+    )
     return sol.x
 
 
 def ekf_errors(logs, windows, cfg):
     errs = []
-    for log, win in zip(logs, windows):
+    for log, win in zip(logs, windows, strict=True):
         res = run_icr_ekf(log, cfg, labels=log.terrain)
         cols = {n: res.states[:, i] for i, n in enumerate(res.names)}
         icr = (cols["y_l"], cols["y_r"], cols["x_icr"], cols.get("alpha", np.ones(len(log))))
@@ -96,7 +98,9 @@ def with_ekf(cfg, **changes):
 
 def reconvergence(cfg, data):
     """Settling of the ICRs after the terrain switch of the stitched log."""
-    log = read_wheel_log(data / "stitched_grass_to_asphalt.csv", wheel_radius=cfg.robot.wheel_radius)
+    log = read_wheel_log(
+        data / "stitched_grass_to_asphalt.csv", wheel_radius=cfg.robot.wheel_radius
+    )
     switch = float(log.t[np.flatnonzero(log.terrain != log.terrain[0])[0]])
     moving = (np.abs(log.v_l) + np.abs(log.v_r) > 0.05) & (log.t >= switch)
     t_move = float(log.t[np.flatnonzero(moving)[0]])
@@ -109,8 +113,10 @@ def reconvergence(cfg, data):
     tol[2] = 0.1 * half
     print(f"\nRe-convergence after the grass -> asphalt switch (t = {switch:.1f} s; the robot")
     print(f"stands still until t = {t_move:.1f} s, so times are counted from the first motion)")
-    print(f"  final asphalt estimate (with reset): y_l={final[0]:.3f} y_r={final[1]:.3f} "
-          f"x_icr={final[2]:.3f} alpha={final[3] if final.size > 3 else 1.0:.3f}")
+    print(
+        f"  final asphalt estimate (with reset): y_l={final[0]:.3f} y_r={final[1]:.3f} "
+        f"x_icr={final[2]:.3f} alpha={final[3] if final.size > 3 else 1.0:.3f}"
+    )
     print(f"  final estimate without reset:        {np.array2string(without[-1], precision=3)}")
     # control-engineering settling: parameters that change by > 5 % of their scale
     # (their value; the half spacing for x_icr), within 10 % of their step
@@ -120,13 +126,19 @@ def reconvergence(cfg, data):
     scale[2] = half
     moved = step > 0.05 * scale
     names = np.array(["y_l", "y_r", "x_icr", "alpha"][: final.size])
-    print(f"  parameters that change by > 5 %: {', '.join(names[moved])} "
-          f"(step {np.array2string(step[moved], precision=3)})")
+    print(
+        f"  parameters that change by > 5 %: {', '.join(names[moved])} "
+        f"(step {np.array2string(step[moved], precision=3)})"
+    )
     for name, states in (("with P_B reset", with_reset), ("without reset", without)):
         s10 = settling_time(log.t, states, final, tol, t_from=t_move)
-        s_step = settling_time(log.t, states[:, moved], final[moved], 0.1 * step[moved], t_from=t_move)
-        print(f"  {name:<16} within 10 % of the final values after {s10:6.1f} s; "
-              f"within 10 % of the step after {s_step:6.1f} s")
+        s_step = settling_time(
+            log.t, states[:, moved], final[moved], 0.1 * step[moved], t_from=t_move
+        )
+        print(
+            f"  {name:<16} within 10 % of the final values after {s10:6.1f} s; "
+            f"within 10 % of the step after {s_step:6.1f} s"
+        )
     # what it buys in odometry: windows starting in the first 60 s of asphalt driving
     win = spatial_windows(log)
     start_t = log.t[win.start]
@@ -134,8 +146,10 @@ def reconvergence(cfg, data):
     for name, states in (("with P_B reset", with_reset), ("without reset", without)):
         icr = [states[:, i] for i in range(states.shape[1])]
         e = window_errors(log, win, icr_twist_from_rows(win, *icr))
-        print(f"  {name:<16} first 60 s on asphalt: {np.median(e.translation_per_m[mask]):.4f} m/m, "
-              f"{np.median(e.rotation_per_m[mask]):.3f} deg/m median over {mask.sum()} windows")
+        print(
+            f"  {name:<16} first 60 s on asphalt: {np.median(e.translation_per_m[mask]):.4f} m/m, "
+            f"{np.median(e.rotation_per_m[mask]):.3f} deg/m median over {mask.sum()} windows"
+        )
 
 
 def main():
@@ -147,8 +161,12 @@ def main():
     cfg = load_config(args.config)
     r, b = cfg.robot.wheel_radius, cfg.robot.track_width
     started = time.perf_counter()
-    grass = [read_wheel_log(p, wheel_radius=r) for p in sorted(data.glob("warthog_wheels_grass*.csv"))]
-    asphalt = [read_wheel_log(data / "warthog_wheels_asphalt_2024_9_25_12h8s57.csv", wheel_radius=r)]
+    grass = [
+        read_wheel_log(p, wheel_radius=r) for p in sorted(data.glob("warthog_wheels_grass*.csv"))
+    ]
+    asphalt = [
+        read_wheel_log(data / "warthog_wheels_asphalt_2024_9_25_12h8s57.csv", wheel_radius=r)
+    ]
     gw = [spatial_windows(g) for g in grass]
     aw = [spatial_windows(a) for a in asphalt]
 
@@ -158,24 +176,59 @@ def main():
     p_icr3_a = fit_constant("icr", asphalt, aw, [0.9, -0.9, 0.0], b)
     p_icra_g = fit_constant("edd-asym", grass, gw, [0.95, 0.95, 0.0, 0.9, -0.9], b)
     print(f"  edd-sym on grass:           alpha={p_edd_g[0]:.3f} b_hat={p_edd_g[1]:.3f} m")
-    print(f"  edd-asym on grass:          {np.array2string(p_icra_g, precision=3)}"
-          "  (alpha_l, alpha_r, x_v, y_l, y_r)")
-    print(f"  icr-slip on asphalt (prior): {np.array2string(p_icr_a, precision=3)}"
-          "  (y_l, y_r, x_icr, alpha)")
+    print(
+        f"  edd-asym on grass:          {np.array2string(p_icra_g, precision=3)}"
+        "  (alpha_l, alpha_r, x_v, y_l, y_r)"
+    )
+    print(
+        f"  icr-slip on asphalt (prior): {np.array2string(p_icr_a, precision=3)}"
+        "  (y_l, y_r, x_icr, alpha)"
+    )
     print(f"  icr on asphalt (prior):     {np.array2string(p_icr3_a, precision=3)}")
 
-    print(f"\nGrass, five runs pooled, h_e = {cfg.evaluation.horizon:g} m:"
-          f"{'m/m median [q25-q75]':>37}  deg/m median [q25-q75]")
-    line(f"ideal differential drive, B = {b:g} m", [window_errors(g, w, model_twist(get_model("idd"), [], b)) for g, w in zip(grass, gw)])
-    line("edd-sym fitted on these grass runs (oracle)", [window_errors(g, w, model_twist(get_model("edd-sym"), p_edd_g)) for g, w in zip(grass, gw)])
-    line("edd-asym fitted on these grass runs (oracle)", [window_errors(g, w, model_twist(get_model("edd-asym"), p_icra_g)) for g, w in zip(grass, gw)])
-    line("icr-slip fitted on asphalt (the EKF's prior)", [window_errors(g, w, model_twist(get_model("icr-slip"), p_icr_a)) for g, w in zip(grass, gw)])
+    print(
+        f"\nGrass, five runs pooled, h_e = {cfg.evaluation.horizon:g} m:"
+        f"{'m/m median [q25-q75]':>37}  deg/m median [q25-q75]"
+    )
+    line(
+        f"ideal differential drive, B = {b:g} m",
+        [
+            window_errors(g, w, model_twist(get_model("idd"), [], b))
+            for g, w in zip(grass, gw, strict=True)
+        ],
+    )
+    line(
+        "edd-sym fitted on these grass runs (oracle)",
+        [
+            window_errors(g, w, model_twist(get_model("edd-sym"), p_edd_g))
+            for g, w in zip(grass, gw, strict=True)
+        ],
+    )
+    line(
+        "edd-asym fitted on these grass runs (oracle)",
+        [
+            window_errors(g, w, model_twist(get_model("edd-asym"), p_icra_g))
+            for g, w in zip(grass, gw, strict=True)
+        ],
+    )
+    line(
+        "icr-slip fitted on asphalt (the EKF's prior)",
+        [
+            window_errors(g, w, model_twist(get_model("icr-slip"), p_icr_a))
+            for g, w in zip(grass, gw, strict=True)
+        ],
+    )
     line(f"EKF {Path(args.config).name} (alpha state, asphalt prior)", ekf_errors(grass, gw, cfg))
     no_alpha = with_ekf(cfg, estimate_alpha=False, initial=IcrState(*p_icr3_a, 1.0))
     line("EKF without alpha state (asphalt icr prior)", ekf_errors(grass, gw, no_alpha))
     nominal = with_ekf(cfg, initial=IcrState(b / 2, -b / 2, 0.0, 1.0))
-    line(f"EKF from nominal geometry (y = +-{b / 2:g} m, alpha = 1)", ekf_errors(grass, gw, nominal))
-    line("EKF from nominal geometry, without alpha", ekf_errors(grass, gw, with_ekf(nominal, estimate_alpha=False)))
+    line(
+        f"EKF from nominal geometry (y = +-{b / 2:g} m, alpha = 1)", ekf_errors(grass, gw, nominal)
+    )
+    line(
+        "EKF from nominal geometry, without alpha",
+        ekf_errors(grass, gw, with_ekf(nominal, estimate_alpha=False)),
+    )
 
     reconvergence(cfg, data)
     print(f"\n({time.perf_counter() - started:.0f} s)")

@@ -43,20 +43,30 @@ def main():
     parser.add_argument("--config", default=None)
     parser.add_argument("--repeat", type=int, default=3)
     args = parser.parse_args()
-    config = args.config or (str(REPO / "examples" / "demo.yaml") if args.log.endswith("demo_log.csv") else None)
+    config = args.config or (
+        str(REPO / "examples" / "demo.yaml") if args.log.endswith("demo_log.csv") else None
+    )
     cfg = load_config(config)
     log = read_wheel_log(args.log, wheel_radius=cfg.robot.wheel_radius)
     n = len(log)
-    t_read = best_of(args.repeat, lambda: read_wheel_log(args.log, wheel_radius=cfg.robot.wheel_radius))
-    t_dr = best_of(args.repeat, lambda: dead_reckon(log, *twist_idd(log.v_l, log.v_r, cfg.robot.track_width)))
+    t_read = best_of(
+        args.repeat, lambda: read_wheel_log(args.log, wheel_radius=cfg.robot.wheel_radius)
+    )
+    t_dr = best_of(
+        args.repeat, lambda: dead_reckon(log, *twist_idd(log.v_l, log.v_r, cfg.robot.track_width))
+    )
     t_ekf = best_of(args.repeat, lambda: run_icr_ekf(log, cfg, labels=log.terrain))
     span = float(log.t[-1] - log.t[0])
-    print(f"log: {args.log} ({n} rows, {int(np.isfinite(log.pose).any(axis=1).sum())} poses, {span:.0f} s)")
+    print(
+        f"log: {args.log} ({n} rows, {int(np.isfinite(log.pose).any(axis=1).sum())} poses, {span:.0f} s)"
+    )
     print(f"  read CSV            {1e6 * t_read / n:8.2f} us/row")
     print(f"  dead-reckon (numpy) {1e6 * t_dr / n:8.2f} us/row")
-    print(f"  ICR EKF             {1e6 * t_ekf / n:8.2f} us/row  = {t_ekf / t_read:.1f}x reading, "
-          f"{t_ekf / t_dr:.0f}x dead-reckoning; {span / t_ekf:.0f}x real time; "
-          f"max wheel rate {n / t_ekf:.0f} Hz on one core")
+    print(
+        f"  ICR EKF             {1e6 * t_ekf / n:8.2f} us/row  = {t_ekf / t_read:.1f}x reading, "
+        f"{t_ekf / t_dr:.0f}x dead-reckoning; {span / t_ekf:.0f}x real time; "
+        f"max wheel rate {n / t_ekf:.0f} Hz on one core"
+    )
 
 
 if __name__ == "__main__":

@@ -40,8 +40,15 @@ def make(seed: int = 7, rate: float = 20.0, seconds: float = 90.0) -> list[dict]
     noisy_r = v_r + rng.normal(0.0, 0.01, t.size)
     rows = []
     for k in range(t.size):
-        row = {"t": f"{t[k]:.2f}", "v_l": f"{noisy_l[k]:.4f}", "v_r": f"{noisy_r[k]:.4f}",
-               "x": "", "y": "", "yaw": "", "terrain": terrain[k]}
+        row = {
+            "t": f"{t[k]:.2f}",
+            "v_l": f"{noisy_l[k]:.4f}",
+            "v_r": f"{noisy_r[k]:.4f}",
+            "x": "",
+            "y": "",
+            "yaw": "",
+            "terrain": terrain[k],
+        }
         if k % 2 == 0:  # 10 Hz pose measurement
             x, y = truth[k, :2] + rng.normal(0.0, 0.02, 2)
             yaw = wrap_angle(truth[k, 2] + rng.normal(0.0, 0.01))

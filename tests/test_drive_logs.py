@@ -36,7 +36,10 @@ def cfg():
 
 @pytest.fixture(scope="module")
 def grass(cfg):
-    logs = [read_wheel_log(p, wheel_radius=cfg.robot.wheel_radius) for p in sorted(DRIVE.glob("warthog_wheels_grass*.csv"))]
+    logs = [
+        read_wheel_log(p, wheel_radius=cfg.robot.wheel_radius)
+        for p in sorted(DRIVE.glob("warthog_wheels_grass*.csv"))
+    ]
     assert len(logs) == 5
     return [(log, spatial_windows(log)) for log in logs]
 
@@ -45,16 +48,21 @@ def _ekf_medians(grass, cfg):
     trans, rot = [], []
     for log, win in grass:
         res = run_icr_ekf(log, cfg, labels=log.terrain)
-        cols = dict(zip(res.names, res.states.T))
+        cols = dict(zip(res.names, res.states.T, strict=True))
         alpha = cols.get("alpha", np.ones(len(log)))
-        err = window_errors(log, win, icr_twist_from_rows(win, cols["y_l"], cols["y_r"], cols["x_icr"], alpha))
+        err = window_errors(
+            log, win, icr_twist_from_rows(win, cols["y_l"], cols["y_r"], cols["x_icr"], alpha)
+        )
         trans.append(err.translation_per_m)
         rot.append(err.rotation_per_m)
     return np.median(np.concatenate(trans)), np.median(np.concatenate(rot))
 
 
 def _constant_medians(grass, model, params, track_width=None):
-    errs = [window_errors(log, win, model_twist(get_model(model), params, track_width)) for log, win in grass]
+    errs = [
+        window_errors(log, win, model_twist(get_model(model), params, track_width))
+        for log, win in grass
+    ]
     return (
         np.median(np.concatenate([e.translation_per_m for e in errs])),
         np.median(np.concatenate([e.rotation_per_m for e in errs])),
@@ -84,7 +92,9 @@ def test_stitched_run_and_evaluate_through_the_cli(tmp_path, capsys):
     out = tmp_path / "r"
     assert main(["run", "--config", str(WARTHOG), "--wheels", log, "--out", str(out)]) == 0
     report = json.loads((out / "report.json").read_text())
-    assert [(c["previous"], c["label"]) for c in report["terrain_changes"]] == [("grass", "asphalt")]
+    assert [(c["previous"], c["label"]) for c in report["terrain_changes"]] == [
+        ("grass", "asphalt")
+    ]
     assert report["terrain_changes"][0]["t"] == pytest.approx(113.95, abs=0.1)
     assert main(["evaluate", "--config", str(WARTHOG), "--run", str(out), "--log", log]) == 0
     models = json.loads((out / "evaluation.json").read_text())["models"]
@@ -95,9 +105,13 @@ def test_stitched_run_and_evaluate_through_the_cli(tmp_path, capsys):
 
 
 def test_reset_reconverges_after_the_grass_to_asphalt_switch(cfg):
-    log = read_wheel_log(DRIVE / "stitched_grass_to_asphalt.csv", wheel_radius=cfg.robot.wheel_radius)
+    log = read_wheel_log(
+        DRIVE / "stitched_grass_to_asphalt.csv", wheel_radius=cfg.robot.wheel_radius
+    )
     switch = log.t[np.flatnonzero(log.terrain == "asphalt")[0]]
-    t_move = log.t[np.flatnonzero((log.t >= switch) & (np.abs(log.v_l) + np.abs(log.v_r) > 0.05))[0]]
+    t_move = log.t[
+        np.flatnonzero((log.t >= switch) & (np.abs(log.v_l) + np.abs(log.v_r) > 0.05))[0]
+    ]
     reset = run_icr_ekf(log, cfg, labels=log.terrain).states[:, 3:]
     plain = run_icr_ekf(log, cfg, labels=None).states[:, 3:]
     final = reset[-1]

@@ -93,8 +93,22 @@ def test_run_without_alpha_has_no_alpha_columns(log_path: Path, tmp_path: Path) 
 
 def test_trajectory_columns() -> None:
     assert workflows.trajectory_columns(("x", "y", "yaw", "y_l", "y_r", "x_icr", "alpha")) == [
-        "t", "x", "y", "yaw", "y_l", "y_r", "x_icr", "terrain", "alpha",
-        "std_x", "std_y", "std_yaw", "std_y_l", "std_y_r", "std_x_icr", "std_alpha",
+        "t",
+        "x",
+        "y",
+        "yaw",
+        "y_l",
+        "y_r",
+        "x_icr",
+        "terrain",
+        "alpha",
+        "std_x",
+        "std_y",
+        "std_yaw",
+        "std_y_l",
+        "std_y_r",
+        "std_x_icr",
+        "std_alpha",
     ]
 
 
@@ -215,9 +229,7 @@ def test_terrain_sources(log_path: Path, tmp_path: Path) -> None:
     r_log = json.loads(from_log.report_json.read_text(encoding="utf-8"))
     assert r_none["terrain_source"] == "none" and r_none["terrain_changes"] == []
     assert r_log["terrain_source"] == "log"
-    assert [(c["previous"], c["label"]) for c in r_log["terrain_changes"]] == [
-        ("grass", "asphalt")
-    ]
+    assert [(c["previous"], c["label"]) for c in r_log["terrain_changes"]] == [("grass", "asphalt")]
 
 
 def test_errors_are_package_errors(log_path: Path, tmp_path: Path) -> None:

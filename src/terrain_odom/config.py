@@ -228,12 +228,16 @@ def _build(default: Any, data: Any, where: str) -> Any:
     """
     cls = type(default)
     if not isinstance(data, Mapping):
-        raise ConfigError(f"{where or 'top level'}: expected a mapping of keys, got {type(data).__name__}")
+        raise ConfigError(
+            f"{where or 'top level'}: expected a mapping of keys, got {type(data).__name__}"
+        )
     hints = typing.get_type_hints(cls)
     known = {f.name for f in dataclasses.fields(cls)}
     unknown = sorted(str(k) for k in set(data) - known)
     if unknown:
-        raise ConfigError(f"{where or 'top level'}: unknown key(s) {unknown}; allowed: {sorted(known)}")
+        raise ConfigError(
+            f"{where or 'top level'}: unknown key(s) {unknown}; allowed: {sorted(known)}"
+        )
     values = {}
     parent = where.rsplit(".", 1)[-1]
     prefix = f"{where}." if where else ""
@@ -269,9 +273,9 @@ def _check_consistency(cfg: Config) -> None:
             f"got y_l={ini.y_l}, y_r={ini.y_r}"
         )
     if not lim.half_width_min < lim.half_width_max:
-        raise ConfigError(f"ekf.limits.half_width_min must be < half_width_max")
+        raise ConfigError("ekf.limits.half_width_min must be < half_width_max")
     if not lim.alpha_min <= ini.alpha <= lim.alpha_max:
-        raise ConfigError(f"ekf.initial.alpha must lie in [alpha_min, alpha_max]")
+        raise ConfigError("ekf.initial.alpha must lie in [alpha_min, alpha_max]")
     if cfg.format_version != FORMAT_VERSION:
         raise ConfigError(
             f"format_version {cfg.format_version} is not supported "

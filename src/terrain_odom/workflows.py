@@ -130,8 +130,10 @@ def run(
 
         def on_row(row: OdometryRow) -> None:
             values: dict[str, Any] = {"t": row.t, "terrain": row.terrain}
-            values.update(zip(state_names, row.state.tolist()))
-            values.update((f"std_{n}", s) for n, s in zip(state_names, row.std.tolist()))
+            values.update(zip(state_names, row.state.tolist(), strict=True))
+            values.update(
+                (f"std_{n}", s) for n, s in zip(state_names, row.std.tolist(), strict=True)
+            )
             writer.write(values)
             bar.update(1)
 
@@ -155,8 +157,8 @@ def run(
             "terrain_changes": len(result.changes),
         },
         "terrain_changes": [asdict(c) for c in result.changes],
-        "final_state": dict(zip(state_names, states[-1].tolist())),
-        "final_std": dict(zip(state_names, result.stds[-1].tolist())),
+        "final_state": dict(zip(state_names, states[-1].tolist(), strict=True)),
+        "final_std": dict(zip(state_names, result.stds[-1].tolist(), strict=True)),
         "outputs": {"trajectory_csv": csv_path.name, "trajectory_tum": tum_path.name},
         "run_time_s": seconds,
     }
@@ -244,7 +246,10 @@ def evaluate(
     idd = get_model("idd")
     models: dict[str, Any] = {
         f"idd (B={b_nominal:g} m)": _model_entry(
-            log, windows, model_twist(idd, [], b_nominal), idd.twist(log.v_l, log.v_r, [], b_nominal)
+            log,
+            windows,
+            model_twist(idd, [], b_nominal),
+            idd.twist(log.v_l, log.v_r, [], b_nominal),
         )
     }
     if run_dir is not None:
@@ -272,7 +277,9 @@ def evaluate(
         "windows": len(windows),
         "models": models,
     }
-    target = Path(out) if out is not None else (Path(run_dir) / "evaluation.json" if run_dir else None)
+    target = (
+        Path(out) if out is not None else (Path(run_dir) / "evaluation.json" if run_dir else None)
+    )
     if target is not None:
         write_json(target, result)
     return result

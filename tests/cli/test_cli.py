@@ -33,8 +33,7 @@ CHANGE_ROW = N_ROWS // 2
 """First row labelled 'asphalt' (the rows before are 'grass')."""
 
 HEADER = (
-    "t,x,y,yaw,y_l,y_r,x_icr,terrain,alpha,"
-    "std_x,std_y,std_yaw,std_y_l,std_y_r,std_x_icr,std_alpha"
+    "t,x,y,yaw,y_l,y_r,x_icr,terrain,alpha,std_x,std_y,std_yaw,std_y_l,std_y_r,std_x_icr,std_alpha"
 )
 
 
@@ -200,8 +199,15 @@ def test_terrain_options_are_mutually_exclusive(
 ) -> None:
     with pytest.raises(SystemExit) as info:
         main(
-            ["run", "--wheels", str(log_path), "--out", str(tmp_path / "out"),
-             "--terrain-from-log", "--no-terrain"]
+            [
+                "run",
+                "--wheels",
+                str(log_path),
+                "--out",
+                str(tmp_path / "out"),
+                "--terrain-from-log",
+                "--no-terrain",
+            ]
         )
     assert info.value.code == 2
     err = capsys.readouterr().err
@@ -382,9 +388,7 @@ def test_run_writes_trajectory_tum_and_report(
     # row 0 is anchored on the first measured pose
     np.testing.assert_allclose([traj["x"][0], traj["y"][0], traj["yaw"][0]], data["poses"][0])
     # the filter tracks the synthetic trajectory closely at the end
-    np.testing.assert_allclose(
-        [traj["x"][-2], traj["y"][-2]], data["poses"][-2, :2], atol=0.05
-    )
+    np.testing.assert_allclose([traj["x"][-2], traj["y"][-2]], data["poses"][-2, :2], atol=0.05)
 
     # trajectory.tum: readable by evo, same poses
     tum = read_tum_trajectory_file(str(out_dir / "trajectory.tum"))
@@ -551,8 +555,15 @@ def test_evaluate_true_icr_params_give_zero_error(
     )
 
     code, out, err = run_main(
-        capsys, "evaluate", "--run", run_dir, "--log", log_path,
-        "--params", true_params, wrong_params,
+        capsys,
+        "evaluate",
+        "--run",
+        run_dir,
+        "--log",
+        log_path,
+        "--params",
+        true_params,
+        wrong_params,
     )
 
     assert code == 0, err

@@ -5,7 +5,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from terrain_odom.config import EkfConfig, IcrSigmas, IcrState, PoseIcrSigmas, PoseSigmas, TerrainConfig
+from terrain_odom.config import (
+    EkfConfig,
+    IcrSigmas,
+    IcrState,
+    PoseIcrSigmas,
+    PoseSigmas,
+    TerrainConfig,
+)
 from terrain_odom.errors import EstimationError
 from terrain_odom.estimation import IcrEkf, icr_step, icr_step_jacobian
 from terrain_odom.kinematics import integrate, twist_icr, wrap_angle

@@ -111,7 +111,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     except TerrainOdomError as exc:
         print(f"terrain-odom: error: {exc}", file=sys.stderr)
         return EXIT_USAGE
-    except (FileNotFoundError, FileExistsError, IsADirectoryError, NotADirectoryError, PermissionError) as exc:
+    except (
+        FileNotFoundError,
+        FileExistsError,
+        IsADirectoryError,
+        NotADirectoryError,
+        PermissionError,
+    ) as exc:
         print(f"terrain-odom: error: {exc.filename}: {exc.strerror}", file=sys.stderr)
         return EXIT_USAGE
     except KeyboardInterrupt:

@@ -348,7 +348,11 @@ class IcrEkf:
         label = str(label)
         tc = self.terrain_config
         previous = self.terrain
-        if tc.memory and previous is not None and self.t - self._terrain_since >= tc.memory_min_dwell:
+        if (
+            tc.memory
+            and previous is not None
+            and self.t - self._terrain_since >= tc.memory_min_dwell
+        ):
             self._memory[previous] = self.params
         restored = tc.memory and label in self._memory
         x = self._filter.x

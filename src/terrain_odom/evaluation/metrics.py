@@ -566,7 +566,7 @@ def dead_reckon(log: WheelLog, v_x: ArrayLike, v_y: ArrayLike, omega: ArrayLike)
     out = np.full((len(log), 3), np.nan)
     has_pose = log.has_pose
     breaks = (np.flatnonzero(np.diff(log.segment)) + 1).tolist()
-    for first, stop in zip([0, *breaks], [*breaks, len(log)]):
+    for first, stop in zip([0, *breaks], [*breaks, len(log)], strict=True):
         rows = np.flatnonzero(has_pose[first:stop])
         if rows.size == 0:
             continue

@@ -95,7 +95,9 @@ def arc_increment(v_x: ArrayLike, v_y: ArrayLike, omega: ArrayLike, dt: ArrayLik
     >>> arc_increment(np.pi, 0.0, np.pi, 1.0).round(6).tolist()
     [0.0, 2.0, 3.141593]
     """
-    v_x, v_y, omega, dt = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (v_x, v_y, omega, dt)))
+    v_x, v_y, omega, dt = np.broadcast_arrays(
+        *(np.asarray(a, dtype=float) for a in (v_x, v_y, omega, dt))
+    )
     phi = omega * dt
     a, b, _, _ = _arc_coefficients(phi)
     return np.stack([dt * (v_x * a - v_y * b), dt * (v_x * b + v_y * a), phi], axis=-1)
@@ -111,7 +113,9 @@ def arc_increment_jacobian(
     ndarray, shape (..., 3, 3)
         ``d(dx, dy, dyaw) / d(v_x, v_y, omega)``.
     """
-    v_x, v_y, omega, dt = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (v_x, v_y, omega, dt)))
+    v_x, v_y, omega, dt = np.broadcast_arrays(
+        *(np.asarray(a, dtype=float) for a in (v_x, v_y, omega, dt))
+    )
     phi = omega * dt
     a, b, da, db = _arc_coefficients(phi)
     jac = np.zeros(v_x.shape + (3, 3))
@@ -203,8 +207,10 @@ def integrate(
     """
     inc = arc_increment(v_x, v_y, omega, dt)  # (..., K, 3)
     lead = inc.shape[:-2]
-    start_pose = np.zeros(lead + (3,)) if start is None else np.broadcast_to(
-        np.asarray(start, dtype=float), lead + (3,)
+    start_pose = (
+        np.zeros(lead + (3,))
+        if start is None
+        else np.broadcast_to(np.asarray(start, dtype=float), lead + (3,))
     )
     # Heading before each step, then rotate each body increment into the world.
     yaw = start_pose[..., None, 2] + np.concatenate(

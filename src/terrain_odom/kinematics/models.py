@@ -400,7 +400,9 @@ MODELS: dict[str, KinematicModel] = {
     m.name: m
     for m in (
         KinematicModel("idd", (), (), True, twist_idd),
-        KinematicModel("edd-sym", ("alpha", "b_hat"), ((0.0, 1.5), (0.1, _BIG)), False, twist_edd_sym),
+        KinematicModel(
+            "edd-sym", ("alpha", "b_hat"), ((0.0, 1.5), (0.1, _BIG)), False, twist_edd_sym
+        ),
         KinematicModel(
             "edd-asym",
             ("alpha_l", "alpha_r", "x_v", "y_l", "y_r"),
@@ -445,4 +447,6 @@ def get_model(name: str) -> KinematicModel:
     try:
         return MODELS[name]
     except KeyError:
-        raise ValueError(f"unknown kinematic model {name!r}; choose one of {sorted(MODELS)}") from None
+        raise ValueError(
+            f"unknown kinematic model {name!r}; choose one of {sorted(MODELS)}"
+        ) from None
