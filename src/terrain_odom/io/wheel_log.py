@@ -42,6 +42,7 @@ from typing import TextIO
 import numpy as np
 
 from terrain_odom.errors import InputFileError
+from terrain_odom.kinematics.integration import wrap_angle
 from terrain_odom.types import WheelLog
 
 __all__ = ["read_wheel_log"]
@@ -348,7 +349,7 @@ def _pose(table: _CsvTable, columns: Sequence[str]) -> np.ndarray:
     has_x, has_y = ~np.isnan(pose[:, 0]), ~np.isnan(pose[:, 1])
     _raise_on_first(table, "y", has_x & ~has_y, "missing while x is given; give both or neither")
     _raise_on_first(table, "x", has_y & ~has_x, "missing while y is given; give both or neither")
-    pose[:, 2] = _wrap_angle(pose[:, 2])
+    pose[:, 2] = wrap_angle(pose[:, 2])
     return pose
 
 
@@ -429,9 +430,3 @@ def _shown(text: str) -> str:
     if len(text) > _MAX_SHOWN_CHARS:
         text = text[: _MAX_SHOWN_CHARS - 3] + "..."
     return repr(text)
-
-
-def _wrap_angle(angle: np.ndarray) -> np.ndarray:
-    """Wrap angles (rad) to (-pi, pi]; angles already inside stay bit-exact, NaN stays NaN."""
-    inside = (angle > -np.pi) & (angle <= np.pi)
-    return np.where(inside, angle, np.pi - np.mod(np.pi - angle, 2.0 * np.pi))

@@ -36,6 +36,8 @@ _SERIES_LIMIT = 1e-2  # |phi| below which the Taylor series is used (error < 1e-
 def wrap_angle(angle: ArrayLike) -> np.ndarray:
     """Wrap angles to (-pi, pi].
 
+    Angles already inside the interval are returned bit-exact; NaN stays NaN.
+
     Parameters
     ----------
     angle : array_like
@@ -52,8 +54,8 @@ def wrap_angle(angle: ArrayLike) -> np.ndarray:
     [3.1416, 3.1416, -1.5708]
     """
     a = np.asarray(angle, dtype=float)
-    wrapped = np.mod(a + np.pi, 2.0 * np.pi) - np.pi
-    return np.where(wrapped == -np.pi, np.pi, wrapped)
+    inside = (a > -np.pi) & (a <= np.pi)
+    return np.where(inside, a, np.pi - np.mod(np.pi - a, 2.0 * np.pi))
 
 
 def _arc_coefficients(phi: np.ndarray) -> tuple[np.ndarray, ...]:
