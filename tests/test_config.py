@@ -75,3 +75,29 @@ def test_invalid_config_names_file_and_key(tmp_path, text, message):
 def test_missing_config_file(tmp_path):
     with pytest.raises(ConfigError, match="config file not found"):
         load_config(tmp_path / "nope.yaml")
+
+
+def test_build_section_validates_choices_optional_tuples_and_signs():
+    from dataclasses import dataclass, field
+    from typing import Literal
+
+    from terrain_odom.config import SIGNED, build_section
+
+    @dataclass(frozen=True)
+    class Section:
+        mode: Literal["a", "b"] = "a"
+        matrix: tuple[float, ...] | None = field(default=None, metadata=SIGNED)
+        offset: float = field(default=0.0, metadata=SIGNED)
+        size: float = 1.0
+
+    ok = build_section(Section(), {"mode": "b", "matrix": [1, -2.5, 3], "offset": -0.3})
+    assert ok == Section("b", (1.0, -2.5, 3.0), -0.3, 1.0)
+    assert build_section(Section(), {"matrix": None}).matrix is None
+    for data, message in [
+        ({"mode": "c"}, r"cam\.mode: must be one of \['a', 'b'\], got 'c'"),
+        ({"matrix": [1, "x"]}, r"cam\.matrix\[1\]: must be a number"),
+        ({"matrix": 3}, r"cam\.matrix: must be a list of numbers"),
+        ({"size": -1.0}, r"cam\.size: must be > 0"),
+    ]:
+        with pytest.raises(ConfigError, match=message):
+            build_section(Section(), data, "cam")
