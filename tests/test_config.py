@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Literal
 
 import pytest
 
-from terrain_odom.config import Config, IcrSigmas, load_config
+from terrain_odom.config import SIGNED, Config, IcrSigmas, build_section, load_config
 from terrain_odom.errors import ConfigError
 
 REPO = Path(__file__).resolve().parents[1]
@@ -77,19 +79,16 @@ def test_missing_config_file(tmp_path):
         load_config(tmp_path / "nope.yaml")
 
 
+@dataclass(frozen=True)
+class _Section:
+    mode: Literal["a", "b"] = "a"
+    matrix: tuple[float, ...] | None = field(default=None, metadata=SIGNED)
+    offset: float = field(default=0.0, metadata=SIGNED)
+    size: float = 1.0
+
+
 def test_build_section_validates_choices_optional_tuples_and_signs():
-    from dataclasses import dataclass, field
-    from typing import Literal
-
-    from terrain_odom.config import SIGNED, build_section
-
-    @dataclass(frozen=True)
-    class Section:
-        mode: Literal["a", "b"] = "a"
-        matrix: tuple[float, ...] | None = field(default=None, metadata=SIGNED)
-        offset: float = field(default=0.0, metadata=SIGNED)
-        size: float = 1.0
-
+    Section = _Section  # noqa: N806
     ok = build_section(Section(), {"mode": "b", "matrix": [1, -2.5, 3], "offset": -0.3})
     assert ok == Section("b", (1.0, -2.5, 3.0), -0.3, 1.0)
     assert build_section(Section(), {"matrix": None}).matrix is None
