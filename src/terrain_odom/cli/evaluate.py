@@ -1,0 +1,49 @@
+"""``terrain-odom evaluate``: model-odometry error per metre and ATE."""
+
+from __future__ import annotations
+
+import argparse
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    """Register the ``evaluate`` subcommand."""
+    p = sub.add_parser("evaluate", help="model-odometry error per metre and ATE")
+    p.add_argument("--log", required=True, help="wheel log CSV with pose measurements")
+    p.add_argument("--run", help="output directory of 'terrain-odom run' on this log")
+    p.add_argument("--params", nargs="*", default=[], help="parameter files of constant models")
+    p.add_argument("--config", help="YAML configuration (robot geometry, horizon)")
+    p.add_argument("--horizon", type=float, help="evaluation horizon h_e in metres (default 2)")
+    p.add_argument("--out", help="JSON output (default RUN/evaluation.json)")
+    p.set_defaults(func=_cmd_evaluate)
+
+
+def _format_stats(entry: dict) -> str:
+    t, r = entry["translation_m_per_m"], entry["rotation_deg_per_m"]
+    ate = entry["ate_dead_reckoning"]["rmse_m"]
+
+    def fmt(v: float | None, digits: int) -> str:
+        return "n/a" if v is None else f"{v:.{digits}f}"
+
+    return (
+        f"{fmt(t['median'], 4):>8} [{fmt(t['q25'], 3)}-{fmt(t['q75'], 3)}]"
+        f"  {fmt(r['median'], 3):>7} [{fmt(r['q25'], 2)}-{fmt(r['q75'], 2)}]"
+        f"  {fmt(ate, 2):>8}"
+    )
+
+
+def _cmd_evaluate(args: argparse.Namespace) -> int:
+    from terrain_odom.workflows import evaluate
+
+    result = evaluate(
+        args.run,
+        args.log,
+        config_path=args.config,
+        params=args.params,
+        horizon=args.horizon,
+        out=args.out,
+    )
+    print(f"{result['windows']} windows of {result['horizon_m']:g} m on {result['log']}")
+    print(f"{'model':<32} {'m/m median [q25-q75]':>24}  {'deg/m median [q25-q75]':>22}  ATE DR (m)")
+    for name, entry in result["models"].items():
+        print(f"{name:<32} {_format_stats(entry)}")
+    return 0
