@@ -26,7 +26,7 @@ from types import TracebackType
 
 import numpy as np
 
-from terrain_odom.io.wheel_log import _CsvTable, _floats_or_nan, _read_csv
+from terrain_odom.io._csv import CsvTable, floats_or_nan, read_csv
 
 __all__ = ["TrajectoryWriter", "read_trajectory_csv", "write_tum"]
 
@@ -193,7 +193,7 @@ def read_trajectory_csv(path: StrPath) -> dict[str, np.ndarray]:
         repeated, or a row has the wrong number of cells; the one-line message
         names the file, line and column.
     """
-    table = _read_csv(path)
+    table = read_csv(path)
     for index, column in enumerate(table.header):
         if not column:
             raise table.error(f"column {index + 1} of the header has no name")
@@ -269,11 +269,11 @@ def _format_cell(value: Cell) -> str:
     raise TypeError(f"cannot write {type(value).__name__} {value!r} to a trajectory cell")
 
 
-def _column_array(table: _CsvTable, column: str) -> np.ndarray:
+def _column_array(table: CsvTable, column: str) -> np.ndarray:
     """One column as float64 (NaN for empty cells) if all its cells are numbers, else str."""
     cells = [cell.strip() for cell in table.cells(column)]
     try:
-        return _floats_or_nan(cells)
+        return floats_or_nan(cells)
     except ValueError:
         return np.array(cells, dtype=str)
 

@@ -29,104 +29,21 @@ the column, e.g. ``log.csv, line 17, column 'v_l': 'abc' is not a number``.
 
 from __future__ import annotations
 
-import csv
-import io
 import math
-import os
-from collections.abc import Callable, Iterator, Sequence
-from contextlib import contextmanager
-from dataclasses import dataclass
-from operator import itemgetter
-from typing import TextIO
+from collections.abc import Sequence
 
 import numpy as np
 
-from terrain_odom.errors import InputFileError
+from terrain_odom.io._csv import CsvTable, Source, floats_or_nan, read_csv, shown
 from terrain_odom.kinematics.integration import wrap_angle
 from terrain_odom.types import WheelLog
 
 __all__ = ["read_wheel_log"]
 
-Source = str | os.PathLike[str] | TextIO
-"""A file path, or an open text handle (e.g. :class:`io.StringIO`)."""
 
 _SPEED_PAIRS = (("v_l", "v_r"), ("omega_l", "omega_r"))
 _POSE_COLUMNS = ("x", "y", "yaw")
 _KNOWN_COLUMNS = ("t", *_SPEED_PAIRS[0], *_SPEED_PAIRS[1], *_POSE_COLUMNS, "terrain", "segment")
-_MAX_SHOWN_CHARS = 40
-_EMPTY_AS_NAN = {"": "nan"}
-
-
-@dataclass(frozen=True)
-class _CsvTable:
-    """The raw cells of a CSV file with a header, for conversion and messages.
-
-    Attributes
-    ----------
-    name : str
-        File name used in messages.
-    header : list of str, shape (C,)
-        Column names, stripped of surrounding whitespace.
-    rows : list of list of str, shape (N, C)
-        Data rows, unstripped cells; every row has exactly C cells.
-    lines : sequence of int, shape (N,)
-        1-based file line on which each data row starts.
-    """
-
-    name: str
-    header: list[str]
-    rows: list[list[str]]
-    lines: Sequence[int]
-
-    def __len__(self) -> int:
-        return len(self.rows)
-
-    @property
-    def header_text(self) -> str:
-        """The header as one shortened, quoted string for messages."""
-        return _shown(",".join(self.header))
-
-    def error(
-        self, message: str, *, row: int | None = None, column: str | None = None
-    ) -> InputFileError:
-        """Build the one-line error about data row ``row`` (the header if None) and ``column``."""
-        line = 1 if row is None else self.lines[row]
-        where = f"{self.name}, line {line}" + ("" if column is None else f", column {column!r}")
-        return InputFileError(f"{where}: {message}")
-
-    def cells(self, column: str) -> list[str]:
-        """Unstripped cells of ``column``, one per data row."""
-        return list(map(itemgetter(self.header.index(column)), self.rows))
-
-    def convert(
-        self,
-        column: str,
-        parse: Callable[[str], object],
-        dtype: type[np.generic],
-        complaint: Callable[[str], str],
-    ) -> np.ndarray:
-        """Convert every cell of ``column`` with ``parse`` into an array of ``dtype``.
-
-        The fast path converts the whole column at once; only if it fails is
-        the column walked again to find the first bad cell, which is reported
-        with ``complaint(cell)``.
-        """
-        cells = self.cells(column)
-        try:
-            return np.fromiter(map(parse, cells), dtype=dtype, count=len(cells))
-        except (ValueError, OverflowError):
-            for row, cell in enumerate(cells):
-                if not _converts(cell, parse, dtype):
-                    raise self.error(complaint(cell), row=row, column=column) from None
-            raise
-
-    def require_columns(self, *columns: str, reason: str) -> None:
-        """Raise if any of ``columns`` is missing from the header; ``reason`` says why needed."""
-        for column in columns:
-            if column not in self.header:
-                raise self.error(
-                    f"missing column {column!r} ({reason}); header is {self.header_text}"
-                )
 
 
 def read_wheel_log(source: Source, *, wheel_radius: float | None = None) -> WheelLog:
@@ -163,7 +80,7 @@ def read_wheel_log(source: Source, *, wheel_radius: float | None = None) -> Whee
     >>> round(float(log.pose[1, 2]), 4)  # wrapped to (-pi, pi]
     -2.7832
     """
-    table = _read_csv(source)
+    table = read_csv(source)
     if not table.rows:
         raise table.error("no data rows after the header")
     _check_known_columns_unique(table)
@@ -186,93 +103,14 @@ def read_wheel_log(source: Source, *, wheel_radius: float | None = None) -> Whee
     )
 
 
-def _read_csv(source: Source) -> _CsvTable:
-    """Read all records of a CSV file with a header; empty lines are skipped.
-
-    Raises
-    ------
-    InputFileError
-        If the file cannot be read, is empty, or a row's cell count differs
-        from the header's.
-    """
-    with _open_text(source) as (handle, name):
-        try:
-            rows, lines = _records(handle)
-        except UnicodeDecodeError as exc:
-            raise InputFileError(f"{name}: not a UTF-8 text file ({exc.reason})") from None
-        except csv.Error as exc:
-            raise InputFileError(f"{name}: not a valid CSV file ({exc})") from None
-    if not rows:
-        raise InputFileError(f"{name}: file is empty; expected a header line naming the columns")
-    header = [cell.strip() for cell in rows[0]]
-    table = _CsvTable(name=name, header=header, rows=rows[1:], lines=lines[1:])
-    _check_ragged(table)
-    return table
-
-
-@contextmanager
-def _open_text(source: Source) -> Iterator[tuple[TextIO, str]]:
-    """Yield a text handle on ``source`` and its name for messages."""
-    if not isinstance(source, (str, os.PathLike)):
-        name = getattr(source, "name", None)
-        yield source, name if isinstance(name, str) else "<stream>"
-        return
-    name = os.fspath(source)
-    try:
-        handle = open(source, encoding="utf-8-sig", newline="")
-    except FileNotFoundError:
-        raise InputFileError(f"{name}: file does not exist") from None
-    except OSError as exc:
-        raise InputFileError(f"{name}: cannot open ({exc.strerror or exc})") from None
-    with handle:
-        yield handle, name
-
-
-def _records(handle: TextIO) -> tuple[list[list[str]], Sequence[int]]:
-    """Non-empty CSV records of ``handle`` and the 1-based file line each starts on.
-
-    The common case, one record per line and no empty line, is parsed in one
-    pass without per-row Python code; otherwise the text is parsed again while
-    tracking line numbers.
-    """
-    text = handle.read()
-    reader = csv.reader(io.StringIO(text, newline=""))
-    rows = list(reader)
-    if reader.line_num == len(rows) and all(rows):
-        return rows, range(1, len(rows) + 1)
-    reader = csv.reader(io.StringIO(text, newline=""))
-    rows, lines = [], []
-    start = 1
-    for row in reader:
-        if row:
-            rows.append(row)
-            lines.append(start)
-        start = reader.line_num + 1
-    return rows, lines
-
-
-def _check_ragged(table: _CsvTable) -> None:
-    """Raise on the first data row whose cell count differs from the header's."""
-    n_columns = len(table.header)
-    lengths = np.fromiter(map(len, table.rows), dtype=np.intp, count=len(table))
-    bad = np.flatnonzero(lengths != n_columns)
-    if bad.size == 0:
-        return
-    row = int(bad[0])
-    found = int(lengths[row])
-    column = table.header[found] if found < n_columns else None  # first missing cell, if any
-    message = f"row has {found} cells but the header has {n_columns}"
-    raise table.error(message, row=row, column=column)
-
-
-def _check_known_columns_unique(table: _CsvTable) -> None:
+def _check_known_columns_unique(table: CsvTable) -> None:
     """Raise if a column this reader uses appears more than once in the header."""
     for column in _KNOWN_COLUMNS:
         if table.header.count(column) > 1:
             raise table.error("column appears more than once in the header", column=column)
 
 
-def _wheel_speed_columns(table: _CsvTable, wheel_radius: float | None) -> tuple[str, str]:
+def _wheel_speed_columns(table: CsvTable, wheel_radius: float | None) -> tuple[str, str]:
     """Pick the wheel-speed column pair and check ``wheel_radius`` if it is needed."""
     present = [pair for pair in _SPEED_PAIRS if any(c in table.header for c in pair)]
     if not present:
@@ -295,7 +133,7 @@ def _wheel_speed_columns(table: _CsvTable, wheel_radius: float | None) -> tuple[
     return pair
 
 
-def _pose_columns(table: _CsvTable) -> tuple[str, ...]:
+def _pose_columns(table: CsvTable) -> tuple[str, ...]:
     """Return the pose columns present: all of ``x, y, yaw``, ``yaw`` alone, or none."""
     present = tuple(c for c in _POSE_COLUMNS if c in table.header)
     if present in ((), ("yaw",), _POSE_COLUMNS):
@@ -307,7 +145,7 @@ def _pose_columns(table: _CsvTable) -> tuple[str, ...]:
     )
 
 
-def _times(table: _CsvTable, segment: np.ndarray) -> np.ndarray:
+def _times(table: CsvTable, segment: np.ndarray) -> np.ndarray:
     """Column ``t``, s; finite and strictly increasing within each segment."""
     t = _finite_floats(table, "t")
     same_segment = segment[1:] == segment[:-1]
@@ -324,24 +162,24 @@ def _times(table: _CsvTable, segment: np.ndarray) -> np.ndarray:
     return t
 
 
-def _finite_floats(table: _CsvTable, column: str) -> np.ndarray:
+def _finite_floats(table: CsvTable, column: str) -> np.ndarray:
     """Column ``column`` as float64; every cell must be a finite number."""
     values = table.convert(column, float, np.float64, _not_a_number)
     _raise_on_first(table, column, ~np.isfinite(values), "{cell} is not a finite number")
     return values
 
 
-def _optional_floats(table: _CsvTable, column: str) -> np.ndarray:
+def _optional_floats(table: CsvTable, column: str) -> np.ndarray:
     """Column ``column`` as float64 with NaN for empty (or ``nan``) cells; no infinities."""
     try:  # fast path: no Python-level call per cell, but no whitespace-only cells either
-        values = _floats_or_nan(table.cells(column))
+        values = floats_or_nan(table.cells(column))
     except ValueError:
         values = table.convert(column, _float_or_nan, np.float64, _not_a_number)
     _raise_on_first(table, column, np.isinf(values), "{cell} is not a finite number")
     return values
 
 
-def _pose(table: _CsvTable, columns: Sequence[str]) -> np.ndarray:
+def _pose(table: CsvTable, columns: Sequence[str]) -> np.ndarray:
     """Pose ``x, y, yaw`` of shape (N, 3), NaN where not measured; yaw wrapped."""
     pose = np.full((len(table), 3), np.nan)
     for column in columns:
@@ -353,7 +191,7 @@ def _pose(table: _CsvTable, columns: Sequence[str]) -> np.ndarray:
     return pose
 
 
-def _terrain(table: _CsvTable) -> np.ndarray | None:
+def _terrain(table: CsvTable) -> np.ndarray | None:
     """Column ``terrain`` as a str array, or None if absent; labels must be non-empty."""
     if "terrain" not in table.header:
         return None
@@ -364,7 +202,7 @@ def _terrain(table: _CsvTable) -> np.ndarray | None:
     return labels
 
 
-def _segments(table: _CsvTable) -> np.ndarray:
+def _segments(table: CsvTable) -> np.ndarray:
     """Column ``segment`` as int64 (zeros if absent); each id forms one contiguous run."""
     if "segment" not in table.header:
         return np.zeros(len(table), dtype=np.int64)
@@ -382,7 +220,7 @@ def _segments(table: _CsvTable) -> np.ndarray:
     return segment
 
 
-def _raise_on_first(table: _CsvTable, column: str, bad: np.ndarray, problem: str) -> None:
+def _raise_on_first(table: CsvTable, column: str, bad: np.ndarray, problem: str) -> None:
     """Raise about the first row where ``bad`` is True.
 
     ``problem`` is the message; ``{cell}`` in it is replaced by the quoted cell.
@@ -391,21 +229,7 @@ def _raise_on_first(table: _CsvTable, column: str, bad: np.ndarray, problem: str
     if rows.size:
         row = int(rows[0])
         cell = table.rows[row][table.header.index(column)].strip()
-        raise table.error(problem.format(cell=_shown(cell)), row=row, column=column)
-
-
-def _converts(cell: str, parse: Callable[[str], object], dtype: type[np.generic]) -> bool:
-    """Whether ``parse(cell)`` succeeds and fits in ``dtype``."""
-    try:
-        np.asarray(parse(cell), dtype=dtype)
-    except (ValueError, OverflowError):
-        return False
-    return True
-
-
-def _floats_or_nan(cells: list[str]) -> np.ndarray:
-    """Cells as float64, exactly-empty ones as NaN; ValueError if another cell is no number."""
-    return np.fromiter(map(float, map(_EMPTY_AS_NAN.get, cells, cells)), np.float64, len(cells))
+        raise table.error(problem.format(cell=shown(cell)), row=row, column=column)
 
 
 def _float_or_nan(cell: str) -> float:
@@ -416,17 +240,10 @@ def _float_or_nan(cell: str) -> float:
 def _not_a_number(cell: str) -> str:
     """Message for a cell that is not a number."""
     text = cell.strip()
-    return f"{_shown(text)} is not a number" if text else "empty cell, expected a number"
+    return f"{shown(text)} is not a number" if text else "empty cell, expected a number"
 
 
 def _not_an_integer(cell: str) -> str:
     """Message for a cell that is not an integer."""
     text = cell.strip()
-    return f"{_shown(text)} is not an integer" if text else "empty cell, expected an integer"
-
-
-def _shown(text: str) -> str:
-    """``repr`` of ``text`` shortened for a one-line message."""
-    if len(text) > _MAX_SHOWN_CHARS:
-        text = text[: _MAX_SHOWN_CHARS - 3] + "..."
-    return repr(text)
+    return f"{shown(text)} is not an integer" if text else "empty cell, expected an integer"
