@@ -6,6 +6,7 @@ from terrain_odom.estimation.icr_ekf import (
     TerrainChange,
     icr_step,
     icr_step_jacobian,
+    icr_step_with_jacobian,
 )
 from terrain_odom.estimation.terrain import TerrainTracker
 
@@ -16,4 +17,5 @@ __all__ = [
     "TerrainTracker",
     "icr_step",
     "icr_step_jacobian",
+    "icr_step_with_jacobian",
 ]

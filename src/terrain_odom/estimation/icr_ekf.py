@@ -37,8 +37,7 @@ from numpy.typing import ArrayLike
 from terrain_odom.config import EkfConfig, IcrSigmas, TerrainConfig
 from terrain_odom.errors import EstimationError
 from terrain_odom.kinematics import (
-    arc_increment,
-    arc_increment_jacobian,
+    arc_increment_with_jacobian,
     twist_icr,
     twist_icr_jacobian,
     wrap_angle,
@@ -58,8 +57,16 @@ def _params(state: np.ndarray) -> tuple[float, float, float, float]:
     return state[3], state[4], state[5], alpha
 
 
-def icr_step(state: ArrayLike, v_l: float, v_r: float, dt: float) -> np.ndarray:
-    """Discrete process model: one wheel sample of the ICR model.
+def icr_step_with_jacobian(
+    state: ArrayLike, v_l: float, v_r: float, dt: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Discrete process model over one wheel sample, and its Jacobian.
+
+    The ICR model's twist is held for ``dt`` and integrated exactly (an arc);
+    the parameters are unchanged. The Jacobian's pose rows are
+    ``d pose' / d yaw = [-dY, dX, 1]`` (world displacement ``dX, dY`` of the
+    step) and ``R(yaw) J_arc J_twist`` for the parameters; the parameter
+    block is the identity.
 
     Parameters
     ----------
@@ -72,44 +79,40 @@ def icr_step(state: ArrayLike, v_l: float, v_r: float, dt: float) -> np.ndarray:
 
     Returns
     -------
-    ndarray
-        The predicted state (parameters unchanged, yaw wrapped).
-    """
-    s = np.asarray(state, dtype=float)
-    twist = twist_icr(v_l, v_r, *_params(s))
-    inc = arc_increment(*twist, dt)
-    c, sn = np.cos(s[_YAW]), np.sin(s[_YAW])
-    out = s.copy()
-    out[0] += c * inc[0] - sn * inc[1]
-    out[1] += sn * inc[0] + c * inc[1]
-    out[_YAW] = wrap_angle(s[_YAW] + inc[2])
-    return out
-
-
-def icr_step_jacobian(state: ArrayLike, v_l: float, v_r: float, dt: float) -> np.ndarray:
-    """Jacobian ``F = d icr_step / d state`` (shape (n, n)).
-
-    The pose rows are ``d pose' / d yaw = [-dY, dX, 1]`` (world displacement
-    ``dX, dY`` of the step) and ``R(yaw) J_arc J_twist`` for the parameters;
-    the parameter block is the identity.
+    state : ndarray, shape (n,)
+        The predicted state, yaw wrapped.
+    F : ndarray, shape (n, n)
+        ``d state' / d state``.
     """
     s = np.asarray(state, dtype=float)
     n = s.shape[0]
-    y_l, y_r, x_icr, alpha = _params(s)
-    twist = twist_icr(v_l, v_r, y_l, y_r, x_icr, alpha)
-    inc = arc_increment(*twist, dt)
-    j_arc = arc_increment_jacobian(*twist, dt)
-    j_twist = twist_icr_jacobian(v_l, v_r, y_l, y_r, x_icr, alpha)[:, : n - 3]
+    params = _params(s)
+    twist = twist_icr(v_l, v_r, *params)
+    j_twist = twist_icr_jacobian(v_l, v_r, *params)[:, : n - 3]
+    inc, j_arc = arc_increment_with_jacobian(*twist, dt)
     c, sn = np.cos(s[_YAW]), np.sin(s[_YAW])
     rot = np.array([[c, -sn], [sn, c]])
-    jac = np.eye(n)
     world = rot @ inc[:2]
+    out = s.copy()
+    out[:2] += world
+    out[_YAW] = wrap_angle(s[_YAW] + inc[2])
+    jac = np.eye(n)
     jac[0, _YAW] = -world[1]
     jac[1, _YAW] = world[0]
     j_inc = j_arc @ j_twist  # d(dx, dy, dyaw) / d(params)
     jac[0:2, 3:] = rot @ j_inc[:2]
     jac[_YAW, 3:] = j_inc[2]
-    return jac
+    return out, jac
+
+
+def icr_step(state: ArrayLike, v_l: float, v_r: float, dt: float) -> np.ndarray:
+    """Return the predicted state of :func:`icr_step_with_jacobian`."""
+    return icr_step_with_jacobian(state, v_l, v_r, dt)[0]
+
+
+def icr_step_jacobian(state: ArrayLike, v_l: float, v_r: float, dt: float) -> np.ndarray:
+    """Return the Jacobian ``F`` of :func:`icr_step_with_jacobian`."""
+    return icr_step_with_jacobian(state, v_l, v_r, dt)[1]
 
 
 @dataclass(frozen=True)
@@ -142,8 +145,8 @@ class _Filter(ExtendedKalmanFilter):
     def predict_x(self, u: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> None:
         v_l, v_r, dt = u
         state = self.x[:, 0]
-        self.F = icr_step_jacobian(state, v_l, v_r, dt)
-        self.x = icr_step(state, v_l, v_r, dt)[:, None]
+        x, self.F = icr_step_with_jacobian(state, v_l, v_r, dt)
+        self.x = x[:, None]
 
 
 class IcrEkf:

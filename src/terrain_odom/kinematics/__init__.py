@@ -3,6 +3,7 @@
 from terrain_odom.kinematics.integration import (
     arc_increment,
     arc_increment_jacobian,
+    arc_increment_with_jacobian,
     compose,
     integrate,
     relative_pose,
@@ -31,6 +32,7 @@ __all__ = [
     "KinematicModel",
     "arc_increment",
     "arc_increment_jacobian",
+    "arc_increment_with_jacobian",
     "compose",
     "eccentricity",
     "get_model",

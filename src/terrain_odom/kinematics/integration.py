@@ -25,6 +25,7 @@ __all__ = [
     "wrap_angle",
     "arc_increment",
     "arc_increment_jacobian",
+    "arc_increment_with_jacobian",
     "compose",
     "relative_pose",
     "integrate",
@@ -105,6 +106,35 @@ def arc_increment(v_x: ArrayLike, v_y: ArrayLike, omega: ArrayLike, dt: ArrayLik
     return np.stack([dt * (v_x * a - v_y * b), dt * (v_x * b + v_y * a), phi], axis=-1)
 
 
+def arc_increment_with_jacobian(
+    v_x: ArrayLike, v_y: ArrayLike, omega: ArrayLike, dt: ArrayLike
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`arc_increment` and its Jacobian with respect to the twist, at once.
+
+    Returns
+    -------
+    increment : ndarray, shape (..., 3)
+        ``(dx, dy, dyaw)`` in the start frame.
+    jacobian : ndarray, shape (..., 3, 3)
+        ``d(dx, dy, dyaw) / d(v_x, v_y, omega)``.
+    """
+    v_x, v_y, omega, dt = np.broadcast_arrays(
+        *(np.asarray(a, dtype=float) for a in (v_x, v_y, omega, dt))
+    )
+    phi = omega * dt
+    a, b, da, db = _arc_coefficients(phi)
+    inc = np.stack([dt * (v_x * a - v_y * b), dt * (v_x * b + v_y * a), phi], axis=-1)
+    jac = np.zeros(v_x.shape + (3, 3))
+    jac[..., 0, 0] = dt * a
+    jac[..., 0, 1] = -dt * b
+    jac[..., 0, 2] = dt * dt * (v_x * da - v_y * db)
+    jac[..., 1, 0] = dt * b
+    jac[..., 1, 1] = dt * a
+    jac[..., 1, 2] = dt * dt * (v_x * db + v_y * da)
+    jac[..., 2, 2] = dt
+    return inc, jac
+
+
 def arc_increment_jacobian(
     v_x: ArrayLike, v_y: ArrayLike, omega: ArrayLike, dt: ArrayLike
 ) -> np.ndarray:
@@ -115,20 +145,7 @@ def arc_increment_jacobian(
     ndarray, shape (..., 3, 3)
         ``d(dx, dy, dyaw) / d(v_x, v_y, omega)``.
     """
-    v_x, v_y, omega, dt = np.broadcast_arrays(
-        *(np.asarray(a, dtype=float) for a in (v_x, v_y, omega, dt))
-    )
-    phi = omega * dt
-    a, b, da, db = _arc_coefficients(phi)
-    jac = np.zeros(v_x.shape + (3, 3))
-    jac[..., 0, 0] = dt * a
-    jac[..., 0, 1] = -dt * b
-    jac[..., 0, 2] = dt * dt * (v_x * da - v_y * db)
-    jac[..., 1, 0] = dt * b
-    jac[..., 1, 1] = dt * a
-    jac[..., 1, 2] = dt * dt * (v_x * db + v_y * da)
-    jac[..., 2, 2] = dt
-    return jac
+    return arc_increment_with_jacobian(v_x, v_y, omega, dt)[1]
 
 
 def compose(pose: ArrayLike, increment: ArrayLike) -> np.ndarray:
