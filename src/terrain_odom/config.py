@@ -22,6 +22,8 @@ from typing import Any
 import yaml
 
 from terrain_odom.errors import ConfigError
+from terrain_odom.fields import NON_NEGATIVE, SIGNED
+from terrain_odom.vision.camera import CameraConfig, RoiConfig
 
 __all__ = [
     "FORMAT_VERSION",
@@ -44,9 +46,6 @@ __all__ = [
 
 FORMAT_VERSION = 1
 
-# Field metadata: the range a float field accepts (default: > 0).
-SIGNED = {"range": "signed"}
-NON_NEGATIVE = {"range": "non-negative"}
 
 
 @dataclass(frozen=True)
@@ -206,6 +205,8 @@ class Config:
     ekf: EkfConfig = field(default_factory=EkfConfig)
     terrain: TerrainConfig = field(default_factory=TerrainConfig)
     evaluation: EvaluationConfig = field(default_factory=EvaluationConfig)
+    camera: CameraConfig = field(default_factory=CameraConfig)
+    roi: RoiConfig = field(default_factory=RoiConfig)
 
 
 _NON_NEGATIVE_PARENTS = {"sigma_q"}  # process noise densities may be 0
@@ -295,7 +296,10 @@ def _build(default: Any, data: Any, where: str) -> Any:
             if parent in _NON_NEGATIVE_PARENTS:
                 allowed = "non-negative"
             values[name] = _check_value(hint, raw, key, allowed)
-    return dataclasses.replace(default, **values)
+    try:
+        return dataclasses.replace(default, **values)
+    except ConfigError as exc:  # a section's own consistency check (__post_init__)
+        raise ConfigError(f"{where}.{exc}" if where else str(exc)) from None
 
 
 def _check_consistency(cfg: Config) -> None:

@@ -43,6 +43,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from terrain_odom.errors import ConfigError
+from terrain_odom.fields import NON_NEGATIVE, SIGNED
 from terrain_odom.kinematics import integrate, twist_icr
 
 __all__ = [
@@ -60,11 +61,6 @@ __all__ = [
     "crop",
 ]
 
-# Field metadata of terrain_odom.config (SIGNED, NON_NEGATIVE), spelt out so
-# that config.py can import this module without an import cycle; a test keeps
-# them equal.
-_SIGNED = {"range": "signed"}
-_NON_NEGATIVE = {"range": "non-negative"}
 
 # Rows: camera x = -robot y (right), camera y = -robot z (down), camera z = robot x.
 _ROBOT_TO_OPTICAL = np.array([[0.0, -1.0, 0.0], [0.0, 0.0, -1.0], [1.0, 0.0, 0.0]])
@@ -108,14 +104,14 @@ class CameraConfig:
     height: int = 480
     fx: float = 500.0
     fy: float = 500.0
-    cx: float = field(default=319.5, metadata=_NON_NEGATIVE)
-    cy: float = field(default=239.5, metadata=_NON_NEGATIVE)
-    mount_x: float = field(default=0.2, metadata=_SIGNED)
-    mount_y: float = field(default=0.0, metadata=_SIGNED)
+    cx: float = field(default=319.5, metadata=NON_NEGATIVE)
+    cy: float = field(default=239.5, metadata=NON_NEGATIVE)
+    mount_x: float = field(default=0.2, metadata=SIGNED)
+    mount_y: float = field(default=0.0, metadata=SIGNED)
     mount_height: float = 0.5
-    mount_pitch: float = field(default=math.pi / 4, metadata=_SIGNED)
-    mount_yaw: float = field(default=0.0, metadata=_SIGNED)
-    homography: tuple[float, ...] | None = field(default=None, metadata=_SIGNED)
+    mount_pitch: float = field(default=math.pi / 4, metadata=SIGNED)
+    mount_yaw: float = field(default=0.0, metadata=SIGNED)
+    homography: tuple[float, ...] | None = field(default=None, metadata=SIGNED)
 
     def __post_init__(self) -> None:
         if not -math.pi / 2 < self.mount_pitch <= math.pi / 2:
@@ -149,7 +145,7 @@ class RoiConfig:
         :attr:`RoiStatus.TOO_SMALL` (SFTA needs at least 8 x 8 pixels).
     """
 
-    horizon: float = field(default=1.0, metadata=_NON_NEGATIVE)
+    horizon: float = field(default=1.0, metadata=NON_NEGATIVE)
     footprint_length: float = 0.6
     footprint_width: float = 0.5
     expand: float = 1.2
