@@ -1,0 +1,553 @@
+"""SFTA texture features (Chen et al. 2023, §3.2.1, eq. 18-21; Costa et al. 2012).
+
+Segmentation-based fractal texture analysis describes an image by ``2 * n_t``
+binary images cut from its grey levels, and each binary image by three
+numbers: the box-counting fractal dimension ``D`` of its border, its size
+``C`` and its mean grey level ``G``. With Chen's ``n_t = 4`` that is 24
+values, ``[D_1, C_1, G_1, ..., D_8, C_8, G_8]``.
+
+How the paper is read here
+--------------------------
+**Grey image (eq. 18)**: ``I_G = 0.30 R + 0.59 G + 0.11 B`` rounded to the
+nearest integer, halves up, i.e. exactly ``(30 R + 59 G + 11 B + 50) // 100``
+for every one of the 2**24 colours (:func:`to_grey`). OpenCV images are BGR:
+pass ``colour_order="bgr"``.
+
+**Thresholds**: the ``n_t`` multi-level Otsu thresholds ``T(1) < ... <
+T(n_t)`` of the grey histogram (:func:`multiotsu_thresholds`). A threshold is
+the highest grey level of the class below it: class ``k`` is
+``T(k-1) < grey <= T(k)``, as in ``skimage.filters.threshold_multiotsu``.
+
+**Binary images (eq. 19-20)**. Eq. 20 prints ``TB(i) = (0, T(i))`` for
+``i <= n_t`` and ``(T(i - n_t), T(i + 1 - n_t))`` for ``i > n_t``, with
+``T(n_t + 1) = 255``. With the threshold convention above, and so that every
+pixel is in at least one image, the ranges are read as
+
+- ``i = 1 .. n_t``: ``0 <= grey <= T(i)`` (everything up to threshold ``i``);
+- ``i = n_t + 1 .. 2 n_t``: ``T(i - n_t) < grey <= T(i + 1 - n_t)`` (the band
+  between consecutive thresholds; the last band ends at 255).
+
+The bands are Costa's ``{t_i, t_(i+1)}`` pairs and his ``{t_n_t, n_l}`` pair.
+Costa's first family is ``grey > t_i`` (his ``{t_i, n_l}`` pairs), the
+complement of Chen's ``grey <= T(i)``; this module follows Chen. Costa's
+reference code returns ``6 n_t - 3`` values; Chen's text, followed here,
+describes ``2 n_t`` images and ``6 n_t`` values.
+
+**Borders (eq. 21)**: a pixel of a binary image is a border pixel if it is 1
+and at least one of its 8 neighbours *inside the image* is 0 (Chen: "its
+eight adjacent pixels exist"). Pixels outside the frame do not count as 0,
+so the image frame is not a border: a binary image that is all ones has no
+border. Costa's ``findBorders`` (padding with ones) does the same.
+
+**D_i**: the box-counting dimension of the border map
+(:func:`box_counting_dimension`): boxes of side ``s = 1, 2, 4, ..., 2**K`` on
+a grid anchored at the top-left pixel, ``2**K`` the smallest power of two
+``>= max(H, W)`` (so the last box covers the whole image, as in Costa's
+``hausDim``, which pads the image to that size); ``N(s)`` the number of boxes
+holding at least one border pixel; ``D`` the least-squares slope of
+``log N(s)`` against ``log(1 / s)`` over all ``K + 1`` sizes.
+
+**C_i**: Chen: "the number of non-zero value pixel points" of the binary
+image, so here the binary image's pixel count (not the size of its border as
+in Costa's code), **as a fraction of the image area**, in [0, 1]: a raw count
+scales with the image size, and a region of interest must be comparable
+with training images of another size. ``C_i * H * W`` is the raw count.
+
+**G_i**: the mean grey level (0-255) of the binary image's pixels.
+
+C_i and G_i come from the grey histogram alone; D_i needs the pixels.
+
+Degenerate input
+----------------
+Every value is finite for any non-empty image:
+
+- An image with ``d <= n_t`` distinct grey levels (uniform or saturated
+  patches) has no proper ``n_t``-threshold split: the thresholds are its
+  levels but the highest, then the highest level repeated
+  (:func:`multiotsu_thresholds`), so some bands are empty.
+- An empty binary image has ``C = 0``, ``D = 0`` and ``G`` = the middle of
+  its grey range (``T(i) / 2``, or ``(T(i - n_t) + T(i + 1 - n_t)) / 2``).
+- An empty border (a binary image that is empty or fills the frame) and a
+  border of a single box at every scale (one pixel, or a 1x1 image) have
+  ``D = 0``.
+- Images smaller than 8x8, down to 1x1, need no special case.
+
+Speed
+-----
+All ``2 n_t`` binary images are bit planes of one uint8 image (bit ``i - 1``
+is image ``i``; ``n_t > 4`` uses one uint8 image per 8 planes), made by one
+look-up table pass over the grey image. The 8 border maps are computed at
+once with bitwise ANDs of shifted views (an erosion by the 3x3 square), the
+box counts of the 8 borders by OR-pooling 2x2 blocks level by level and
+counting bits through a 256-bin histogram of each level. The thresholds come
+from an exact dynamic programme over the histogram (see
+:func:`multiotsu_thresholds`). ``bench/sfta.py`` measures it.
+
+References
+----------
+.. [1] Chen, Wu, Zeng, Du, "Kinematics Model Estimation of 4W Skid-Steering
+   Mobile Robots Using Visual Terrain Classification", Journal of Robotics,
+   2023, §3.2.1, eq. 18-21.
+.. [2] Costa, Humpire-Mamani, Traina, "An efficient algorithm for fractal
+   analysis of textures", SIBGRAPI 2012.
+.. [3] Liao, Chen, Chung, "A fast algorithm for multilevel thresholding",
+   Journal of Information Science and Engineering 17(5), 2001.
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+import cv2
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = [
+    "N_THRESHOLDS",
+    "to_grey",
+    "multiotsu_thresholds",
+    "sfta_features",
+    "box_counting_dimension",
+]
+
+N_THRESHOLDS = 4
+"""Chen's ``n_t``: 4 thresholds, 8 binary images, 24 features."""
+
+ColourOrder = Literal["rgb", "bgr"]
+
+_N_LEVELS = 256
+_GREY_LEVELS = np.arange(_N_LEVELS, dtype=np.float64)
+# 0.30 R + 0.59 G + 0.11 B + 0.001, rounded by OpenCV: the offset lifts exact
+# halves (x.50) above .5 and moves no other value (they are >= 0.01 away from
+# a half, the float32 error is < 1e-4), so halves round up.
+_GREY_WEIGHTS = {
+    "rgb": np.array([[0.30, 0.59, 0.11, 0.001]]),
+    "bgr": np.array([[0.11, 0.59, 0.30, 0.001]]),
+}
+# _BITS[v, i] = bit i of byte v.
+_BITS = np.unpackbits(
+    np.arange(_N_LEVELS, dtype=np.uint8)[:, None], axis=1, bitorder="little"
+).astype(np.float64)
+# +inf where the class matrix of _otsu_dp is defined (a < b), -inf elsewhere.
+_VALID = {
+    dtype: np.where(np.tri(_N_LEVELS, dtype=bool), np.inf, -np.inf).astype(dtype)
+    for dtype in (np.float32, np.float64)
+}
+_FLOAT32_EXACT = 2**24  # integers below this are exact in float32
+_CALCHIST_EXACT = 2**24  # cv2.calcHist counts in float32
+
+
+def to_grey(image: NDArray, *, colour_order: ColourOrder = "rgb") -> NDArray[np.uint8]:
+    """Grey image of eq. 18: ``0.30 R + 0.59 G + 0.11 B``, rounded, halves up.
+
+    Parameters
+    ----------
+    image : ndarray of uint8, shape (H, W, 3) or (H, W)
+        Colour image in `colour_order`, or a grey image, which is returned as
+        is (not copied). Float images are refused rather than guessed at
+        (0-1 or 0-255?): convert them first, e.g.
+        ``(image * 255).round().astype(np.uint8)``.
+    colour_order : {"rgb", "bgr"}
+        Channel order of a colour image; OpenCV's ``imread`` gives "bgr".
+
+    Returns
+    -------
+    ndarray of uint8, shape (H, W)
+        ``(30 R + 59 G + 11 B + 50) // 100``.
+
+    Raises
+    ------
+    ValueError
+        If the image is not uint8, not (H, W) or (H, W, 3), or `colour_order`
+        is unknown.
+
+    Examples
+    --------
+    >>> to_grey(np.array([[[100, 150, 200]]], dtype=np.uint8)).tolist()  # 140.5
+    [[141]]
+    >>> to_grey(np.array([[[200, 150, 100]]], dtype=np.uint8), colour_order="bgr").tolist()
+    [[141]]
+    """
+    if colour_order not in _GREY_WEIGHTS:
+        raise ValueError(f"colour_order must be 'rgb' or 'bgr', not {colour_order!r}")
+    image = np.asarray(image)
+    if image.dtype != np.uint8:
+        raise ValueError(
+            f"image must be uint8, got {image.dtype}; convert a float image in [0, 1] "
+            "with (image * 255).round().astype(np.uint8)"
+        )
+    if image.ndim == 2:
+        return image
+    if image.ndim != 3 or image.shape[2] != 3:
+        raise ValueError(f"image must have shape (H, W) or (H, W, 3), got {image.shape}")
+    return cv2.transform(image, _GREY_WEIGHTS[colour_order])
+
+
+def multiotsu_thresholds(hist: NDArray, n_t: int) -> NDArray[np.uint8]:
+    """Exact multi-level Otsu thresholds of a 256-bin grey histogram.
+
+    The ``n_t`` thresholds split the grey levels into ``n_t + 1`` classes
+    ``T(k-1) < grey <= T(k)`` that maximise the between-class variance
+    (equivalently ``sum_k S_k**2 / P_k`` over classes of pixel count ``P_k``
+    and grey sum ``S_k``). Found by dynamic programming over the non-empty
+    levels, ``O(n_t * 256**2)``; ``skimage.filters.threshold_multiotsu``
+    searches all ``O(256**n_t)`` combinations.
+
+    Parameters
+    ----------
+    hist : array_like of int, shape (256,)
+        Pixel count of each grey level 0-255.
+    n_t : int
+        Number of thresholds, >= 1.
+
+    Returns
+    -------
+    ndarray of uint8, shape (n_t,)
+        Non-decreasing thresholds; each is the highest grey level of the
+        class below it. With ``d > n_t`` distinct levels they are strictly
+        increasing and are the same as
+        ``skimage.filters.threshold_multiotsu(image, classes=n_t + 1)`` (also
+        on exact ties: the lexicographically smallest optimum). Where
+        skimage's float32 search cannot separate two candidates it may return
+        the worse one; these are the exact optimum. With ``d <= n_t``
+        distinct levels (skimage raises) they are the levels but the
+        highest, then the highest level repeated: every level is a class and
+        the remaining classes are empty.
+
+    Raises
+    ------
+    ValueError
+        If `hist` is not 256 non-negative counts with a positive total, or
+        ``n_t < 1``.
+
+    Notes
+    -----
+    The dynamic programme runs in float32 when every partial sum is exact
+    in float32 (images up to ~65 000 pixels) and keeps that answer only if,
+    at every choice along the optimal path, the best candidate beats the
+    second by more than twice a bound on the float32 rounding error; else,
+    and for larger images, it runs in float64.
+
+    Examples
+    --------
+    >>> hist = np.zeros(256, dtype=int)
+    >>> hist[[10, 20, 200, 210]] = 100
+    >>> multiotsu_thresholds(hist, 1).tolist()
+    [20]
+    >>> multiotsu_thresholds(hist, 3).tolist()
+    [10, 20, 200]
+    """
+    hist = np.asarray(hist)
+    if hist.shape != (_N_LEVELS,) or np.any(hist < 0) or not hist.sum() > 0:
+        raise ValueError("hist must hold 256 non-negative counts with a positive total")
+    if n_t < 1:
+        raise ValueError(f"n_t must be >= 1, got {n_t}")
+    levels = np.flatnonzero(hist)
+    if levels.size <= n_t:
+        return np.concatenate((levels[:-1], np.full(n_t + 1 - levels.size, levels[-1]))).astype(
+            np.uint8
+        )
+    return levels[_otsu_cuts(hist[levels], levels, n_t) - 1].astype(np.uint8)
+
+
+def sfta_features(
+    image: NDArray, n_t: int = N_THRESHOLDS, *, colour_order: ColourOrder = "rgb"
+) -> NDArray[np.float64]:
+    """SFTA feature vector of an image (Chen et al. 2023, eq. 18-21).
+
+    Parameters
+    ----------
+    image : ndarray of uint8, shape (H, W, 3) or (H, W)
+        Colour image in `colour_order`, or grey image; any size >= 1x1.
+    n_t : int
+        Number of Otsu thresholds, >= 1 (Chen: 4).
+    colour_order : {"rgb", "bgr"}
+        Channel order of a colour image.
+
+    Returns
+    -------
+    ndarray of float64, shape (6 * n_t,)
+        ``[D_1, C_1, G_1, ..., D_2nt, C_2nt, G_2nt]`` for the binary images
+        ``i = 1 .. 2 n_t`` (module docstring): ``D_i`` box-counting dimension
+        of the border (0 to 2), ``C_i`` pixel count as a fraction of
+        ``H * W`` (0 to 1), ``G_i`` mean grey level (0 to 255). Always finite.
+
+    Raises
+    ------
+    ValueError
+        For an empty image and as :func:`to_grey`.
+
+    Examples
+    --------
+    >>> left_dark = np.full((64, 64), 200, dtype=np.uint8)
+    >>> left_dark[:, :32] = 50
+    >>> features = sfta_features(left_dark).reshape(8, 3)  # rows D, C, G
+    >>> features[0].round(9).tolist()  # grey <= T(1) = 50: the left half, border one column
+    [1.0, 0.5, 50.0]
+    >>> features[4].round(9).tolist()  # 50 < grey <= T(2) = 200: the right half
+    [1.0, 0.5, 200.0]
+    """
+    grey = to_grey(image, colour_order=colour_order)
+    if grey.size == 0:
+        raise ValueError(f"image is empty: shape {grey.shape}")
+    hist = _histogram(grey)
+    lower, upper = _plane_ranges(multiotsu_thresholds(hist, n_t))
+    count, mean_grey = _plane_sizes(hist, lower, upper)
+    dimension = _slopes(_border_box_counts(grey, lower, upper))
+    return np.column_stack((dimension, count / grey.size, mean_grey)).ravel()
+
+
+def box_counting_dimension(binary: NDArray) -> float:
+    """Box-counting dimension of the non-zero pixels of a 2-D image.
+
+    Boxes of side ``s = 1, 2, 4, ..., 2**K``, ``2**K >= max(H, W)``, on a grid
+    anchored at pixel (0, 0); ``N(s)`` boxes hold a non-zero pixel; the
+    dimension is the least-squares slope of ``log N(s)`` against
+    ``log(1 / s)``. A set that fills its ``2**K`` square has dimension 2 (a
+    disc inscribed in it about 1.97), a straight segment as long as the image
+    1; a set much smaller than the image reads low, since the largest boxes
+    all count 1.
+
+    Parameters
+    ----------
+    binary : array_like, shape (H, W)
+        Image; non-zero (True) pixels are the set.
+
+    Returns
+    -------
+    float
+        The dimension; 0 for an empty set, a single pixel or a 1x1 image.
+
+    Examples
+    --------
+    >>> line = np.zeros((64, 64), dtype=bool)
+    >>> line[10, :] = True
+    >>> box_counting_dimension(line)
+    1.0
+    >>> box_counting_dimension(np.ones((64, 64), dtype=bool))
+    2.0
+    """
+    binary = np.asarray(binary)
+    if binary.ndim != 2 or binary.size == 0:
+        raise ValueError(f"binary must be a non-empty 2-D image, got shape {binary.shape}")
+    plane = np.ascontiguousarray(binary != 0, dtype=np.uint8)
+    return float(_slopes(_box_counts(plane)[:, :1])[0])
+
+
+def _histogram(grey: NDArray[np.uint8]) -> NDArray[np.float64]:
+    """Pixel count of each grey level, shape (256,), exact."""
+    if grey.size >= _CALCHIST_EXACT:
+        return np.bincount(grey.ravel(), minlength=_N_LEVELS).astype(np.float64)
+    return cv2.calcHist([grey], [0], None, [_N_LEVELS], [0, _N_LEVELS]).ravel().astype(np.float64)
+
+
+def _otsu_cuts(counts: NDArray, levels: NDArray, n_t: int) -> NDArray[np.intp]:
+    """Optimal class boundaries over the non-empty grey levels.
+
+    Parameters
+    ----------
+    counts : ndarray, shape (m,)
+        Positive pixel count of each non-empty level (integers), ``m > n_t``.
+    levels : ndarray of int, shape (m,)
+        Those grey levels, increasing.
+    n_t : int
+        Number of thresholds.
+
+    Returns
+    -------
+    ndarray of intp, shape (n_t,)
+        Cuts ``0 < c_1 < ... < c_n_t < m``: class ``k`` holds levels
+        ``c_(k-1) .. c_k - 1`` (``c_0 = 0``, ``c_(n_t+1) = m``).
+    """
+    # Grey levels relative to the (rounded) mean: the objective changes by a
+    # constant, and its values, hence the float32 errors, shrink to about
+    # N times the between-class variance. All partial sums stay integers.
+    centre = round(float(counts @ levels) / float(counts.sum()))
+    cumulative = np.zeros((2, counts.size + 1))
+    np.cumsum(counts, out=cumulative[0, 1:])
+    np.cumsum(counts * (levels - centre), out=cumulative[1, 1:])
+    if np.abs(cumulative).max() < _FLOAT32_EXACT:
+        cuts, certain = _otsu_dp(cumulative, n_t, np.float32)
+        if certain:
+            return cuts
+    return _otsu_dp(cumulative, n_t, np.float64)[0]
+
+
+def _otsu_dp(cumulative: NDArray, n_t: int, dtype: type) -> tuple[NDArray[np.intp], bool]:
+    """Dynamic programme of :func:`_otsu_cuts` in `dtype`.
+
+    ``value[b - 1, a] = (S_b - S_a)**2 / (P_b - P_a)`` is the objective of
+    the class of levels ``a .. b - 1`` (cumulative count ``P``, grey sum
+    ``S``); ``best[k][a]`` the best sum over ``k + 1`` classes covering
+    levels ``a .. m - 1``. The cuts are then chosen left to right, each the
+    first optimal one, which gives the lexicographically smallest optimum.
+
+    Parameters
+    ----------
+    cumulative : ndarray of float64, shape (2, m + 1)
+        ``P`` and ``S`` from 0 (integers, exact in `dtype`).
+    n_t : int
+    dtype : type
+        np.float32 or np.float64.
+
+    Returns
+    -------
+    cuts : ndarray of intp, shape (n_t,)
+    certain : bool
+        Whether every choice beat its runner-up by more than twice the bound
+        on the rounding error, so that exact arithmetic chooses the same.
+    """
+    m = cumulative.shape[1] - 1
+    # Outer differences X[b] - X[a] (b = 1..m, a = 0..m-1) as rank-2 matrix
+    # products [X_b, 1] @ [1, -X_a]: one rounding of an exact integer.
+    left = np.ones((2, m, 2), dtype=dtype)
+    left[:, :, 0] = cumulative[:, 1:]
+    right = np.ones((2, 2, m), dtype=dtype)
+    right[:, 1] = -cumulative[:, :-1]
+    d_count, d_sum = left @ right
+    value = cv2.divide(cv2.multiply(d_sum, d_sum), d_count)
+    cv2.patchNaNs(value, -np.inf)  # 0 / 0 where a == b
+    value = cv2.min(value, _VALID[dtype][:m, :m])  # -inf where a >= b
+    best = [value[-1]]  # one class: levels a .. m-1
+    for _ in range(n_t - 1):
+        extended = cv2.add(value[:-1], np.repeat(best[-1][1:], m).reshape(m - 1, m))
+        best.append(cv2.reduce(extended, 0, cv2.REDUCE_MAX).ravel())
+    cuts = np.empty(n_t, dtype=np.intp)
+    start, margin = 0, np.inf
+    for k in range(n_t):
+        candidates = value[start : m - 1, start] + best[n_t - 1 - k][start + 1 :]
+        choice = int(np.argmax(candidates))
+        if k == 0:
+            optimum = float(candidates[choice])
+        if candidates.size > 1:
+            margin = min(margin, candidates[choice] - np.partition(candidates, -2)[-2])
+        start += 1 + choice
+        cuts[k] = start
+    # A candidate sums <= n_t + 1 class values (2 roundings each) with <= n_t
+    # additions of non-negative terms: relative error <= (n_t + 3) eps.
+    error_bound = 2 * (n_t + 3) * float(np.finfo(dtype).eps) * optimum
+    return cuts, bool(margin > 2 * error_bound)
+
+
+def _plane_ranges(thresholds: NDArray) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """Grey ranges ``lower < grey <= upper`` of the 2 n_t binary images (eq. 20).
+
+    Returns ``lower = [-1] * n_t + [T(1), ..., T(n_t)]`` and
+    ``upper = [T(1), ..., T(n_t), T(2), ..., T(n_t), 255]``.
+    """
+    t = thresholds.astype(np.int64)
+    lower = np.concatenate((np.full(t.size, -1), t))
+    upper = np.concatenate((t, t[1:], [_N_LEVELS - 1]))
+    return lower, upper
+
+
+def _plane_sizes(hist: NDArray, lower: NDArray, upper: NDArray) -> tuple[NDArray, NDArray]:
+    """Pixel count and mean grey of each binary image, from the histogram.
+
+    An empty image gets the middle of its grey range as its mean.
+    """
+    moments = np.zeros((2, _N_LEVELS + 1))
+    np.cumsum(hist, out=moments[0, 1:])
+    np.cumsum(hist * _GREY_LEVELS, out=moments[1, 1:])
+    count, grey_sum = moments[:, upper + 1] - moments[:, lower + 1]
+    middle = (np.maximum(lower, 0) + upper) / 2
+    return count, np.divide(grey_sum, count, out=middle, where=count > 0)
+
+
+def _plane_luts(lower: NDArray, upper: NDArray) -> NDArray[np.uint8]:
+    """Look-up tables grey -> bit planes, shape (ceil(n_planes / 8), 256).
+
+    Bit ``i % 8`` of table ``i // 8`` is set for the grey levels of binary
+    image ``i + 1``.
+    """
+    luts = np.zeros(((lower.size + 7) // 8, _N_LEVELS), dtype=np.uint8)
+    for plane, (low, high) in enumerate(zip(lower, upper, strict=True)):
+        luts[plane // 8, low + 1 : high + 1] |= 1 << (plane % 8)
+    return luts
+
+
+def _border_box_counts(grey: NDArray[np.uint8], lower: NDArray, upper: NDArray) -> NDArray:
+    """Box counts of the border of each binary image, shape (K + 1, n_planes).
+
+    See :func:`_box_counts`; planes are processed 8 at a time.
+    """
+    padded = cv2.copyMakeBorder(grey, 1, 1, 1, 1, cv2.BORDER_REPLICATE)
+    counts = [_box_counts(_border(cv2.LUT(padded, lut))) for lut in _plane_luts(lower, upper)]
+    return np.hstack(counts)[:, : lower.size]
+
+
+def _border(padded: NDArray[np.uint8]) -> NDArray[np.uint8]:
+    """Border pixels of 8 bit planes at once (eq. 21).
+
+    Parameters
+    ----------
+    padded : ndarray of uint8, shape (H + 2, W + 2)
+        Bit planes with a replicated one-pixel frame, so that pixels outside
+        the image never count as 0.
+
+    Returns
+    -------
+    ndarray of uint8, shape (H, W)
+        Bit ``i`` set where plane ``i`` is 1 and some 8-neighbour is 0:
+        the plane minus its erosion by the 3x3 square (a bitwise AND over
+        the neighbourhood, which contains the pixel itself).
+    """
+    rows = cv2.bitwise_and(cv2.bitwise_and(padded[:, :-2], padded[:, 1:-1]), padded[:, 2:])
+    eroded = cv2.bitwise_and(cv2.bitwise_and(rows[:-2], rows[1:-1]), rows[2:])
+    return cv2.bitwise_xor(padded[1:-1, 1:-1], eroded)
+
+
+def _box_counts(planes: NDArray[np.uint8]) -> NDArray[np.float64]:
+    """Occupied boxes of side 1, 2, 4, ..., 2**K of each of 8 bit planes.
+
+    Parameters
+    ----------
+    planes : ndarray of uint8, shape (H, W)
+
+    Returns
+    -------
+    ndarray of float64, shape (K + 1, 8)
+        Row ``k``: per bit, the number of ``2**k`` boxes with the bit set
+        somewhere; ``2**K >= max(H, W)``.
+    """
+    n_sizes = 1 + int(np.ceil(np.log2(max(planes.shape))))
+    histograms = np.empty((n_sizes, _N_LEVELS))
+    level = planes
+    for k in range(n_sizes):
+        if k:
+            level = _halve_rows(cv2.transpose(_halve_rows(level)))
+        histograms[k] = _byte_histogram(level)
+    return histograms @ _BITS
+
+
+def _halve_rows(level: NDArray[np.uint8]) -> NDArray[np.uint8]:
+    """OR of row pairs (0, 1), (2, 3), ...; an odd last row is kept."""
+    n_rows = level.shape[0]
+    if n_rows % 2 == 0:
+        return cv2.bitwise_or(level[0::2], level[1::2])
+    if n_rows == 1:
+        return level
+    halved = np.empty(((n_rows + 1) // 2, level.shape[1]), dtype=np.uint8)
+    cv2.bitwise_or(level[0 : n_rows - 1 : 2], level[1::2], dst=halved[: n_rows // 2])
+    halved[-1] = level[-1]
+    return halved
+
+
+def _byte_histogram(level: NDArray[np.uint8]) -> NDArray:
+    """Count of each byte value (256,); the faster call for the size."""
+    if level.size < 2048:
+        return np.bincount(level.ravel(), minlength=_N_LEVELS)
+    return _histogram(level)
+
+
+def _slopes(counts: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Least-squares slope of log N(s) against log(1/s), s = 2**k, per column.
+
+    Columns with no occupied box (all zero) and single-size inputs give 0.
+    """
+    n_sizes = counts.shape[0]
+    if n_sizes == 1:
+        return np.zeros(counts.shape[1])
+    log_inverse_size = -np.log(2.0) * np.arange(n_sizes)
+    centred = log_inverse_size - log_inverse_size.mean()
+    return (centred / (centred @ centred)) @ np.log(np.maximum(counts, 1.0))
