@@ -96,7 +96,8 @@ References
 
 from __future__ import annotations
 
-from typing import Literal
+import functools
+from typing import Literal, NamedTuple
 
 import cv2
 import numpy as np
@@ -116,7 +117,9 @@ N_THRESHOLDS = 4
 ColourOrder = Literal["rgb", "bgr"]
 
 _N_LEVELS = 256
-_GREY_LEVELS = np.arange(_N_LEVELS, dtype=np.float64)
+_LEVEL_INDEX = np.arange(_N_LEVELS)
+# Rows: pixel count and grey sum of a histogram (times hist).
+_MOMENT_WEIGHTS = np.stack((np.ones(_N_LEVELS), np.arange(_N_LEVELS, dtype=np.float64)))
 # 0.30 R + 0.59 G + 0.11 B + 0.001, rounded by OpenCV: the offset lifts exact
 # halves (x.50) above .5 and moves no other value (they are >= 0.01 away from
 # a half, the float32 error is < 1e-4), so halves round up.
@@ -242,12 +245,7 @@ def multiotsu_thresholds(hist: NDArray, n_t: int) -> NDArray[np.uint8]:
         raise ValueError("hist must hold 256 non-negative counts with a positive total")
     if n_t < 1:
         raise ValueError(f"n_t must be >= 1, got {n_t}")
-    levels = np.flatnonzero(hist)
-    if levels.size <= n_t:
-        return np.concatenate((levels[:-1], np.full(n_t + 1 - levels.size, levels[-1]))).astype(
-            np.uint8
-        )
-    return levels[_otsu_cuts(hist[levels], levels, n_t) - 1].astype(np.uint8)
+    return _thresholds(_MOMENT_WEIGHTS * hist, n_t)
 
 
 def sfta_features(
@@ -290,10 +288,14 @@ def sfta_features(
     grey = to_grey(image, colour_order=colour_order)
     if grey.size == 0:
         raise ValueError(f"image is empty: shape {grey.shape}")
-    hist = _histogram(grey)
-    lower, upper = _plane_ranges(multiotsu_thresholds(hist, n_t))
-    count, mean_grey = _plane_sizes(hist, lower, upper)
-    dimension = _slopes(_border_box_counts(grey, lower, upper))
+    moments = _MOMENT_WEIGHTS * _histogram(grey)
+    thresholds = _thresholds(moments, n_t)
+    tables = _class_tables(n_t)
+    classes = np.searchsorted(thresholds, _LEVEL_INDEX)  # number of thresholds below
+    count, grey_sum = moments @ tables.planes[classes]
+    middle = tables.middle @ np.concatenate(([0], thresholds, [_N_LEVELS - 1]))
+    mean_grey = np.divide(grey_sum, count, out=middle, where=count > 0)
+    dimension = _border_dimensions(grey, tables.luts[:, classes], 2 * n_t)
     return np.column_stack((dimension, count / grey.size, mean_grey)).ravel()
 
 
@@ -322,34 +324,42 @@ def box_counting_dimension(binary: NDArray) -> float:
     --------
     >>> line = np.zeros((64, 64), dtype=bool)
     >>> line[10, :] = True
-    >>> box_counting_dimension(line)
+    >>> round(box_counting_dimension(line), 9)
     1.0
-    >>> box_counting_dimension(np.ones((64, 64), dtype=bool))
+    >>> round(box_counting_dimension(np.ones((64, 64), dtype=bool)), 9)
     2.0
     """
     binary = np.asarray(binary)
     if binary.ndim != 2 or binary.size == 0:
         raise ValueError(f"binary must be a non-empty 2-D image, got shape {binary.shape}")
-    plane = np.ascontiguousarray(binary != 0, dtype=np.uint8)
-    return float(_slopes(_box_counts(plane)[:, :1])[0])
+    counts, boxes = _box_counts(np.ascontiguousarray(binary != 0, dtype=np.uint8))
+    return float(_dimensions(counts[:, :1], boxes)[0])
 
 
-def _histogram(grey: NDArray[np.uint8]) -> NDArray[np.float64]:
+def _histogram(grey: NDArray[np.uint8]) -> NDArray:
     """Pixel count of each grey level, shape (256,), exact."""
     if grey.size >= _CALCHIST_EXACT:
-        return np.bincount(grey.ravel(), minlength=_N_LEVELS).astype(np.float64)
-    return cv2.calcHist([grey], [0], None, [_N_LEVELS], [0, _N_LEVELS]).ravel().astype(np.float64)
+        return np.bincount(grey.ravel(), minlength=_N_LEVELS)
+    return cv2.calcHist([grey], [0], None, [_N_LEVELS], [0, _N_LEVELS]).ravel()
 
 
-def _otsu_cuts(counts: NDArray, levels: NDArray, n_t: int) -> NDArray[np.intp]:
+def _thresholds(moments: NDArray[np.float64], n_t: int) -> NDArray[np.uint8]:
+    """:func:`multiotsu_thresholds` from ``moments = [hist, hist * grey]``, (2, 256)."""
+    levels = np.flatnonzero(moments[0])
+    if levels.size <= n_t:
+        last = np.full(n_t + 1 - levels.size, levels[-1])
+        return np.concatenate((levels[:-1], last)).astype(np.uint8)
+    return levels[_otsu_cuts(moments[:, levels], n_t) - 1].astype(np.uint8)
+
+
+def _otsu_cuts(moments: NDArray[np.float64], n_t: int) -> NDArray[np.intp]:
     """Optimal class boundaries over the non-empty grey levels.
 
     Parameters
     ----------
-    counts : ndarray, shape (m,)
-        Positive pixel count of each non-empty level (integers), ``m > n_t``.
-    levels : ndarray of int, shape (m,)
-        Those grey levels, increasing.
+    moments : ndarray of float64, shape (2, m)
+        Pixel count (positive integer) and grey sum of each non-empty grey
+        level, in increasing grey order; ``m > n_t``.
     n_t : int
         Number of thresholds.
 
@@ -359,13 +369,13 @@ def _otsu_cuts(counts: NDArray, levels: NDArray, n_t: int) -> NDArray[np.intp]:
         Cuts ``0 < c_1 < ... < c_n_t < m``: class ``k`` holds levels
         ``c_(k-1) .. c_k - 1`` (``c_0 = 0``, ``c_(n_t+1) = m``).
     """
+    cumulative = np.zeros((2, moments.shape[1] + 1))
+    np.cumsum(moments, axis=1, out=cumulative[:, 1:])
     # Grey levels relative to the (rounded) mean: the objective changes by a
     # constant, and its values, hence the float32 errors, shrink to about
-    # N times the between-class variance. All partial sums stay integers.
-    centre = round(float(counts @ levels) / float(counts.sum()))
-    cumulative = np.zeros((2, counts.size + 1))
-    np.cumsum(counts, out=cumulative[0, 1:])
-    np.cumsum(counts * (levels - centre), out=cumulative[1, 1:])
+    # N times the between-class variance. The partial sums stay integers.
+    n_pixels, grey_sum = cumulative[:, -1]
+    cumulative[1] -= round(grey_sum / n_pixels) * cumulative[0]
     if np.abs(cumulative).max() < _FLOAT32_EXACT:
         cuts, certain = _otsu_dp(cumulative, n_t, np.float32)
         if certain:
@@ -403,7 +413,7 @@ def _otsu_dp(cumulative: NDArray, n_t: int, dtype: type) -> tuple[NDArray[np.int
     left = np.ones((2, m, 2), dtype=dtype)
     left[:, :, 0] = cumulative[:, 1:]
     right = np.ones((2, 2, m), dtype=dtype)
-    right[:, 1] = -cumulative[:, :-1]
+    np.negative(cumulative[:, :-1], out=right[:, 1], casting="same_kind")
     d_count, d_sum = left @ right
     value = cv2.divide(cv2.multiply(d_sum, d_sum), d_count)
     cv2.patchNaNs(value, -np.inf)  # 0 / 0 where a == b
@@ -411,69 +421,76 @@ def _otsu_dp(cumulative: NDArray, n_t: int, dtype: type) -> tuple[NDArray[np.int
     best = [value[-1]]  # one class: levels a .. m-1
     for _ in range(n_t - 1):
         extended = cv2.add(value[:-1], np.repeat(best[-1][1:], m).reshape(m - 1, m))
-        best.append(cv2.reduce(extended, 0, cv2.REDUCE_MAX).ravel())
+        best.append(cv2.reduce(extended, 0, cv2.REDUCE_MAX)[0])
     cuts = np.empty(n_t, dtype=np.intp)
     start, margin = 0, np.inf
     for k in range(n_t):
         candidates = value[start : m - 1, start] + best[n_t - 1 - k][start + 1 :]
-        choice = int(np.argmax(candidates))
-        if k == 0:
-            optimum = float(candidates[choice])
+        choice = int(candidates.argmax())
         if candidates.size > 1:
             margin = min(margin, candidates[choice] - np.partition(candidates, -2)[-2])
+        if k == 0:
+            optimum = candidates[choice]
         start += 1 + choice
         cuts[k] = start
     # A candidate sums <= n_t + 1 class values (2 roundings each) with <= n_t
     # additions of non-negative terms: relative error <= (n_t + 3) eps.
-    error_bound = 2 * (n_t + 3) * float(np.finfo(dtype).eps) * optimum
+    error_bound = 2 * (n_t + 3) * float(np.finfo(dtype).eps) * float(optimum)
     return cuts, bool(margin > 2 * error_bound)
 
 
-def _plane_ranges(thresholds: NDArray) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
-    """Grey ranges ``lower < grey <= upper`` of the 2 n_t binary images (eq. 20).
+class _ClassTables(NamedTuple):
+    """What the ``n_t + 1`` Otsu classes mean for the ``2 n_t`` binary images.
 
-    Returns ``lower = [-1] * n_t + [T(1), ..., T(n_t)]`` and
-    ``upper = [T(1), ..., T(n_t), T(2), ..., T(n_t), 255]``.
+    Class ``k`` holds the grey levels with ``k`` thresholds below them.
     """
-    t = thresholds.astype(np.int64)
-    lower = np.concatenate((np.full(t.size, -1), t))
-    upper = np.concatenate((t, t[1:], [_N_LEVELS - 1]))
-    return lower, upper
+
+    planes: NDArray[np.float64]
+    """(n_t + 1, 2 n_t): 1 where class ``k`` is in binary image ``i``."""
+    luts: NDArray[np.uint8]
+    """(ceil(2 n_t / 8), n_t + 1): class -> bit planes, 8 images a byte."""
+    middle: NDArray[np.float64]
+    """(2 n_t, n_t + 2): ``middle @ [0, T(1), ..., T(n_t), 255]`` is the middle of
+    each image's grey range."""
 
 
-def _plane_sizes(hist: NDArray, lower: NDArray, upper: NDArray) -> tuple[NDArray, NDArray]:
-    """Pixel count and mean grey of each binary image, from the histogram.
+@functools.lru_cache(maxsize=16)
+def _class_tables(n_t: int) -> _ClassTables:
+    """Tables of eq. 20 for `n_t` thresholds.
 
-    An empty image gets the middle of its grey range as its mean.
+    Image ``i <= n_t`` is classes ``0 .. i - 1``, image ``n_t + i`` is class
+    ``i``; image ``i`` is bit ``(i - 1) % 8`` of byte ``(i - 1) // 8``.
     """
-    moments = np.zeros((2, _N_LEVELS + 1))
-    np.cumsum(hist, out=moments[0, 1:])
-    np.cumsum(hist * _GREY_LEVELS, out=moments[1, 1:])
-    count, grey_sum = moments[:, upper + 1] - moments[:, lower + 1]
-    middle = (np.maximum(lower, 0) + upper) / 2
-    return count, np.divide(grey_sum, count, out=middle, where=count > 0)
+    classes = np.arange(n_t + 1)[:, None]
+    first, band = np.arange(n_t), np.arange(1, n_t + 1)
+    planes = np.hstack((classes <= first, classes == band))
+    luts = np.packbits(planes, axis=1, bitorder="little").T.copy()
+    middle = np.zeros((2 * n_t, n_t + 2))
+    middle[first, 0] = middle[first, first + 1] = 0.5
+    middle[n_t + first, band] = middle[n_t + first, band + 1] = 0.5
+    for table in (planes, luts, middle):
+        table.flags.writeable = False
+    return _ClassTables(planes.astype(np.float64), luts, middle)
 
 
-def _plane_luts(lower: NDArray, upper: NDArray) -> NDArray[np.uint8]:
-    """Look-up tables grey -> bit planes, shape (ceil(n_planes / 8), 256).
+def _border_dimensions(grey: NDArray[np.uint8], luts: NDArray, n_planes: int) -> NDArray:
+    """Box-counting dimension of the border of each binary image.
 
-    Bit ``i % 8`` of table ``i // 8`` is set for the grey levels of binary
-    image ``i + 1``.
-    """
-    luts = np.zeros(((lower.size + 7) // 8, _N_LEVELS), dtype=np.uint8)
-    for plane, (low, high) in enumerate(zip(lower, upper, strict=True)):
-        luts[plane // 8, low + 1 : high + 1] |= 1 << (plane % 8)
-    return luts
+    Parameters
+    ----------
+    grey : ndarray of uint8, shape (H, W)
+    luts : ndarray of uint8, shape (n_bytes, 256)
+        Grey level -> bit planes, 8 binary images a byte.
+    n_planes : int
+        Number of binary images.
 
-
-def _border_box_counts(grey: NDArray[np.uint8], lower: NDArray, upper: NDArray) -> NDArray:
-    """Box counts of the border of each binary image, shape (K + 1, n_planes).
-
-    See :func:`_box_counts`; planes are processed 8 at a time.
+    Returns
+    -------
+    ndarray of float64, shape (n_planes,)
     """
     padded = cv2.copyMakeBorder(grey, 1, 1, 1, 1, cv2.BORDER_REPLICATE)
-    counts = [_box_counts(_border(cv2.LUT(padded, lut))) for lut in _plane_luts(lower, upper)]
-    return np.hstack(counts)[:, : lower.size]
+    dimensions = [_dimensions(*_box_counts(_border(cv2.LUT(padded, lut)))) for lut in luts]
+    return np.concatenate(dimensions)[:n_planes]
 
 
 def _border(padded: NDArray[np.uint8]) -> NDArray[np.uint8]:
@@ -497,8 +514,13 @@ def _border(padded: NDArray[np.uint8]) -> NDArray[np.uint8]:
     return cv2.bitwise_xor(padded[1:-1, 1:-1], eroded)
 
 
-def _box_counts(planes: NDArray[np.uint8]) -> NDArray[np.float64]:
-    """Occupied boxes of side 1, 2, 4, ..., 2**K of each of 8 bit planes.
+def _box_counts(planes: NDArray[np.uint8]) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """Occupied boxes of side 1, 2, 4, ... of each of 8 bit planes.
+
+    Boxes of side ``2**k`` are the pixels of the image OR-pooled ``k`` times
+    over 2x2 blocks. Stops at the 1x1 level, or as soon as every bit is set
+    in all boxes or in none (larger boxes say nothing more), but not before
+    ``k = 1``.
 
     Parameters
     ----------
@@ -506,18 +528,19 @@ def _box_counts(planes: NDArray[np.uint8]) -> NDArray[np.float64]:
 
     Returns
     -------
-    ndarray of float64, shape (K + 1, 8)
-        Row ``k``: per bit, the number of ``2**k`` boxes with the bit set
-        somewhere; ``2**K >= max(H, W)``.
+    counts : ndarray of float64, shape (n_sizes, 8)
+        Row ``k``: per bit, the number of ``2**k`` boxes with the bit set.
+    boxes : ndarray of int64, shape (n_sizes, 1)
+        Number of ``2**k`` boxes in the image.
     """
-    n_sizes = 1 + int(np.ceil(np.log2(max(planes.shape))))
-    histograms = np.empty((n_sizes, _N_LEVELS))
+    histograms, boxes = [], []
     level = planes
-    for k in range(n_sizes):
-        if k:
-            level = _halve_rows(cv2.transpose(_halve_rows(level)))
-        histograms[k] = _byte_histogram(level)
-    return histograms @ _BITS
+    while True:
+        histograms.append(_byte_histogram(level))
+        boxes.append(level.size)
+        if level.size == 1 or (len(boxes) > 1 and histograms[-1].max() == level.size):
+            return np.array(histograms) @ _BITS, np.array(boxes)[:, None]
+        level = _halve_rows(cv2.transpose(_halve_rows(level)))
 
 
 def _halve_rows(level: NDArray[np.uint8]) -> NDArray[np.uint8]:
@@ -540,14 +563,42 @@ def _byte_histogram(level: NDArray[np.uint8]) -> NDArray:
     return _histogram(level)
 
 
-def _slopes(counts: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Least-squares slope of log N(s) against log(1/s), s = 2**k, per column.
+def _dimensions(counts: NDArray[np.float64], boxes: NDArray[np.int64]) -> NDArray[np.float64]:
+    """Box-counting dimension per column of box counts.
 
-    Columns with no occupied box (all zero) and single-size inputs give 0.
+    Parameters
+    ----------
+    counts : ndarray of float64, shape (n_sizes, n)
+        Occupied boxes of side ``2**k`` (:func:`_box_counts`).
+    boxes : ndarray of int64, shape (n_sizes, 1)
+        Number of boxes of side ``2**k``.
+
+    Returns
+    -------
+    ndarray of float64, shape (n,)
+        Least-squares slope of ``log N`` against ``log(1 / s)`` over the
+        sizes before the first at which every box is occupied (at least
+        ``s = 1, 2``); 0 for empty columns and for a single size.
     """
-    n_sizes = counts.shape[0]
+    n_sizes = boxes.size
     if n_sizes == 1:
         return np.zeros(counts.shape[1])
-    log_inverse_size = -np.log(2.0) * np.arange(n_sizes)
-    centred = log_inverse_size - log_inverse_size.mean()
-    return (centred / (centred @ centred)) @ np.log(np.maximum(counts, 1.0))
+    n_fitted = np.maximum((counts < boxes).sum(axis=0), 2)
+    weights = _SLOPE_WEIGHTS[n_fitted, :n_sizes]
+    return np.einsum("jk,kj->j", weights, np.log(np.maximum(counts, 1.0)))
+
+
+def _slope_weights(max_sizes: int) -> NDArray[np.float64]:
+    """Row ``n``: least-squares slope weights on ``log(1 / 2**k)``, ``k < n``.
+
+    ``weights[n] @ y`` is the slope of ``y[:n]`` against ``-k log 2``.
+    """
+    weights = np.zeros((max_sizes + 1, max_sizes))
+    for n in range(2, max_sizes + 1):
+        x = -np.log(2.0) * np.arange(n)
+        centred = x - x.mean()
+        weights[n, :n] = centred / (centred @ centred)
+    return weights
+
+
+_SLOPE_WEIGHTS = _slope_weights(64)
