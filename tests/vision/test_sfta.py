@@ -236,12 +236,21 @@ def test_thresholds_of_images_with_few_levels():
 
 
 def test_threshold_arguments_are_checked():
-    with pytest.raises(ValueError, match="256 non-negative"):
+    with pytest.raises(ValueError, match="256 non-negative integer"):
         multiotsu_thresholds(np.ones(255), 2)
-    with pytest.raises(ValueError, match="256 non-negative"):
+    with pytest.raises(ValueError, match="256 non-negative integer"):
+        multiotsu_thresholds(np.full(256, 0.5), 2)
+    with pytest.raises(ValueError, match="256 non-negative integer"):
+        multiotsu_thresholds(np.r_[-1, np.ones(255)], 2)
+    with pytest.raises(ValueError, match="empty"):
         multiotsu_thresholds(np.zeros(256), 2)
     with pytest.raises(ValueError, match="n_t"):
         multiotsu_thresholds(np.ones(256), 0)
+    hist = grey_histogram(data.brick())
+    assert (
+        multiotsu_thresholds(hist.astype(np.float32), 2).tolist()
+        == multiotsu_thresholds(hist, 2).tolist()
+    )
 
 
 # ------------------------------------------------------------ box-counting dimension
