@@ -1,0 +1,89 @@
+"""``terrain-odom train``: fit the KNN terrain classifier on a labelled image folder."""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+FEATURE_CHOICES = ("sfta", "sfta+lab", "sfta+hsv")
+
+
+def add_classifier_options(p: argparse.ArgumentParser) -> None:
+    """Add the options shared by ``train`` and ``report accuracy``."""
+    p.add_argument(
+        "--images", required=True, help="folder with one sub-folder of images per terrain"
+    )
+    p.add_argument("--config", help="classifier YAML (default: built-in defaults)")
+    p.add_argument(
+        "--features",
+        choices=FEATURE_CHOICES,
+        help="grey SFTA only (Chen et al.) or SFTA + colour statistics",
+    )
+    p.add_argument(
+        "--no-scale",
+        action="store_true",
+        help="raw Euclidean distance on unstandardised features (Chen et al.)",
+    )
+    p.add_argument("--k", type=int, help="number of neighbours voting")
+    p.add_argument("--tiles", type=int, help="tiles per side for tile voting (1: whole image)")
+    p.add_argument("--jobs", type=int, help="feature-extraction processes (default: all cores)")
+
+
+def classifier_config(args: argparse.Namespace) -> Any:
+    """Return the :class:`ClassifierConfig` of ``--config`` and the options that override it."""
+    from terrain_odom.vision.classifier import load_classifier_config
+
+    overrides: dict[str, Any] = {
+        name: getattr(args, name)
+        for name in ("features", "k", "tiles")
+        if getattr(args, name) is not None
+    }
+    if args.no_scale:
+        overrides["scale"] = False
+    return load_classifier_config(args.config, overrides)
+
+
+def describe(cfg: Any) -> str:
+    """One-line summary of a classifier configuration."""
+    return (
+        f"features={cfg.features} n_t={cfg.n_t} relative_counts={cfg.relative_counts} "
+        f"pyramid_levels={cfg.pyramid_levels} scale={cfg.scale} k={cfg.k} "
+        f"weights={cfg.weights} tiles={cfg.tiles}"
+    )
+
+
+def print_skipped(skipped: tuple) -> None:
+    """List the images that were left out."""
+    if skipped:
+        print(f"skipped {len(skipped)} image(s):")
+        for item in skipped:
+            print(f"  {item.path}: {item.reason}")
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    """Register the ``train`` subcommand."""
+    p = sub.add_parser("train", help="train the terrain classifier on labelled images")
+    add_classifier_options(p)
+    p.add_argument("--out", required=True, help="model file to write (.npz)")
+    p.set_defaults(func=_cmd_train)
+
+
+def _cmd_train(args: argparse.Namespace) -> int:
+    from terrain_odom.training import train
+
+    summary = train(args.images, args.out, classifier_config(args), jobs=args.jobs)
+    print(describe(summary.cfg))
+    total = sum(summary.counts.values())
+    print(f"{total} images: " + ", ".join(f"{k} {v}" for k, v in summary.counts.items()))
+    print_skipped(summary.skipped)
+    cv = summary.cross_validation
+    if cv is None:
+        print("cross-validation skipped: a class has fewer than 2 images")
+    else:
+        worst, worst_acc = cv.worst_class()
+        print(
+            f"{cv.folds}-fold cross-validated accuracy: mean {cv.mean_accuracy:.1f} % "
+            f"(overall {cv.overall_accuracy:.1f} %, worst class {worst} {worst_acc:.1f} %)"
+        )
+    print(f"model: {summary.model_path}")
+    return 0

@@ -1,0 +1,439 @@
+"""Terrain classifier training and accuracy reports: what ``train`` and ``report accuracy`` run.
+
+Both read a labelled image folder (:mod:`terrain_odom.vision.dataset`),
+extract features in parallel and score the classifier by stratified k-fold
+cross-validation over images (all tiles of an image stay in the same fold).
+The accuracy report always scores Chen et al.'s own recipe
+(:func:`~terrain_odom.vision.classifier.paper_config`) on the same folds
+beside the chosen configuration.
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import datetime
+import errno
+import io
+import os
+import tempfile
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import IO, Any
+
+import numpy as np
+from numpy.typing import NDArray
+from sklearn.model_selection import StratifiedKFold
+
+from terrain_odom import __version__
+from terrain_odom.errors import ConfigError, InputFileError
+from terrain_odom.io.report import write_json
+from terrain_odom.vision.classifier import ClassifierConfig, TerrainClassifier, paper_config
+from terrain_odom.vision.dataset import (
+    LabelledFeatures,
+    SkippedImage,
+    extract_feature_sets,
+    scan_image_folder,
+)
+
+__all__ = [
+    "REPORT_FORMAT_VERSION",
+    "CV_SEED",
+    "CrossValidation",
+    "TrainSummary",
+    "AccuracyReport",
+    "cross_validate",
+    "feature_times_ms",
+    "train",
+    "report_accuracy",
+]
+
+REPORT_FORMAT_VERSION = 1
+CV_SEED = 0
+"""Seed of the fold shuffling: every report uses the same folds."""
+
+
+@dataclass(frozen=True)
+class CrossValidation:
+    """Result of a stratified k-fold cross-validation.
+
+    Attributes
+    ----------
+    cfg : ClassifierConfig
+    classes : tuple of str
+    folds : int
+    confusion : ndarray of int, shape (n_classes, n_classes)
+        Image counts; row = true class, column = predicted class.
+    """
+
+    cfg: ClassifierConfig
+    classes: tuple[str, ...]
+    folds: int
+    confusion: NDArray[np.int64]
+
+    @property
+    def percent(self) -> NDArray[np.float64]:
+        """Row-normalised confusion matrix, % (each row sums to 100)."""
+        return 100.0 * self.confusion / self.confusion.sum(axis=1, keepdims=True)
+
+    @property
+    def per_class_accuracy(self) -> dict[str, float]:
+        """Share of each class's images classified correctly, %."""
+        return dict(zip(self.classes, np.diag(self.percent).tolist(), strict=True))
+
+    @property
+    def mean_accuracy(self) -> float:
+        """Mean of the per-class accuracies, % (balanced accuracy)."""
+        return float(np.mean(np.diag(self.percent)))
+
+    @property
+    def overall_accuracy(self) -> float:
+        """Share of all images classified correctly, %."""
+        return float(100.0 * np.trace(self.confusion) / self.confusion.sum())
+
+    def worst_class(self) -> tuple[str, float]:
+        """Return the class with the lowest accuracy and that accuracy, %."""
+        name = min(self.per_class_accuracy, key=self.per_class_accuracy.__getitem__)
+        return name, self.per_class_accuracy[name]
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain data for reports."""
+        return {
+            "config": dataclasses.asdict(self.cfg),
+            "confusion_counts": self.confusion,
+            "confusion_percent": self.percent,
+            "per_class_accuracy_percent": self.per_class_accuracy,
+            "mean_accuracy_percent": self.mean_accuracy,
+            "overall_accuracy_percent": self.overall_accuracy,
+        }
+
+
+def cross_validate(
+    data: LabelledFeatures,
+    cfg: ClassifierConfig | None = None,
+    *,
+    folds: int = 5,
+    seed: int = CV_SEED,
+) -> CrossValidation:
+    """Stratified k-fold cross-validation of the classifier over images.
+
+    Parameters
+    ----------
+    data : LabelledFeatures
+        Features of every image.
+    cfg : ClassifierConfig, optional
+        Classifier settings (default ``data.cfg``); its feature settings must
+        be those ``data`` was computed with, while ``scale``, ``k`` and
+        ``weights`` may differ.
+    folds : int
+        Number of folds (scikit-learn ``StratifiedKFold``, shuffled with ``seed``).
+    seed : int
+
+    Returns
+    -------
+    CrossValidation
+
+    Raises
+    ------
+    InputFileError
+        A class has fewer images than ``folds``.
+    """
+    cfg = data.cfg if cfg is None else cfg
+    if cfg.feature_key() != data.cfg.feature_key():
+        raise ValueError("cfg's feature settings differ from those the features were computed with")
+    smallest = min(data.counts().items(), key=lambda item: item[1])
+    if folds < 2 or smallest[1] < folds:
+        raise InputFileError(
+            f"cannot cross-validate with {folds} folds: class '{smallest[0]}' has "
+            f"{smallest[1]} usable image(s), and every fold needs one of each class"
+        )
+    splitter = StratifiedKFold(n_splits=folds, shuffle=True, random_state=seed)
+    confusion = np.zeros((len(data.classes), len(data.classes)), dtype=np.int64)
+    index = {name: i for i, name in enumerate(data.classes)}
+    for train_idx, test_idx in splitter.split(data.features[:, 0, :], data.labels):
+        model = TerrainClassifier(cfg).fit(data.features[train_idx], data.labels[train_idx])
+        predicted = model.predict(data.features[test_idx])
+        for true, pred in zip(data.labels[test_idx], predicted, strict=True):
+            confusion[index[true], index[pred]] += 1
+    return CrossValidation(cfg, data.classes, folds, confusion)
+
+
+def feature_times_ms(data: LabelledFeatures) -> dict[str, dict[str, float]]:
+    """Feature-extraction time per image of each class, ms: ``{"mean": ..., "max": ...}``."""
+    out = {}
+    for name in data.classes:
+        ms = 1e3 * data.seconds[data.labels == name]
+        out[name] = {"mean": float(ms.mean()), "max": float(ms.max())}
+    return out
+
+
+def _check_output_file(path: Path) -> None:
+    if path.is_dir():
+        raise IsADirectoryError(
+            errno.EISDIR, "is a directory, expected a model file name", str(path)
+        )
+    if not path.parent.is_dir():
+        raise FileNotFoundError(errno.ENOENT, "directory does not exist", str(path.parent))
+
+
+@dataclass(frozen=True)
+class TrainSummary:
+    """What :func:`train` did.
+
+    Attributes
+    ----------
+    model_path : Path
+    cfg : ClassifierConfig
+    counts : dict of str to int
+        Images used per class.
+    skipped : tuple of SkippedImage
+    cross_validation : CrossValidation or None
+        None when a class has fewer than 2 images.
+    """
+
+    model_path: Path
+    cfg: ClassifierConfig
+    counts: dict[str, int]
+    skipped: tuple[SkippedImage, ...]
+    cross_validation: CrossValidation | None
+
+
+def train(
+    images: str | Path,
+    out: str | Path,
+    cfg: ClassifierConfig | None = None,
+    *,
+    folds: int = 5,
+    jobs: int | None = None,
+    progress: bool | None = None,
+) -> TrainSummary:
+    """Train a terrain classifier on a labelled image folder and save it.
+
+    Parameters
+    ----------
+    images : str or Path
+        Folder with one sub-folder of images per terrain class.
+    out : str or Path
+        Model file to write (``.npz``, see :meth:`TerrainClassifier.save`).
+    cfg : ClassifierConfig, optional
+        Default: :class:`ClassifierConfig`.
+    folds : int
+        Cross-validation folds, reduced to the smallest class's image count.
+    jobs : int, optional
+        Feature-extraction processes (default: all usable cores).
+    progress : bool, optional
+        Progress bar (default: on a terminal only).
+
+    Returns
+    -------
+    TrainSummary
+
+    Raises
+    ------
+    InputFileError
+        Missing folder, fewer than 2 classes, a class without usable images.
+    ConfigError
+        ``k`` larger than the number of training samples.
+    """
+    cfg = ClassifierConfig() if cfg is None else cfg
+    out = Path(out)
+    _check_output_file(out)
+    data = extract_feature_sets(scan_image_folder(images), [cfg], jobs=jobs, progress=progress)[0]
+    model = TerrainClassifier(cfg).fit(data.features, data.labels)
+    folds = min(folds, *data.counts().values())
+    validation = cross_validate(data, folds=folds) if folds >= 2 else None
+    model.save(out)
+    return TrainSummary(out, cfg, data.counts(), data.skipped, validation)
+
+
+@dataclass(frozen=True)
+class AccuracyReport:
+    """Cross-validated accuracy of a configuration and of Chen's recipe on the same folds.
+
+    Attributes
+    ----------
+    images : Path
+    chosen, paper : CrossValidation
+    feature_ms : dict
+        ``{"chosen" | "paper": {class: {"mean": ms, "max": ms}}}``.
+    counts : dict of str to int
+    skipped : tuple of SkippedImage
+    outputs : tuple of Path
+        Files written (empty without ``out_dir``).
+    """
+
+    images: Path
+    chosen: CrossValidation
+    paper: CrossValidation
+    feature_ms: dict[str, dict[str, dict[str, float]]]
+    counts: dict[str, int]
+    skipped: tuple[SkippedImage, ...]
+    outputs: tuple[Path, ...]
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain data for the JSON report."""
+        return {
+            "format_version": REPORT_FORMAT_VERSION,
+            "images": str(self.images),
+            "folds": self.chosen.folds,
+            "seed": CV_SEED,
+            "classes": list(self.chosen.classes),
+            "counts": self.counts,
+            "skipped": [{"path": str(s.path), "reason": s.reason} for s in self.skipped],
+            "configurations": {
+                name: {**cv.to_dict(), "feature_ms": self.feature_ms[name]}
+                for name, cv in (("chosen", self.chosen), ("paper", self.paper))
+            },
+            "terrain_odom_version": __version__,
+            "created": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+        }
+
+
+def report_accuracy(
+    images: str | Path,
+    cfg: ClassifierConfig | None = None,
+    *,
+    folds: int = 5,
+    out_dir: str | Path | None = None,
+    jobs: int | None = None,
+    progress: bool | None = None,
+) -> AccuracyReport:
+    """Cross-validated confusion matrices of ``cfg`` and of Chen's recipe.
+
+    Both are scored on the same stratified folds (seed :data:`CV_SEED`).
+
+    Parameters
+    ----------
+    images : str or Path
+        Labelled image folder.
+    cfg : ClassifierConfig, optional
+        Configuration to score (default :class:`ClassifierConfig`).
+    folds : int
+    out_dir : str or Path, optional
+        If given (an existing folder or one to create), write
+        ``accuracy.json``, ``accuracy.csv`` and ``confusion.png`` there, each
+        atomically.
+    jobs, progress
+        As in :func:`train`.
+
+    Returns
+    -------
+    AccuracyReport
+
+    Raises
+    ------
+    InputFileError
+        As :func:`train`, or a class with fewer images than ``folds``.
+    """
+    cfg = ClassifierConfig() if cfg is None else cfg
+    if folds < 2:
+        raise ConfigError(f"folds: must be >= 2, got {folds}")
+    out_dir = None if out_dir is None else Path(out_dir)
+    if out_dir is not None:
+        out_dir.mkdir(parents=True, exist_ok=True)
+    paper = paper_config()
+    chosen_data, paper_data = extract_feature_sets(
+        scan_image_folder(images), [cfg, paper], jobs=jobs, progress=progress
+    )
+    report = AccuracyReport(
+        images=Path(images),
+        chosen=cross_validate(chosen_data, folds=folds),
+        paper=cross_validate(paper_data, folds=folds),
+        feature_ms={"chosen": feature_times_ms(chosen_data), "paper": feature_times_ms(paper_data)},
+        counts=chosen_data.counts(),
+        skipped=chosen_data.skipped,
+        outputs=(),
+    )
+    if out_dir is None:
+        return report
+    outputs = (out_dir / "accuracy.json", out_dir / "accuracy.csv", out_dir / "confusion.png")
+    write_json(outputs[0], report.to_dict())
+    _write_atomic(outputs[1], "w", lambda handle: handle.write(accuracy_csv(report)))
+    _write_atomic(outputs[2], "wb", lambda handle: plot_confusion(report, handle))
+    return dataclasses.replace(report, outputs=outputs)
+
+
+def accuracy_csv(report: AccuracyReport) -> str:
+    """Return the report as CSV: one row per configuration and true class.
+
+    Columns: ``configuration, true_class, images, predicted_<class>_percent``
+    for each class (the row-normalised confusion matrix), ``accuracy_percent``,
+    ``feature_ms_mean, feature_ms_max``; then one ``mean`` row per
+    configuration with the mean per-class accuracy.
+    """
+    classes = report.chosen.classes
+    buffer = io.StringIO()
+    writer = csv.writer(buffer, lineterminator="\n")
+    writer.writerow(
+        ["configuration", "true_class", "images"]
+        + [f"predicted_{name}_percent" for name in classes]
+        + ["accuracy_percent", "feature_ms_mean", "feature_ms_max"]
+    )
+    for name, cv in (("chosen", report.chosen), ("paper", report.paper)):
+        times = report.feature_ms[name]
+        for i, true in enumerate(classes):
+            writer.writerow(
+                [name, true, int(cv.confusion[i].sum())]
+                + [f"{v:.2f}" for v in cv.percent[i]]
+                + [
+                    f"{cv.percent[i, i]:.2f}",
+                    f"{times[true]['mean']:.3f}",
+                    f"{times[true]['max']:.3f}",
+                ]
+            )
+        writer.writerow(
+            [name, "mean", int(cv.confusion.sum())]
+            + [""] * len(classes)
+            + [f"{cv.mean_accuracy:.2f}", "", ""]
+        )
+    return buffer.getvalue()
+
+
+def plot_confusion(report: AccuracyReport, handle: IO[bytes]) -> None:
+    """Draw both confusion matrices side by side as a PNG into ``handle``.
+
+    matplotlib is imported here, with the Agg canvas (no display needed).
+    """
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    classes = report.chosen.classes
+    fig = Figure(figsize=(4.2 * 2, 3.8), layout="constrained")
+    FigureCanvasAgg(fig)
+    for ax, (title, cv) in zip(
+        fig.subplots(1, 2),
+        (("chosen", report.chosen), ("paper (Chen et al.)", report.paper)),
+        strict=True,
+    ):
+        image = ax.imshow(cv.percent, vmin=0.0, vmax=100.0, cmap="Blues")
+        for (i, j), value in np.ndenumerate(cv.percent):
+            ax.text(
+                j,
+                i,
+                f"{value:.1f}",
+                ha="center",
+                va="center",
+                color="white" if value > 60 else "black",
+            )
+        ax.set_xticks(range(len(classes)), classes, rotation=30, ha="right")
+        ax.set_yticks(range(len(classes)), classes)
+        ax.set_xlabel("predicted")
+        ax.set_ylabel("true")
+        ax.set_title(f"{title}: mean {cv.mean_accuracy:.1f} %")
+    fig.colorbar(image, ax=fig.axes, label="% of true class")
+    fig.savefig(handle, format="png", dpi=120)
+
+
+def _write_atomic(path: Path, mode: str, write: Callable[[IO[Any]], object]) -> None:
+    """Write a file through ``write(handle)`` into a temp file, then rename it over ``path``."""
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(
+            fd, mode, **({"encoding": "utf-8", "newline": ""} if "b" not in mode else {})
+        ) as handle:
+            write(handle)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise

@@ -1,0 +1,564 @@
+"""KNN terrain classifier on SFTA texture features (Chen et al. 2023, §3.2.3).
+
+Chen et al. describe each image region by the 24 SFTA values of its grey image
+(eq. 18-21) and classify it by the majority vote of its ``k`` nearest
+training samples in raw Euclidean distance (eq. 23-26). This module keeps
+that recipe selectable (``features="sfta"``, ``relative_counts=False``,
+``scale=False``, see :func:`paper_config`) and adds, each as an option of
+:class:`ClassifierConfig`:
+
+- **standardisation** (``scale``): the raw SFTA values differ by orders of
+  magnitude (border pixel counts ~1e4, fractal dimensions ~1.5), so the raw
+  distance of eq. 24 is dominated by the counts;
+- **relative counts** (``relative_counts``): SFTA's pixel counts ``C_i`` as
+  fractions of the region's area (as :func:`~terrain_odom.vision.sfta.sfta_features`
+  returns them), so that regions of any size (tiles, regions of interest)
+  compare with the training images; the paper's raw counts scale with the
+  region's size;
+- **colour statistics** (``features="sfta+lab"`` or ``"sfta+hsv"``): grey
+  SFTA throws away colour, which is what separates e.g. wood from carpet;
+- **image pyramid** (``pyramid_levels``): SFTA also of the region halved
+  ``1, 2, ...`` times, describing the texture at coarser scales;
+- **tile voting** (``tiles``): a region is cut into ``tiles x tiles`` tiles,
+  each tile is classified, and the region gets the majority label with the
+  vote share as its confidence;
+- **distance weighting** of the neighbours' votes (``weights``).
+
+A KNN model *is* its training set: :meth:`TerrainClassifier.save` writes the
+training features, labels, scaler parameters and metadata to one ``.npz``
+file (no pickle), and :meth:`TerrainClassifier.load` refuses a model whose
+feature format differs from this code's.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import datetime
+import json
+import os
+import tempfile
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Literal
+
+import cv2
+import numpy as np
+import yaml
+from numpy.typing import NDArray
+from sklearn.neighbors import KNeighborsClassifier
+from sklearn.pipeline import Pipeline
+from sklearn.preprocessing import StandardScaler
+
+from terrain_odom import __version__
+from terrain_odom.config import build_section
+from terrain_odom.errors import ConfigError, InputFileError
+from terrain_odom.vision.sfta import sfta_features
+
+__all__ = [
+    "FEATURE_VERSION",
+    "MODEL_FORMAT_VERSION",
+    "PAPER_K",
+    "FEATURE_FIELDS",
+    "ClassifierConfig",
+    "paper_config",
+    "load_classifier_config",
+    "colour_statistics",
+    "region_features",
+    "split_tiles",
+    "image_features",
+    "make_pipeline",
+    "TerrainClassifier",
+]
+
+FEATURE_VERSION = 1
+"""Version of the feature vector; bump it whenever :func:`image_features` changes."""
+
+MODEL_FORMAT_VERSION = 1
+"""Version of the model file layout written by :meth:`TerrainClassifier.save`."""
+
+PAPER_K = 5
+"""Neighbour count of the paper-faithful configuration (Chen et al. do not state theirs)."""
+
+FeatureOption = Literal["sfta", "sfta+lab", "sfta+hsv"]
+
+FEATURE_FIELDS = ("features", "n_t", "relative_counts", "pyramid_levels", "tiles")
+"""Fields of :class:`ClassifierConfig` that change the feature vectors."""
+
+
+@dataclass(frozen=True)
+class ClassifierConfig:
+    """Features and KNN settings of the terrain classifier.
+
+    Attributes
+    ----------
+    features : {"sfta", "sfta+lab", "sfta+hsv"}
+        Grey SFTA only (Chen), or SFTA plus the mean and standard deviation
+        of each channel of CIE L*a*b* or HSV (6 values).
+    n_t : int
+        Number of multi-level Otsu thresholds of SFTA (``6 * n_t`` values).
+    relative_counts : bool
+        SFTA's pixel counts ``C_i`` as fractions of the region's area (True)
+        or as pixel counts (False, Chen).
+    pyramid_levels : int
+        SFTA of the region at ``pyramid_levels`` scales (full, 1/2, 1/4, ...).
+    scale : bool
+        Standardise every feature to zero mean, unit variance on the training
+        set before the distance (False: raw Euclidean distance, eq. 24).
+    k : int
+        Number of neighbours voting (eq. 25-26).
+    weights : {"uniform", "distance"}
+        Each neighbour's vote counts 1 (Chen) or ``1 / distance``.
+    tiles : int
+        Tiles per side for tile voting; 1 classifies the whole region.
+    """
+
+    features: FeatureOption = "sfta+lab"
+    n_t: int = 4
+    relative_counts: bool = True
+    pyramid_levels: int = 1
+    scale: bool = True
+    k: int = 5
+    weights: Literal["uniform", "distance"] = "distance"
+    tiles: int = 4
+
+    def feature_key(self) -> dict[str, Any]:
+        """Return the fields that define the feature vectors (:data:`FEATURE_FIELDS`)."""
+        return {name: getattr(self, name) for name in FEATURE_FIELDS}
+
+
+def paper_config(n_t: int = 4) -> ClassifierConfig:
+    """Return Chen et al.'s recipe: grey SFTA, raw counts and distances, ``k = PAPER_K``."""
+    return ClassifierConfig(
+        features="sfta",
+        n_t=n_t,
+        relative_counts=False,
+        pyramid_levels=1,
+        scale=False,
+        k=PAPER_K,
+        weights="uniform",
+        tiles=1,
+    )
+
+
+def load_classifier_config(
+    path: str | Path | None = None, overrides: Mapping[str, Any] | None = None
+) -> ClassifierConfig:
+    """Load a classifier configuration (YAML, keys of :class:`ClassifierConfig`).
+
+    Parameters
+    ----------
+    path : str or Path, optional
+        YAML file; keys left out keep the defaults. ``None``: the defaults.
+    overrides : mapping, optional
+        Values that replace those of the file (e.g. command-line options),
+        validated by the same rules.
+
+    Raises
+    ------
+    ConfigError
+        Naming the file and the first unknown or invalid key.
+    """
+    cfg = ClassifierConfig()
+    if path is not None:
+        path = Path(path)
+        try:
+            data = yaml.safe_load(path.read_text(encoding="utf-8"))
+        except FileNotFoundError:
+            raise ConfigError(f"{path}: config file not found") from None
+        except OSError as exc:
+            raise ConfigError(f"{path}: cannot read config file ({exc.strerror})") from None
+        except yaml.YAMLError:
+            raise ConfigError(f"{path}: not valid YAML") from None
+        try:
+            cfg = build_section(cfg, data or {})
+        except ConfigError as exc:
+            raise ConfigError(f"{path}: {exc}") from None
+    return build_section(cfg, dict(overrides or {}))
+
+
+def colour_statistics(image_rgb: NDArray[np.uint8], space: Literal["lab", "hsv"]) -> NDArray:
+    """Mean and standard deviation of each channel of a colour space.
+
+    Parameters
+    ----------
+    image_rgb : ndarray of uint8, shape (H, W, 3)
+        RGB image.
+    space : {"lab", "hsv"}
+        CIE L*a*b* (OpenCV's 8-bit scaling: L in [0, 255], a and b offset by
+        128) or HSV (H in [0, 180) as OpenCV, S and V in [0, 255]). The hue
+        of HSV is an angle, so its "mean" and "spread" are those of the
+        circular statistics, in OpenCV hue units: the direction of the mean
+        hue vector and ``sqrt(-2 ln R)`` (R its length).
+
+    Returns
+    -------
+    ndarray of float64, shape (6,)
+        ``[mean_0, std_0, mean_1, std_1, mean_2, std_2]``.
+    """
+    code = cv2.COLOR_RGB2Lab if space == "lab" else cv2.COLOR_RGB2HSV
+    pixels = cv2.cvtColor(np.ascontiguousarray(image_rgb), code).reshape(-1, 3)
+    pixels = pixels.astype(np.float64)
+    out = np.empty(6)
+    out[0::2] = pixels.mean(axis=0)
+    out[1::2] = pixels.std(axis=0)
+    if space == "hsv":
+        angle = pixels[:, 0] * (np.pi / 90.0)
+        c, s = np.cos(angle).mean(), np.sin(angle).mean()
+        length = min(np.hypot(c, s), 1.0)
+        out[0] = (np.arctan2(s, c) % (2.0 * np.pi)) * (90.0 / np.pi)
+        out[1] = np.sqrt(-2.0 * np.log(max(length, 1e-12))) * (90.0 / np.pi)
+    return out
+
+
+def region_features(image_rgb: NDArray[np.uint8], cfg: ClassifierConfig) -> NDArray:
+    """Feature vector of one image region (a whole region or one tile).
+
+    Parameters
+    ----------
+    image_rgb : ndarray of uint8, shape (H, W, 3)
+        RGB region.
+    cfg : ClassifierConfig
+
+    Returns
+    -------
+    ndarray of float64, shape (n_features,)
+        The ``6 * n_t`` SFTA values of each pyramid level (full size first,
+        then halved; counts ``C_i`` times the level's pixel count unless
+        ``cfg.relative_counts``), then the 6 colour statistics if any:
+        ``n_features = 6 * n_t * pyramid_levels (+ 6)``.
+    """
+    parts = []
+    level = image_rgb
+    for depth in range(cfg.pyramid_levels):
+        if depth:
+            height, width = level.shape[:2]
+            size = (max(width // 2, 1), max(height // 2, 1))
+            level = cv2.resize(level, size, interpolation=cv2.INTER_AREA)
+        sfta = np.array(sfta_features(level, cfg.n_t), dtype=np.float64)
+        if not cfg.relative_counts:  # sfta_features gives fractions of the area
+            sfta[1::3] *= level.shape[0] * level.shape[1]
+        parts.append(sfta)
+    if cfg.features != "sfta":
+        parts.append(colour_statistics(image_rgb, "lab" if cfg.features == "sfta+lab" else "hsv"))
+    return np.concatenate(parts)
+
+
+def split_tiles(image: NDArray, tiles: int) -> list[NDArray]:
+    """Cut an image into ``tiles x tiles`` tiles, row by row.
+
+    Tile edges are at ``round(i * H / tiles)`` and ``round(j * W / tiles)``,
+    so every pixel belongs to exactly one tile.
+
+    >>> [t.shape for t in split_tiles(np.zeros((5, 4)), 2)]
+    [(2, 2), (2, 2), (3, 2), (3, 2)]
+    """
+    height, width = image.shape[:2]
+    if tiles > min(height, width):
+        raise ValueError(f"cannot cut a {height}x{width} image into {tiles}x{tiles} tiles")
+    rows = np.rint(np.linspace(0, height, tiles + 1)).astype(int)
+    cols = np.rint(np.linspace(0, width, tiles + 1)).astype(int)
+    return [
+        image[rows[i] : rows[i + 1], cols[j] : cols[j + 1]]
+        for i in range(tiles)
+        for j in range(tiles)
+    ]
+
+
+def image_features(image_rgb: NDArray[np.uint8], cfg: ClassifierConfig) -> NDArray:
+    """Feature vectors of the tiles of a region.
+
+    Parameters
+    ----------
+    image_rgb : ndarray of uint8, shape (H, W, 3)
+        RGB region; at least ``cfg.tiles`` pixels on each side.
+    cfg : ClassifierConfig
+
+    Returns
+    -------
+    ndarray of float64, shape (cfg.tiles ** 2, n_features)
+        :func:`region_features` of each tile (one row when ``tiles == 1``).
+    """
+    image_rgb = np.asarray(image_rgb)
+    if image_rgb.ndim != 3 or image_rgb.shape[2] != 3 or image_rgb.dtype != np.uint8:
+        raise ValueError(
+            f"expected an RGB uint8 image (H, W, 3), got {image_rgb.dtype} {image_rgb.shape}"
+        )
+    return np.stack([region_features(tile, cfg) for tile in split_tiles(image_rgb, cfg.tiles)])
+
+
+def make_pipeline(cfg: ClassifierConfig) -> Pipeline:
+    """Return the unfitted scikit-learn pipeline of a configuration.
+
+    ``StandardScaler`` then ``KNeighborsClassifier(k, weights)`` with
+    Euclidean distance; without the scaler when ``cfg.scale`` is False (the
+    raw distance of eq. 24).
+    """
+    steps: list[tuple[str, Any]] = [("scaler", StandardScaler())] if cfg.scale else []
+    steps.append(("knn", KNeighborsClassifier(n_neighbors=cfg.k, weights=cfg.weights)))
+    return Pipeline(steps)
+
+
+def _as_regions(features: NDArray) -> NDArray:
+    """View features as (n_regions, n_tiles, n_features)."""
+    features = np.asarray(features, dtype=np.float64)
+    if features.ndim == 2:
+        return features[:, None, :]
+    if features.ndim != 3:
+        raise ValueError(f"features must have 2 or 3 dimensions, got shape {features.shape}")
+    return features
+
+
+class TerrainClassifier:
+    """KNN terrain classifier with optional tile voting.
+
+    Parameters
+    ----------
+    cfg : ClassifierConfig, optional
+        Features and KNN settings (default: :class:`ClassifierConfig`).
+
+    Examples
+    --------
+    >>> clf = TerrainClassifier(ClassifierConfig(k=1)).fit(
+    ...     np.array([[0.0, 0.0], [1.0, 1.0]]), np.array(["grass", "gravel"]))
+    >>> clf.predict(np.array([[0.1, 0.2]])).tolist()
+    ['grass']
+    """
+
+    def __init__(self, cfg: ClassifierConfig | None = None) -> None:
+        self.cfg = cfg if cfg is not None else ClassifierConfig()
+        self.pipeline = make_pipeline(self.cfg)
+        self.training_features = np.empty((0, 0))
+        self.training_labels = np.empty(0, dtype=str)
+        self.n_training_images = 0
+
+    @property
+    def classes(self) -> list[str]:
+        """Class names, sorted (the columns of :meth:`predict_proba`)."""
+        return [str(c) for c in self.pipeline.classes_]
+
+    def fit(self, features: NDArray, labels: NDArray) -> TerrainClassifier:
+        """Fit on the tiles of labelled regions.
+
+        Parameters
+        ----------
+        features : ndarray, shape (n_regions, n_tiles, n_features) or (n_regions, n_features)
+            Output of :func:`image_features` per training region.
+        labels : array_like of str, shape (n_regions,)
+            Terrain of each region; every tile of a region gets its label.
+
+        Returns
+        -------
+        TerrainClassifier
+            ``self``.
+
+        Raises
+        ------
+        ConfigError
+            ``k`` is larger than the number of training samples (tiles).
+        """
+        regions = _as_regions(features)
+        labels = np.asarray(labels).astype(str)
+        if labels.shape != (regions.shape[0],):
+            raise ValueError(f"{regions.shape[0]} regions but labels of shape {labels.shape}")
+        if self.cfg.k > regions.shape[0] * regions.shape[1]:
+            raise ConfigError(
+                f"k: {self.cfg.k} neighbours but only {regions.shape[0] * regions.shape[1]} "
+                "training samples"
+            )
+        self.training_features = regions.reshape(-1, regions.shape[2])
+        self.training_labels = np.repeat(labels, regions.shape[1])
+        self.pipeline.fit(self.training_features, self.training_labels)
+        self.n_training_images = regions.shape[0]
+        return self
+
+    def predict_proba(self, features: NDArray) -> NDArray:
+        """Neighbour vote shares of every tile.
+
+        Parameters
+        ----------
+        features : ndarray, shape (n_samples, n_features)
+            One row per tile (or region).
+
+        Returns
+        -------
+        ndarray, shape (n_samples, n_classes)
+            Share of the ``k`` neighbours' votes (weighted by inverse distance
+            when ``weights == "distance"``) for each class of :attr:`classes`.
+        """
+        return self.pipeline.predict_proba(np.asarray(features, dtype=np.float64))
+
+    def predict_with_confidence(self, features: NDArray) -> tuple[NDArray, NDArray]:
+        """Label and confidence of each region.
+
+        Parameters
+        ----------
+        features : ndarray, shape (n_regions, n_tiles, n_features) or (n_regions, n_features)
+
+        Returns
+        -------
+        labels : ndarray of str, shape (n_regions,)
+            With one tile: the KNN label (eq. 26). With several: the label
+            most tiles get; a tie goes to the class with the larger summed
+            neighbour vote share.
+        confidence : ndarray of float, shape (n_regions,)
+            With one tile: the neighbour vote share of the label. With
+            several: the share of tiles that voted for the label.
+        """
+        regions = _as_regions(features)
+        n_regions, n_tiles, n_features = regions.shape
+        proba = self.predict_proba(regions.reshape(-1, n_features)).reshape(n_regions, n_tiles, -1)
+        rows = np.arange(n_regions)
+        if n_tiles == 1:
+            best = proba[:, 0, :].argmax(axis=1)
+            confidence = proba[rows, 0, best]
+        else:
+            tile_labels = proba.argmax(axis=2)
+            votes = (tile_labels[..., None] == np.arange(proba.shape[2])).sum(axis=1)
+            # The summed vote shares (< n_tiles) only break ties between vote counts.
+            best = (votes + proba.sum(axis=1) / (n_tiles + 1)).argmax(axis=1)
+            confidence = votes[rows, best] / n_tiles
+        return np.asarray(self.pipeline.classes_)[best], confidence
+
+    def predict(self, features: NDArray) -> NDArray:
+        """Label of each region (see :meth:`predict_with_confidence`)."""
+        return self.predict_with_confidence(features)[0]
+
+    def classify(self, image_rgb: NDArray[np.uint8]) -> tuple[str, float]:
+        """Classify one RGB image region.
+
+        Parameters
+        ----------
+        image_rgb : ndarray of uint8, shape (H, W, 3)
+
+        Returns
+        -------
+        label : str
+        confidence : float
+            Vote share in [0, 1] (of the tiles when tiling, else of the neighbours).
+        """
+        labels, confidence = self.predict_with_confidence(image_features(image_rgb, self.cfg)[None])
+        return str(labels[0]), float(confidence[0])
+
+    def metadata(self) -> dict[str, Any]:
+        """Metadata stored in the model file."""
+        return {
+            "format_version": MODEL_FORMAT_VERSION,
+            "feature_version": FEATURE_VERSION,
+            "config": dataclasses.asdict(self.cfg),
+            "classes": self.classes,
+            "n_training_images": self.n_training_images,
+            "n_training_samples": len(self.training_labels),
+            "created": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+            "terrain_odom_version": __version__,
+        }
+
+    def save(self, path: str | Path) -> Path:
+        """Write the model atomically to one ``.npz`` file (no pickle).
+
+        Arrays: ``features`` (n_samples, n_features) raw training features,
+        ``labels`` (n_samples,) str, ``scaler_mean`` and ``scaler_scale``
+        (n_features,) (empty without scaling), ``metadata`` a JSON string
+        (:meth:`metadata`). The file is written as given, even without the
+        ``.npz`` suffix.
+
+        Returns
+        -------
+        Path
+        """
+        path = Path(path)
+        if self.cfg.scale:
+            scaler = self.pipeline["scaler"]
+            mean, scale = scaler.mean_, scaler.scale_
+        else:
+            mean = scale = np.empty(0)
+        arrays = {
+            "features": self.training_features,
+            "labels": self.training_labels,
+            "scaler_mean": mean,
+            "scaler_scale": scale,
+            "metadata": np.array(json.dumps(self.metadata())),
+        }
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+        try:
+            with os.fdopen(fd, "wb") as handle:
+                np.savez(handle, **arrays)
+            os.replace(tmp, path)
+        except BaseException:
+            Path(tmp).unlink(missing_ok=True)
+            raise
+        return path
+
+    @classmethod
+    def load(cls, path: str | Path, expected: ClassifierConfig | None = None) -> TerrainClassifier:
+        """Read a model written by :meth:`save`.
+
+        Parameters
+        ----------
+        path : str or Path
+        expected : ClassifierConfig, optional
+            If given, the model's feature settings (:data:`FEATURE_FIELDS`)
+            must equal these.
+
+        Raises
+        ------
+        InputFileError
+            The file is missing or not a model, or its format version,
+            feature version or feature settings differ from this code's or
+            ``expected``'s (the message names the file and both values).
+        """
+        path = Path(path)
+        try:
+            with np.load(path, allow_pickle=False) as data:
+                arrays = {name: data[name] for name in data.files}
+        except FileNotFoundError:
+            raise InputFileError(f"{path}: model file not found") from None
+        except (OSError, ValueError) as exc:
+            raise InputFileError(f"{path}: not a terrain-odom model file ({exc})") from None
+        missing = {"features", "labels", "scaler_mean", "scaler_scale", "metadata"} - set(arrays)
+        if missing:
+            raise InputFileError(f"{path}: not a terrain-odom model file (no {sorted(missing)})")
+        meta = json.loads(str(arrays["metadata"]))
+        cfg = _check_model_metadata(path, meta, expected)
+        model = cls(cfg)
+        model.training_features = arrays["features"]
+        model.training_labels = arrays["labels"]
+        samples = model.training_features
+        if cfg.scale:  # the stored scaler, not one refitted
+            scaler = model.pipeline["scaler"]
+            scaler.mean_, scaler.scale_ = arrays["scaler_mean"], arrays["scaler_scale"]
+            scaler.var_ = scaler.scale_**2
+            scaler.n_features_in_ = samples.shape[1]
+            scaler.n_samples_seen_ = samples.shape[0]
+            samples = scaler.transform(samples)
+        model.pipeline["knn"].fit(samples, model.training_labels)
+        model.n_training_images = int(meta["n_training_images"])
+        return model
+
+
+def _check_model_metadata(
+    path: Path, meta: dict[str, Any], expected: ClassifierConfig | None
+) -> ClassifierConfig:
+    """Return the model's configuration, or raise if it does not match this code."""
+    for key, ours in (
+        ("format_version", MODEL_FORMAT_VERSION),
+        ("feature_version", FEATURE_VERSION),
+    ):
+        if meta.get(key) != ours:
+            raise InputFileError(
+                f"{path}: model {key} is {meta.get(key)!r} but this terrain-odom uses {ours}; "
+                "retrain the model with 'terrain-odom train'"
+            )
+    try:
+        cfg = build_section(ClassifierConfig(), meta["config"], "config")
+    except (ConfigError, KeyError) as exc:
+        raise InputFileError(f"{path}: invalid model metadata ({exc})") from None
+    if expected is not None:
+        for name in FEATURE_FIELDS:
+            theirs, ours = getattr(cfg, name), getattr(expected, name)
+            if theirs != ours:
+                raise InputFileError(
+                    f"{path}: model was trained with {name}={theirs!r} but the configuration "
+                    f"asks for {name}={ours!r}; retrain the model or change the configuration"
+                )
+    return cfg

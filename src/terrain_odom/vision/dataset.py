@@ -1,0 +1,313 @@
+"""Labelled image folders and parallel feature extraction.
+
+A labelled image folder has one sub-folder per terrain class, named after the
+class, holding its images (at any depth; png, jpg, jpeg, bmp, tif, tiff in
+any letter case; hidden files and folders are ignored)::
+
+    images/
+      carpet/  0001.jpg  0002.jpg ...
+      wood/    a.png ...
+
+Images are decoded with OpenCV (BGR) and converted to RGB here, at the edge;
+everything after works on RGB.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from collections import Counter
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import cv2
+import numpy as np
+from joblib import Parallel, delayed
+from numpy.typing import NDArray
+from tqdm import tqdm
+
+from terrain_odom.errors import ConfigError, InputFileError
+from terrain_odom.vision.classifier import ClassifierConfig, image_features
+
+__all__ = [
+    "IMAGE_SUFFIXES",
+    "LabelledImages",
+    "SkippedImage",
+    "LabelledFeatures",
+    "scan_image_folder",
+    "read_image_rgb",
+    "extract_features",
+    "extract_feature_sets",
+]
+
+IMAGE_SUFFIXES = frozenset({".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff"})
+
+
+@dataclass(frozen=True)
+class LabelledImages:
+    """The images of a labelled folder.
+
+    Attributes
+    ----------
+    root : Path
+        The folder.
+    classes : tuple of str
+        Class names (sub-folder names), sorted.
+    paths : tuple of Path
+        Image files, sorted by class then path.
+    labels : tuple of str
+        Class of each image.
+    """
+
+    root: Path
+    classes: tuple[str, ...]
+    paths: tuple[Path, ...]
+    labels: tuple[str, ...]
+
+    def counts(self) -> dict[str, int]:
+        """Return the number of images of each class, in class order."""
+        counter = Counter(self.labels)
+        return {name: counter[name] for name in self.classes}
+
+
+@dataclass(frozen=True)
+class SkippedImage:
+    """An image left out of a data set, and why."""
+
+    path: Path
+    reason: str
+
+
+@dataclass(frozen=True)
+class LabelledFeatures:
+    """Features of the readable images of a labelled folder for one configuration.
+
+    Attributes
+    ----------
+    cfg : ClassifierConfig
+        Configuration the features were computed with.
+    features : ndarray of float64, shape (n_images, cfg.tiles ** 2, n_features)
+        :func:`~terrain_odom.vision.classifier.image_features` of each image.
+    labels : ndarray of str, shape (n_images,)
+    paths : tuple of Path
+        The images, in the order of ``features``.
+    seconds : ndarray of float64, shape (n_images,)
+        Feature-extraction time of each image, s (decoding excluded; measured
+        in the worker process, so it includes contention from the others).
+    classes : tuple of str
+    skipped : tuple of SkippedImage
+        Images that could not be read or used.
+    """
+
+    cfg: ClassifierConfig
+    features: NDArray[np.float64]
+    labels: NDArray[np.str_]
+    paths: tuple[Path, ...]
+    seconds: NDArray[np.float64]
+    classes: tuple[str, ...]
+    skipped: tuple[SkippedImage, ...]
+
+    def counts(self) -> dict[str, int]:
+        """Return the number of used images of each class, in class order."""
+        counter = Counter(self.labels.tolist())
+        return {name: counter[name] for name in self.classes}
+
+
+def _is_hidden(path: Path, root: Path) -> bool:
+    return any(part.startswith(".") for part in path.relative_to(root).parts)
+
+
+def scan_image_folder(root: str | Path) -> LabelledImages:
+    """List the images of a labelled folder (one sub-folder per class).
+
+    Raises
+    ------
+    InputFileError
+        The folder does not exist, has fewer than 2 class sub-folders, or a
+        class sub-folder has no image.
+    """
+    root = Path(root)
+    if not root.is_dir():
+        raise InputFileError(f"{root}: image folder not found")
+    class_dirs = sorted(p for p in root.iterdir() if p.is_dir() and not p.name.startswith("."))
+    if len(class_dirs) < 2:
+        raise InputFileError(
+            f"{root}: needs one sub-folder per terrain class and at least 2 classes, "
+            f"found {[p.name for p in class_dirs]}"
+        )
+    paths: list[Path] = []
+    labels: list[str] = []
+    for class_dir in class_dirs:
+        images = sorted(
+            p
+            for p in class_dir.rglob("*")
+            if p.suffix.lower() in IMAGE_SUFFIXES and p.is_file() and not _is_hidden(p, root)
+        )
+        if not images:
+            raise InputFileError(
+                f"{class_dir}: class '{class_dir.name}' has no images "
+                f"({', '.join(sorted(s[1:] for s in IMAGE_SUFFIXES))})"
+            )
+        paths += images
+        labels += [class_dir.name] * len(images)
+    return LabelledImages(root, tuple(p.name for p in class_dirs), tuple(paths), tuple(labels))
+
+
+def read_image_rgb(path: str | Path) -> NDArray[np.uint8] | None:
+    """Decode an image file to RGB uint8 (H, W, 3); ``None`` if it cannot be decoded.
+
+    Grey images are replicated to 3 channels, an alpha channel is dropped,
+    16-bit images are scaled to 8 bits (OpenCV's ``IMREAD_COLOR``).
+    """
+    try:
+        data = np.fromfile(path, dtype=np.uint8)
+    except OSError:
+        return None
+    bgr = cv2.imdecode(data, cv2.IMREAD_COLOR) if data.size else None
+    if bgr is None:
+        return None
+    return cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
+
+
+def _extract_one(
+    path: Path, configs: Sequence[ClassifierConfig]
+) -> tuple[list[NDArray], list[float]] | str:
+    """Features and extraction time (s) of one image per configuration, or why it failed."""
+    image = read_image_rgb(path)
+    if image is None:
+        return "cannot be read as an image"
+    features, seconds = [], []
+    for cfg in configs:
+        start = time.perf_counter()
+        try:
+            features.append(image_features(image, cfg))
+        except ValueError as exc:  # e.g. smaller than the tile grid
+            return str(exc)
+        seconds.append(time.perf_counter() - start)
+    return features, seconds
+
+
+def _extract_in_worker(
+    path: Path, configs: Sequence[ClassifierConfig]
+) -> tuple[list[NDArray], list[float]] | str:
+    """:func:`_extract_one` in a worker process: OpenCV single-threaded (one worker per core)."""
+    cv2.setNumThreads(1)
+    return _extract_one(path, configs)
+
+
+def _default_jobs() -> int:
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        return os.cpu_count() or 1
+
+
+def extract_feature_sets(
+    images: LabelledImages,
+    configs: Sequence[ClassifierConfig],
+    *,
+    jobs: int | None = None,
+    progress: bool | None = None,
+) -> list[LabelledFeatures]:
+    """Compute the features of every image for several configurations.
+
+    Each image is decoded once; configurations with the same feature settings
+    (:meth:`ClassifierConfig.feature_key`) share one computation.
+
+    Parameters
+    ----------
+    images : LabelledImages
+    configs : sequence of ClassifierConfig
+    jobs : int, optional
+        Worker processes (default: the usable cores); 1 runs in this process.
+    progress : bool, optional
+        Show a progress bar (default: only on a terminal).
+
+    Returns
+    -------
+    list of LabelledFeatures
+        One per configuration, with the same images and skipped images.
+
+    Raises
+    ------
+    ConfigError
+        ``jobs < 1``.
+    InputFileError
+        Fewer than 2 classes, or a class without any usable image, remain.
+    """
+    jobs = _default_jobs() if jobs is None else jobs
+    if jobs < 1:
+        raise ConfigError(f"jobs: must be a whole number >= 1, got {jobs!r}")
+    keys = [tuple(cfg.feature_key().items()) for cfg in configs]
+    unique_keys = list(dict.fromkeys(keys))
+    unique = [configs[keys.index(key)] for key in unique_keys]
+    results = _run_all(images.paths, unique, jobs, progress)
+    return _collect(images, configs, [unique_keys.index(key) for key in keys], results)
+
+
+def _run_all(
+    paths: Sequence[Path], configs: list[ClassifierConfig], jobs: int, progress: bool | None
+) -> list[tuple[list[NDArray], list[float]] | str]:
+    """:func:`_extract_one` over all images, in order, in ``jobs`` processes."""
+    disable = None if progress is None else not progress
+    with tqdm(total=len(paths), desc="features", unit="image", disable=disable) as bar:
+        if jobs == 1:
+            tasks = (_extract_one(path, configs) for path in paths)
+        else:  # loky workers do not re-run the caller's __main__ (unlike spawn)
+            parallel = Parallel(n_jobs=jobs, return_as="generator", batch_size="auto")
+            tasks = parallel(delayed(_extract_in_worker)(path, configs) for path in paths)
+        results = []
+        for result in tasks:
+            results.append(result)
+            bar.update()
+    return results
+
+
+def _collect(
+    images: LabelledImages,
+    configs: Sequence[ClassifierConfig],
+    slots: list[int],
+    results: list[tuple[list[NDArray], list[float]] | str],
+) -> list[LabelledFeatures]:
+    """Assemble per-image results into one :class:`LabelledFeatures` per configuration.
+
+    ``slots[i]`` is the index, in each image's result lists, of ``configs[i]``.
+    """
+    skipped = tuple(
+        SkippedImage(path, result)
+        for path, result in zip(images.paths, results, strict=True)
+        if isinstance(result, str)
+    )
+    good = [i for i, result in enumerate(results) if not isinstance(result, str)]
+    labels = np.array([images.labels[i] for i in good], dtype=str)
+    used = Counter(labels.tolist())
+    empty = [name for name in images.classes if not used[name]]
+    if empty:
+        raise InputFileError(f"{images.root}: no readable image in class(es) {empty}")
+    return [
+        LabelledFeatures(
+            cfg=cfg,
+            features=np.stack([results[i][0][slot] for i in good]),
+            labels=labels,
+            paths=tuple(images.paths[i] for i in good),
+            seconds=np.array([results[i][1][slot] for i in good]),
+            classes=images.classes,
+            skipped=skipped,
+        )
+        for cfg, slot in zip(configs, slots, strict=True)
+    ]
+
+
+def extract_features(
+    images: LabelledImages,
+    cfg: ClassifierConfig,
+    *,
+    jobs: int | None = None,
+    progress: bool | None = None,
+) -> LabelledFeatures:
+    """Compute the features of every image for one configuration.
+
+    See :func:`extract_feature_sets` for the parameters and errors.
+    """
+    return extract_feature_sets(images, [cfg], jobs=jobs, progress=progress)[0]

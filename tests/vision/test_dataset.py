@@ -1,0 +1,131 @@
+"""Tests of labelled image folders and feature extraction (:mod:`terrain_odom.vision.dataset`)."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+import skimage.data
+
+from terrain_odom.errors import ConfigError, InputFileError
+from terrain_odom.vision.classifier import ClassifierConfig, image_features, paper_config
+from terrain_odom.vision.dataset import (
+    extract_feature_sets,
+    extract_features,
+    read_image_rgb,
+    scan_image_folder,
+)
+
+
+def write_rgb(path: Path, rgb: np.ndarray) -> None:
+    """Write an RGB image with OpenCV (which expects BGR)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    assert cv2.imwrite(str(path), cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR))
+
+
+def texture(name: str, index: int, size: int = 48) -> np.ndarray:
+    """Return an RGB crop of a skimage texture, tinted per class."""
+    grey = getattr(skimage.data, name)()
+    crop = grey[index * size : (index + 1) * size, :size].astype(np.float64)
+    tint = {"grass": (0.6, 1.0, 0.5), "gravel": (1.0, 0.9, 0.8), "brick": (1.0, 0.5, 0.4)}[name]
+    return np.clip(crop[..., None] * np.array(tint), 0, 255).astype(np.uint8)
+
+
+def make_folder(root: Path) -> Path:
+    """3 grass (png), 2 gravel (upper-case JPG, one nested), 2 brick (tiff + bmp) and noise."""
+    for i in range(3):
+        write_rgb(root / "grass" / f"g{i}.png", texture("grass", i))
+    write_rgb(root / "gravel" / "a.JPG", texture("gravel", 0))
+    write_rgb(root / "gravel" / "day2" / "b.jpeg", texture("gravel", 1))
+    write_rgb(root / "brick" / "a.tiff", texture("brick", 0))
+    write_rgb(root / "brick" / "b.BMP", texture("brick", 1))
+    (root / "brick" / "notes.txt").write_text("not an image")
+    write_rgb(root / "brick" / ".hidden.png", texture("brick", 2))
+    write_rgb(root / ".cache" / "x.png", texture("brick", 2))
+    return root
+
+
+def test_scan_counts_images_per_class(tmp_path):
+    images = scan_image_folder(make_folder(tmp_path))
+    assert images.classes == ("brick", "grass", "gravel")
+    assert images.counts() == {"brick": 2, "grass": 3, "gravel": 2}
+    assert len(images.paths) == len(images.labels) == 7
+    assert images.paths[0].name == "a.tiff" and images.labels[0] == "brick"
+
+
+def test_read_image_converts_bgr_to_rgb(tmp_path):
+    rgb = np.zeros((4, 5, 3), dtype=np.uint8)
+    rgb[..., 0] = 200  # red
+    write_rgb(tmp_path / "red.png", rgb)
+    np.testing.assert_array_equal(read_image_rgb(tmp_path / "red.png"), rgb)
+    grey = np.full((4, 5), 77, dtype=np.uint8)
+    cv2.imwrite(str(tmp_path / "grey.png"), grey)
+    assert read_image_rgb(tmp_path / "grey.png").shape == (4, 5, 3)
+    (tmp_path / "bad.png").write_bytes(b"\x89PNG but not really")
+    assert read_image_rgb(tmp_path / "bad.png") is None
+    (tmp_path / "empty.jpg").write_bytes(b"")
+    assert read_image_rgb(tmp_path / "empty.jpg") is None
+
+
+def test_features_match_image_features_and_time_is_recorded(tmp_path):
+    cfg = ClassifierConfig(tiles=2)
+    data = extract_features(scan_image_folder(make_folder(tmp_path)), cfg, jobs=1, progress=False)
+    assert data.features.shape == (7, 4, 30)
+    assert data.counts() == {"brick": 2, "grass": 3, "gravel": 2}
+    expected = image_features(read_image_rgb(data.paths[3]), cfg)
+    np.testing.assert_array_equal(data.features[3], expected)
+    assert data.seconds.shape == (7,) and np.all(data.seconds > 0)
+    assert data.skipped == ()
+
+
+def test_unreadable_image_is_skipped_and_listed(tmp_path):
+    root = make_folder(tmp_path)
+    (root / "grass" / "broken.png").write_text("this is not a png")
+    write_rgb(root / "gravel" / "tiny.png", texture("gravel", 2)[:2, :2])
+    cfg = ClassifierConfig(tiles=3)
+    data = extract_features(scan_image_folder(root), cfg, jobs=1, progress=False)
+    skipped = {s.path.name: s.reason for s in data.skipped}
+    assert set(skipped) == {"broken.png", "tiny.png"}
+    assert "cannot be read" in skipped["broken.png"]
+    assert "3x3 tiles" in skipped["tiny.png"]
+    assert data.counts() == {"brick": 2, "grass": 3, "gravel": 2}
+
+
+def test_a_class_of_unreadable_images_is_an_error(tmp_path):
+    root = make_folder(tmp_path / "d")
+    for path in (root / "brick").iterdir():
+        if path.is_file():
+            path.write_text("garbage")
+    with pytest.raises(InputFileError, match=r"no readable image in class\(es\) \['brick'\]"):
+        extract_features(scan_image_folder(root), ClassifierConfig(), jobs=1, progress=False)
+
+
+def test_empty_class_single_class_and_missing_folder_are_errors(tmp_path):
+    root = make_folder(tmp_path / "d")
+    (root / "asphalt").mkdir()
+    (root / "asphalt" / "readme.md").write_text("to do")
+    with pytest.raises(InputFileError, match="class 'asphalt' has no images"):
+        scan_image_folder(root)
+    single = tmp_path / "single"
+    write_rgb(single / "grass" / "a.png", texture("grass", 0))
+    with pytest.raises(InputFileError, match=r"at least 2 classes, found \['grass'\]"):
+        scan_image_folder(single)
+    with pytest.raises(InputFileError, match="image folder not found"):
+        scan_image_folder(tmp_path / "nowhere")
+
+
+def test_parallel_extraction_equals_serial_and_shares_equal_feature_settings(tmp_path):
+    images = scan_image_folder(make_folder(tmp_path))
+    paper = paper_config()
+    knn_only_change = dataclasses.replace(paper, k=3)
+    serial = extract_feature_sets(images, [paper, knn_only_change], jobs=1, progress=False)
+    parallel = extract_feature_sets(images, [paper], jobs=2, progress=False)
+    np.testing.assert_array_equal(parallel[0].features, serial[0].features)
+    assert parallel[0].paths == serial[0].paths
+    assert serial[1].cfg == knn_only_change
+    np.testing.assert_array_equal(serial[1].features, serial[0].features)
+    with pytest.raises(ConfigError, match="jobs"):
+        extract_features(images, paper, jobs=0)
