@@ -385,9 +385,20 @@ def test_uniform_patch_by_hand():
     assert means.tolist() == [100, 100, 100, 100, 100, 100, 100, 177.5]
 
 
-def test_empty_images_are_refused():
+def test_empty_images_and_bad_n_t_are_refused():
     with pytest.raises(ValueError, match="empty"):
         sfta_features(np.zeros((0, 5), dtype=np.uint8))
+    with pytest.raises(ValueError, match="n_t"):
+        sfta_features(data.brick(), 0)
+
+
+def test_views_give_the_features_of_their_copies():
+    rgb = data.astronaut()
+    views = [rgb[100:220, 50:210], rgb[:, ::3], rgb.transpose(1, 0, 2), rgb[::-1]]
+    for view in views:
+        np.testing.assert_array_equal(
+            sfta_features(view), sfta_features(np.ascontiguousarray(view))
+        )
 
 
 def real_crops():

@@ -51,7 +51,7 @@ and these sizes pull every estimate towards 2: a circle inscribed in a
 512x512 image reads 1.12 with all sizes, 0.99 here (a line 1.00, an
 inscribed disc 1.96, a filled square 2.00). On the indoor floor photos the
 two fits classify equally well (5-fold 1-NN on standardised SFTA: 77.6 % here,
-76.8 % with all sizes).
+77.0 % with all sizes).
 
 **C_i**: Chen: "the number of non-zero value pixel points" of the binary
 image, so here the binary image's pixel count (not the size of its border as
@@ -295,7 +295,7 @@ def sfta_features(
     Raises
     ------
     ValueError
-        For an empty image and as :func:`to_grey`.
+        For an empty image, ``n_t < 1``, and as :func:`to_grey`.
 
     Examples
     --------
@@ -307,6 +307,8 @@ def sfta_features(
     >>> features[4].round(9).tolist()  # 50 < grey <= T(2) = 200: the right half
     [1.0, 0.5, 200.0]
     """
+    if n_t < 1:
+        raise ValueError(f"n_t must be >= 1, got {n_t}")
     grey = to_grey(image, colour_order=colour_order)
     if grey.size == 0:
         raise ValueError(f"image is empty: shape {grey.shape}")
@@ -454,7 +456,7 @@ def _otsu_dp(cumulative: NDArray, n_t: int, dtype: type) -> tuple[NDArray[np.int
     best = value[-1]  # one class: levels a .. m-1
     layers = []
     for _ in range(n_t - 1):
-        layers.append(cv2.add(value[:-1], np.repeat(best[1:], m).reshape(m - 1, m)))
+        layers.append(value[:-1] + best[1:, None])
         best = cv2.reduce(layers[-1], 0, cv2.REDUCE_MAX)[0]
     # Cuts left to right, each the first best: candidates[b - 1] is the
     # value of the next class ending at level b - 1 plus the best after it.
