@@ -232,8 +232,8 @@ def multiotsu_thresholds(hist: NDArray, n_t: int) -> NDArray[np.uint8]:
     Raises
     ------
     ValueError
-        If `hist` is not 256 non-negative counts with a positive total, or
-        ``n_t < 1``.
+        If `hist` is not 256 non-negative integer counts with a positive
+        total, or ``n_t < 1``.
 
     Notes
     -----
