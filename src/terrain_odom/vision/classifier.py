@@ -177,6 +177,11 @@ def load_classifier_config(
     return build_section(cfg, dict(overrides or {}))
 
 
+_HUE_LEVELS = 180  # OpenCV's 8-bit hue: 2 degrees per level
+_HUE_COS = np.cos(np.arange(_HUE_LEVELS) * (np.pi / 90.0))
+_HUE_SIN = np.sin(np.arange(_HUE_LEVELS) * (np.pi / 90.0))
+
+
 def colour_statistics(image_rgb: NDArray[np.uint8], space: Literal["lab", "hsv"]) -> NDArray:
     """Mean and standard deviation of each channel of a colour space.
 
@@ -196,19 +201,51 @@ def colour_statistics(image_rgb: NDArray[np.uint8], space: Literal["lab", "hsv"]
     ndarray of float64, shape (6,)
         ``[mean_0, std_0, mean_1, std_1, mean_2, std_2]``.
     """
+    return _channel_statistics(_convert(image_rgb, space), space)
+
+
+def _convert(image_rgb: NDArray[np.uint8], space: Literal["lab", "hsv"]) -> NDArray[np.uint8]:
     code = cv2.COLOR_RGB2Lab if space == "lab" else cv2.COLOR_RGB2HSV
-    pixels = cv2.cvtColor(np.ascontiguousarray(image_rgb), code).reshape(-1, 3)
-    pixels = pixels.astype(np.float64)
-    out = np.empty(6)
-    out[0::2] = pixels.mean(axis=0)
-    out[1::2] = pixels.std(axis=0)
+    return cv2.cvtColor(np.ascontiguousarray(image_rgb), code)
+
+
+def _channel_statistics(converted: NDArray[np.uint8], space: Literal["lab", "hsv"]) -> NDArray:
+    """:func:`colour_statistics` of an image already converted to ``space``."""
+    mean, std = cv2.meanStdDev(np.ascontiguousarray(converted))
+    out = np.column_stack((mean.ravel(), std.ravel())).ravel()
     if space == "hsv":
-        angle = pixels[:, 0] * (np.pi / 90.0)
-        c, s = np.cos(angle).mean(), np.sin(angle).mean()
+        hue = converted[..., 0].ravel()
+        hist = np.bincount(hue, minlength=_HUE_LEVELS) / hue.size
+        c, s = hist @ _HUE_COS, hist @ _HUE_SIN
         length = min(np.hypot(c, s), 1.0)
         out[0] = (np.arctan2(s, c) % (2.0 * np.pi)) * (90.0 / np.pi)
         out[1] = np.sqrt(-2.0 * np.log(max(length, 1e-12))) * (90.0 / np.pi)
     return out
+
+
+def _colour_space(cfg: ClassifierConfig) -> Literal["lab", "hsv"] | None:
+    return {"sfta": None, "sfta+lab": "lab", "sfta+hsv": "hsv"}[cfg.features]
+
+
+def _features(
+    image_rgb: NDArray[np.uint8], converted: NDArray[np.uint8] | None, cfg: ClassifierConfig
+) -> NDArray:
+    """:func:`region_features` given the region already in the colour space, if any."""
+    parts = []
+    level = image_rgb
+    for depth in range(cfg.pyramid_levels):
+        if depth:
+            height, width = level.shape[:2]
+            size = (max(width // 2, 1), max(height // 2, 1))
+            level = cv2.resize(level, size, interpolation=cv2.INTER_AREA)
+        sfta = np.array(sfta_features(level, cfg.n_t), dtype=np.float64)
+        if not cfg.relative_counts:  # sfta_features gives fractions of the area
+            sfta[1::3] *= level.shape[0] * level.shape[1]
+        parts.append(sfta)
+    space = _colour_space(cfg)
+    if space is not None:
+        parts.append(_channel_statistics(converted, space))
+    return np.concatenate(parts)
 
 
 def region_features(image_rgb: NDArray[np.uint8], cfg: ClassifierConfig) -> NDArray:
@@ -228,20 +265,8 @@ def region_features(image_rgb: NDArray[np.uint8], cfg: ClassifierConfig) -> NDAr
         ``cfg.relative_counts``), then the 6 colour statistics if any:
         ``n_features = 6 * n_t * pyramid_levels (+ 6)``.
     """
-    parts = []
-    level = image_rgb
-    for depth in range(cfg.pyramid_levels):
-        if depth:
-            height, width = level.shape[:2]
-            size = (max(width // 2, 1), max(height // 2, 1))
-            level = cv2.resize(level, size, interpolation=cv2.INTER_AREA)
-        sfta = np.array(sfta_features(level, cfg.n_t), dtype=np.float64)
-        if not cfg.relative_counts:  # sfta_features gives fractions of the area
-            sfta[1::3] *= level.shape[0] * level.shape[1]
-        parts.append(sfta)
-    if cfg.features != "sfta":
-        parts.append(colour_statistics(image_rgb, "lab" if cfg.features == "sfta+lab" else "hsv"))
-    return np.concatenate(parts)
+    space = _colour_space(cfg)
+    return _features(image_rgb, None if space is None else _convert(image_rgb, space), cfg)
 
 
 def split_tiles(image: NDArray, tiles: int) -> list[NDArray]:
@@ -284,7 +309,12 @@ def image_features(image_rgb: NDArray[np.uint8], cfg: ClassifierConfig) -> NDArr
         raise ValueError(
             f"expected an RGB uint8 image (H, W, 3), got {image_rgb.dtype} {image_rgb.shape}"
         )
-    return np.stack([region_features(tile, cfg) for tile in split_tiles(image_rgb, cfg.tiles)])
+    rgb_tiles = split_tiles(image_rgb, cfg.tiles)
+    space = _colour_space(cfg)
+    if space is None:
+        return np.stack([_features(tile, None, cfg) for tile in rgb_tiles])
+    colour_tiles = split_tiles(_convert(image_rgb, space), cfg.tiles)  # one conversion
+    return np.stack([_features(*pair, cfg) for pair in zip(rgb_tiles, colour_tiles, strict=True)])
 
 
 def make_pipeline(cfg: ClassifierConfig) -> Pipeline:
