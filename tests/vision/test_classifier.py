@@ -24,7 +24,6 @@ from terrain_odom.vision.classifier import (
     split_tiles,
 )
 
-REPO = Path(__file__).resolve().parents[2]
 TILE = 64
 TEXTURES = ("grass", "gravel", "brick")
 
@@ -276,7 +275,3 @@ def test_classifier_config_file_and_overrides(tmp_path):
         load_classifier_config(None, {"features": "rgb"})
     with pytest.raises(ConfigError, match="not found"):
         load_classifier_config(tmp_path / "missing.yaml")
-
-
-def test_shipped_classifier_config_equals_the_defaults():
-    assert load_classifier_config(REPO / "config" / "classifier.yaml") == ClassifierConfig()

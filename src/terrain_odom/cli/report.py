@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+from typing import TYPE_CHECKING
 
 from terrain_odom.cli.train import (
     add_classifier_options,
@@ -10,6 +11,9 @@ from terrain_odom.cli.train import (
     describe,
     print_skipped,
 )
+
+if TYPE_CHECKING:
+    from terrain_odom.training import CrossValidation
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -26,18 +30,23 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     acc.set_defaults(func=_cmd_accuracy)
 
 
-def format_table(cv, feature_ms: dict) -> list[str]:
-    """Chen's Table 1 layout: rows = true class, row-normalised %, plus timing columns."""
-    width = max(8, *(len(c) for c in cv.classes))
+def format_table(cv: CrossValidation, feature_ms: dict[str, dict[str, float]]) -> list[str]:
+    """Return the confusion matrix as text lines, plus per-class feature times (ms).
+
+    Rows are the true class and sum to 100 %. (Chen et al.'s printed Table 1
+    is the transpose: its columns sum to 100 %.)
+    """
     corner = "true \\ predicted"
-    head = f"{corner:<{width + 4}}" + "".join(f"{c:>{width}}" for c in cv.classes)
-    lines = [head + f"{'images':>8}{'feat. ms mean':>15}{'max':>8}"]
+    first = max(len(corner), *(len(c) for c in cv.classes)) + 2
+    width = max(8, *(len(c) + 2 for c in cv.classes))
+    head = f"{corner:<{first}}" + "".join(f"{c:>{width}}" for c in cv.classes)
+    lines = [head + f"{'images':>8}{'feature ms mean':>17}{'max':>8}"]
     for i, name in enumerate(cv.classes):
         cells = "".join(f"{v:>{width}.1f}" for v in cv.percent[i])
         ms = feature_ms[name]
         lines.append(
-            f"{name:<{width + 4}}{cells}{int(cv.confusion[i].sum()):>8}"
-            f"{ms['mean']:>15.1f}{ms['max']:>8.1f}"
+            f"{name:<{first}}{cells}{int(cv.confusion[i].sum()):>8}"
+            f"{ms['mean']:>17.1f}{ms['max']:>8.1f}"
         )
     worst, worst_acc = cv.worst_class()
     lines.append(

@@ -3,7 +3,11 @@
 from __future__ import annotations
 
 import argparse
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from terrain_odom.vision.classifier import ClassifierConfig
+    from terrain_odom.vision.dataset import SkippedImage
 
 FEATURE_CHOICES = ("sfta", "sfta+lab", "sfta+hsv")
 
@@ -13,7 +17,11 @@ def add_classifier_options(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--images", required=True, help="folder with one sub-folder of images per terrain"
     )
-    p.add_argument("--config", help="classifier YAML (default: built-in defaults)")
+    p.add_argument(
+        "--config",
+        help="classifier YAML: any of features, n_t, relative_counts, pyramid_levels, "
+        "scale, k, weights, tiles (default: built-in defaults)",
+    )
     p.add_argument(
         "--features",
         choices=FEATURE_CHOICES,
@@ -29,7 +37,7 @@ def add_classifier_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--jobs", type=int, help="feature-extraction processes (default: all cores)")
 
 
-def classifier_config(args: argparse.Namespace) -> Any:
+def classifier_config(args: argparse.Namespace) -> ClassifierConfig:
     """Return the :class:`ClassifierConfig` of ``--config`` and the options that override it."""
     from terrain_odom.vision.classifier import load_classifier_config
 
@@ -43,8 +51,8 @@ def classifier_config(args: argparse.Namespace) -> Any:
     return load_classifier_config(args.config, overrides)
 
 
-def describe(cfg: Any) -> str:
-    """One-line summary of a classifier configuration."""
+def describe(cfg: ClassifierConfig) -> str:
+    """Return a one-line summary of a classifier configuration."""
     return (
         f"features={cfg.features} n_t={cfg.n_t} relative_counts={cfg.relative_counts} "
         f"pyramid_levels={cfg.pyramid_levels} scale={cfg.scale} k={cfg.k} "
@@ -52,7 +60,7 @@ def describe(cfg: Any) -> str:
     )
 
 
-def print_skipped(skipped: tuple) -> None:
+def print_skipped(skipped: tuple[SkippedImage, ...]) -> None:
     """List the images that were left out."""
     if skipped:
         print(f"skipped {len(skipped)} image(s):")

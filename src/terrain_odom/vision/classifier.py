@@ -146,6 +146,16 @@ def load_classifier_config(
 ) -> ClassifierConfig:
     """Load a classifier configuration (YAML, keys of :class:`ClassifierConfig`).
 
+    A file holds any subset of the fields at its top level, e.g. Chen et
+    al.'s recipe::
+
+        features: sfta
+        relative_counts: false
+        scale: false
+        k: 5
+        weights: uniform
+        tiles: 1
+
     Parameters
     ----------
     path : str or Path, optional
