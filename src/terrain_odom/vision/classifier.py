@@ -507,6 +507,8 @@ class TerrainClassifier:
         Path
         """
         path = Path(path)
+        if not self.n_training_images:
+            raise ValueError("fit the classifier before saving it")
         if self.cfg.scale:
             scaler = self.pipeline["scaler"]
             mean, scale = scaler.mean_, scaler.scale_
@@ -558,7 +560,12 @@ class TerrainClassifier:
         missing = {"features", "labels", "scaler_mean", "scaler_scale", "metadata"} - set(arrays)
         if missing:
             raise InputFileError(f"{path}: not a terrain-odom model file (no {sorted(missing)})")
-        meta = json.loads(str(arrays["metadata"]))
+        try:
+            meta = json.loads(str(arrays["metadata"]))
+        except json.JSONDecodeError:
+            meta = None
+        if not isinstance(meta, dict):
+            raise InputFileError(f"{path}: not a terrain-odom model file (bad metadata)")
         cfg = _check_model_metadata(path, meta, expected)
         model = cls(cfg)
         model.training_features = arrays["features"]
