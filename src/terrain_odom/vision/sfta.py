@@ -315,8 +315,8 @@ def sfta_features(
     moments = _MOMENT_WEIGHTS * _histogram(grey)
     thresholds = _thresholds(moments, n_t)
     planes, luts = _class_tables(n_t)
-    classes = np.searchsorted(thresholds, _LEVEL_INDEX)  # thresholds below each level
-    count, grey_sum = moments @ planes[classes]
+    classes = thresholds.searchsorted(_LEVEL_INDEX)  # thresholds below each level
+    count, grey_sum = np.dot(moments, planes[classes])
     features = np.empty((2 * n_t, 3))
     features[:, 0] = _border_dimensions(grey, luts[:, classes], 2 * n_t)
     np.divide(count, grey.size, out=features[:, 1])
@@ -448,10 +448,11 @@ def _otsu_dp(cumulative: NDArray, n_t: int, dtype: type) -> tuple[NDArray[np.int
     left[:, :, 0] = cumulative[:, 1:]
     right = np.ones((2, 2, m), dtype=dtype)
     np.negative(cumulative[:, :-1], out=right[:, 1], casting="same_kind")
-    d_count, d_sum = left @ right
-    value = cv2.divide(cv2.multiply(d_sum, d_sum), d_count)
+    d_count, value = left @ right  # value: d_sum until squared and divided
+    cv2.multiply(value, value, dst=value)
+    cv2.divide(value, d_count, dst=value)
     cv2.patchNaNs(value, -np.inf)  # 0 / 0 where a == b
-    value = cv2.min(value, _VALID[dtype][:m, :m])  # -inf where a >= b
+    cv2.min(value, _VALID[dtype][:m, :m], dst=value)  # -inf where a >= b
     # layers[j - 1][b - 1, a]: classes a .. b - 1, then the best j classes from b.
     best = value[-1]  # one class: levels a .. m-1
     layers = []
@@ -568,7 +569,7 @@ def _box_counts(planes: NDArray[np.uint8]) -> tuple[NDArray[np.float64], NDArray
     boxes : ndarray of int64, shape (n_sizes, 1)
         Number of ``2**k`` boxes in the image.
     """
-    histograms = np.empty((1 + int(np.ceil(np.log2(max(planes.shape)))), _N_LEVELS))
+    histograms = np.empty((1 + (max(planes.shape) - 1).bit_length(), _N_LEVELS))
     boxes = []
     level = planes
     for histogram in histograms:
@@ -577,7 +578,7 @@ def _box_counts(planes: NDArray[np.uint8]) -> tuple[NDArray[np.float64], NDArray
         if len(boxes) > 1 and histogram.max() == level.size:
             break
         level = _halve_rows(cv2.transpose(_halve_rows(level)))
-    return histograms[: len(boxes)] @ _BITS, np.array(boxes)[:, None]
+    return np.dot(histograms[: len(boxes)], _BITS), np.array(boxes)[:, None]
 
 
 def _halve_rows(level: NDArray[np.uint8]) -> NDArray[np.uint8]:
