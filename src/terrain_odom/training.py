@@ -15,12 +15,9 @@ import dataclasses
 import datetime
 import errno
 import io
-import os
-import tempfile
-from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import IO, Any
+from typing import Any, BinaryIO
 
 import numpy as np
 from numpy.typing import NDArray
@@ -29,7 +26,12 @@ from sklearn.model_selection import StratifiedKFold
 from terrain_odom import __version__
 from terrain_odom.errors import ConfigError, InputFileError
 from terrain_odom.io.report import write_json
-from terrain_odom.vision.classifier import ClassifierConfig, TerrainClassifier, paper_config
+from terrain_odom.vision.classifier import (
+    ClassifierConfig,
+    TerrainClassifier,
+    paper_config,
+    write_atomic,
+)
 from terrain_odom.vision.dataset import (
     LabelledFeatures,
     SkippedImage,
@@ -349,8 +351,8 @@ def report_accuracy(
         return report
     outputs = (out_dir / "accuracy.json", out_dir / "accuracy.csv", out_dir / "confusion.png")
     write_json(outputs[0], report.to_dict())
-    _write_atomic(outputs[1], "w", lambda handle: handle.write(accuracy_csv(report)))
-    _write_atomic(outputs[2], "wb", lambda handle: plot_confusion(report, handle))
+    write_atomic(outputs[1], lambda handle: handle.write(accuracy_csv(report).encode("utf-8")))
+    write_atomic(outputs[2], lambda handle: plot_confusion(report, handle))
     return dataclasses.replace(report, outputs=outputs)
 
 
@@ -390,7 +392,7 @@ def accuracy_csv(report: AccuracyReport) -> str:
     return buffer.getvalue()
 
 
-def plot_confusion(report: AccuracyReport, handle: IO[bytes]) -> None:
+def plot_confusion(report: AccuracyReport, handle: BinaryIO) -> None:
     """Draw both confusion matrices side by side as a PNG into ``handle``.
 
     matplotlib is imported here, with the Agg canvas (no display needed).
@@ -423,17 +425,3 @@ def plot_confusion(report: AccuracyReport, handle: IO[bytes]) -> None:
         ax.set_title(f"{title}: mean {cv.mean_accuracy:.1f} %")
     fig.colorbar(image, ax=fig.axes, label="% of true class")
     fig.savefig(handle, format="png", dpi=120)
-
-
-def _write_atomic(path: Path, mode: str, write: Callable[[IO[Any]], object]) -> None:
-    """Write a file through ``write(handle)`` into a temp file, then rename it over ``path``."""
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(
-            fd, mode, **({"encoding": "utf-8", "newline": ""} if "b" not in mode else {})
-        ) as handle:
-            write(handle)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import os
+import stat
 from pathlib import Path
 
 import numpy as np
@@ -93,6 +95,10 @@ def test_model_round_trip_gives_identical_predictions(tmp_path, texture_features
 def test_model_file_holds_no_pickle_and_readable_metadata(tmp_path):
     model = TerrainClassifier(paper_config()).fit(np.arange(12.0).reshape(6, 2), list("aaabbb"))
     path = model.save(tmp_path / "m.npz")
+    umask = os.umask(0)
+    os.umask(umask)
+    assert stat.S_IMODE(path.stat().st_mode) == 0o666 & ~umask  # not a private temp file's 0600
+    assert [p.name for p in tmp_path.iterdir()] == ["m.npz"]  # no temporary file left
     with np.load(path, allow_pickle=False) as data:  # would raise on object arrays
         meta = json.loads(str(data["metadata"]))
         assert data["labels"].dtype.kind == "U"

@@ -36,11 +36,11 @@ import dataclasses
 import datetime
 import json
 import os
-import tempfile
-from collections.abc import Mapping
+import secrets
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, BinaryIO, Literal
 
 import cv2
 import numpy as np
@@ -69,6 +69,7 @@ __all__ = [
     "image_features",
     "make_pipeline",
     "TerrainClassifier",
+    "write_atomic",
 ]
 
 FEATURE_VERSION = 1
@@ -521,14 +522,7 @@ class TerrainClassifier:
             "scaler_scale": scale,
             "metadata": np.array(json.dumps(self.metadata())),
         }
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-        try:
-            with os.fdopen(fd, "wb") as handle:
-                np.savez(handle, **arrays)
-            os.replace(tmp, path)
-        except BaseException:
-            Path(tmp).unlink(missing_ok=True)
-            raise
+        write_atomic(path, lambda handle: np.savez(handle, **arrays))
         return path
 
     @classmethod
@@ -581,6 +575,24 @@ class TerrainClassifier:
         model.pipeline["knn"].fit(samples, model.training_labels)
         model.n_training_images = int(meta["n_training_images"])
         return model
+
+
+def write_atomic(path: str | Path, write: Callable[[BinaryIO], object]) -> None:
+    """Write a file through ``write(handle)`` atomically.
+
+    The bytes go to a new temporary file in the same folder (created with the
+    usual permissions, i.e. subject to the umask), which then replaces
+    ``path``: a reader never sees a half-written file.
+    """
+    path = Path(path)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.{secrets.token_hex(4)}.tmp")
+    try:
+        with open(tmp, "xb") as handle:
+            write(handle)
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
 
 
 def _check_model_metadata(
