@@ -80,8 +80,9 @@ Every value is finite for any non-empty image:
 
 Speed
 -----
-``bench/sfta.py`` measures it (about 1.4 ms for a 640x480 RGB frame, 0.3 ms
-for a 160x120 crop, on one core of the 2-core development machine).
+``bench/sfta.py`` measures it: on one core of the 2-core development machine,
+with another job running, medians of about 1.4 ms for a 640x480 RGB frame
+(0.3 times its PNG decoding) and 0.3 ms for a 160x120 crop.
 
 - Thresholds: an exact dynamic programme over the histogram
   (:func:`multiotsu_thresholds`), as a few whole-matrix float32 operations.
@@ -317,13 +318,13 @@ def sfta_features(
     planes, luts = _class_tables(n_t)
     classes = thresholds.searchsorted(_LEVEL_INDEX)  # thresholds below each level
     count, grey_sum = np.dot(moments, planes[classes])
-    features = np.empty((2 * n_t, 3))
-    features[:, 0] = _border_dimensions(grey, luts[:, classes], 2 * n_t)
-    np.divide(count, grey.size, out=features[:, 1])
-    if not count.all():  # empty binary images: the middle of their grey range
-        features[:, 2] = _range_middles(thresholds)
-    np.divide(grey_sum, count, out=features[:, 2], where=count > 0)
-    return features.ravel()
+    dimensions = _border_dimensions(grey, luts[:, classes], 2 * n_t)
+    if count.all():
+        mean_grey = grey_sum / count
+    else:  # empty binary images: the middle of their grey range
+        middles = np.array(_range_middles(thresholds))
+        mean_grey = np.divide(grey_sum, count, out=middles, where=count > 0)
+    return np.array((dimensions, count / grey.size, mean_grey)).T.ravel()
 
 
 def box_counting_dimension(binary: NDArray) -> float:
@@ -378,7 +379,7 @@ def _histogram(grey: NDArray[np.uint8]) -> NDArray:
 
 def _thresholds(moments: NDArray[np.float64], n_t: int) -> NDArray[np.uint8]:
     """:func:`multiotsu_thresholds` from ``moments = [hist, hist * grey]``, (2, 256)."""
-    levels = np.flatnonzero(moments[0])
+    (levels,) = moments[0].nonzero()
     if levels.size <= n_t:
         last = np.full(n_t + 1 - levels.size, levels[-1])
         return np.concatenate((levels[:-1], last)).astype(np.uint8)
@@ -526,7 +527,7 @@ def _border_dimensions(grey: NDArray[np.uint8], luts: NDArray, n_planes: int) ->
     """
     padded = cv2.copyMakeBorder(grey, 1, 1, 1, 1, cv2.BORDER_REPLICATE)
     dimensions = [_dimensions(*_box_counts(_border(cv2.LUT(padded, lut)))) for lut in luts]
-    return np.concatenate(dimensions)[:n_planes]
+    return (dimensions[0] if len(dimensions) == 1 else np.concatenate(dimensions))[:n_planes]
 
 
 def _border(padded: NDArray[np.uint8]) -> NDArray[np.uint8]:
@@ -575,7 +576,7 @@ def _box_counts(planes: NDArray[np.uint8]) -> tuple[NDArray[np.float64], NDArray
     for histogram in histograms:
         histogram[:] = _byte_histogram(level)
         boxes.append(level.size)
-        if len(boxes) > 1 and histogram.max() == level.size:
+        if len(boxes) > 1 and histogram[level[0, 0]] == level.size:  # all boxes alike
             break
         level = _halve_rows(cv2.transpose(_halve_rows(level)))
     return np.dot(histograms[: len(boxes)], _BITS), np.array(boxes)[:, None]
@@ -607,7 +608,7 @@ def _dimensions(counts: NDArray[np.float64], boxes: NDArray[np.int64]) -> NDArra
     Parameters
     ----------
     counts : ndarray of float64, shape (n_sizes, n)
-        Occupied boxes of side ``2**k`` (:func:`_box_counts`).
+        Occupied boxes of side ``2**k`` (:func:`_box_counts`); overwritten.
     boxes : ndarray of int64, shape (n_sizes, 1)
         Number of boxes of side ``2**k``.
 
@@ -622,7 +623,8 @@ def _dimensions(counts: NDArray[np.float64], boxes: NDArray[np.int64]) -> NDArra
     if n_sizes == 1:
         return np.zeros(counts.shape[1])
     weights = _SLOPE_WEIGHTS[(counts < boxes).sum(axis=0), :n_sizes]
-    return np.einsum("jk,kj->j", weights, np.log(np.maximum(counts, 1.0)))
+    np.maximum(counts, 1.0, out=counts)
+    return np.dot(weights, np.log(counts, out=counts)).diagonal()  # row j . column j
 
 
 def _slope_weights(max_sizes: int) -> NDArray[np.float64]:
