@@ -2,12 +2,13 @@
 
 Times ``sfta_features`` (n_t = 4, 24 values) on a 640x480 RGB frame made from
 a real photo (skimage's grass or gravel texture resized with cv2.resize) and
-on a 160x120 crop of it (a view, as a region of interest would be), and, in
-the same run, ``cv2.imdecode`` of the same frame encoded once as PNG. Prints
-median and minimum over many repeats, the ratio SFTA / decode (target
-<= 1.0; targets 2 ms and 0.3 ms median), and the thresholds alone against
-``skimage.filters.threshold_multiotsu``. OpenCV is pinned to one thread.
-Other jobs on the machine slow the medians: the load average is printed.
+on a 160x120 crop of it (a view, as a region of interest would be), call for
+call interleaved with ``cv2.imdecode`` of the same image encoded once as PNG.
+Prints median and minimum over many repeats, the ratio SFTA / decode of the
+medians (target <= 1.0; targets: 2 ms and 0.3 ms median), and the thresholds
+alone against ``skimage.filters.threshold_multiotsu``. OpenCV is pinned to one
+thread. Other jobs on the machine slow the medians: the load average is
+printed before and after.
 
 Usage::
 
@@ -29,15 +30,21 @@ from skimage.filters import threshold_multiotsu
 from terrain_odom.vision.sfta import multiotsu_thresholds, sfta_features
 
 
-def timings(fn, repeat, warmup=10):
-    """Seconds of each of `repeat` calls, after `warmup` calls."""
+def timings(fns, repeat, warmup=10):
+    """Seconds of each of `repeat` calls of each function, calls interleaved.
+
+    Interleaving makes the functions share whatever load the machine has.
+    Returns an array of shape (len(fns), repeat).
+    """
     for _ in range(warmup):
-        fn()
-    times = np.empty(repeat)
+        for fn in fns:
+            fn()
+    times = np.empty((len(fns), repeat))
     for i in range(repeat):
-        start = time.perf_counter()
-        fn()
-        times[i] = time.perf_counter() - start
+        for j, fn in enumerate(fns):
+            start = time.perf_counter()
+            fn()
+            times[j, i] = time.perf_counter() - start
     return times
 
 
@@ -68,23 +75,21 @@ def main():
     print(f"skimage {args.image} as a 640x480 RGB frame; load average {os.getloadavg()}")
     print(f"{args.repeat} repeats, one OpenCV thread")
     for label, image, encoded in (("640x480", frame, png), ("160x120 crop", crop, crop_png)):
-        decode = timings(partial(cv2.imdecode, encoded, cv2.IMREAD_COLOR), args.repeat)
+        decode, sfta = timings(
+            [partial(cv2.imdecode, encoded, cv2.IMREAD_COLOR), partial(sfta_features, image)],
+            args.repeat,
+        )
         row(f"PNG decode {label} ({encoded.size / 1024:.0f} KiB)", decode)
-        sfta = timings(partial(sfta_features, image), args.repeat)
         row(f"sfta_features {label}", sfta, decode)
 
     print("thresholds of the frame's histogram:")
     for n_t in (2, 3, 4):
-        row(
-            f"  multiotsu_thresholds n_t={n_t}",
-            timings(partial(multiotsu_thresholds, hist, n_t), 200),
-        )
+        (ours,) = timings([partial(multiotsu_thresholds, hist, n_t)], 200)
+        row(f"  multiotsu_thresholds n_t={n_t}", ours)
     grey = cv2.cvtColor(frame, cv2.COLOR_RGB2GRAY)
     for n_t, repeat in ((2, 20), (3, 3), (4, 1)):
-        row(
-            f"  skimage threshold_multiotsu n_t={n_t}",
-            timings(partial(threshold_multiotsu, grey, classes=n_t + 1), repeat, warmup=0),
-        )
+        (theirs,) = timings([partial(threshold_multiotsu, grey, classes=n_t + 1)], repeat, 0)
+        row(f"  skimage threshold_multiotsu n_t={n_t}", theirs)
     print(f"load average {os.getloadavg()}")
 
 
