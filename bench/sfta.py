@@ -2,8 +2,9 @@
 
 Times ``sfta_features`` (n_t = 4, 24 values) on a 640x480 RGB frame made from
 a real photo (skimage's grass or gravel texture resized with cv2.resize) and
-on a 160x120 crop of it (a view, as a region of interest would be), call for
-call interleaved with ``cv2.imdecode`` of the same image encoded once as PNG.
+on a 160x120 crop of it (a view, as a region of interest would be), taking
+turns in blocks of calls with ``cv2.imdecode`` of the same image encoded once
+as PNG.
 Prints median and minimum over many repeats, the ratio SFTA / decode of the
 medians (target <= 1.0; targets: 2 ms and 0.3 ms median), and the thresholds
 alone against ``skimage.filters.threshold_multiotsu``. OpenCV is pinned to one
@@ -30,21 +31,23 @@ from skimage.filters import threshold_multiotsu
 from terrain_odom.vision.sfta import multiotsu_thresholds, sfta_features
 
 
-def timings(fns, repeat, warmup=10):
-    """Seconds of each of `repeat` calls of each function, calls interleaved.
+def timings(fns, repeat, warmup=10, block=50):
+    """Seconds of each of `repeat` calls of each function.
 
-    Interleaving makes the functions share whatever load the machine has.
+    The functions take turns in blocks of `block` calls, so that they share
+    whatever load the machine has while each runs with warm caches.
     Returns an array of shape (len(fns), repeat).
     """
-    for _ in range(warmup):
-        for fn in fns:
-            fn()
     times = np.empty((len(fns), repeat))
-    for i in range(repeat):
-        for j, fn in enumerate(fns):
-            start = time.perf_counter()
+    for fn in fns:
+        for _ in range(warmup):
             fn()
-            times[j, i] = time.perf_counter() - start
+    for start in range(0, repeat, block):
+        for j, fn in enumerate(fns):
+            for i in range(start, min(start + block, repeat)):
+                begin = time.perf_counter()
+                fn()
+                times[j, i] = time.perf_counter() - begin
     return times
 
 
