@@ -123,7 +123,7 @@ def cross_validate(
     Parameters
     ----------
     data : LabelledFeatures
-        Features of every image.
+        Features of every image; all tiles of an image go to the same fold.
     cfg : ClassifierConfig, optional
         Classifier settings (default ``data.cfg``); its feature settings must
         be those ``data`` was computed with, while ``scale``, ``k`` and
@@ -153,10 +153,11 @@ def cross_validate(
     splitter = StratifiedKFold(n_splits=folds, shuffle=True, random_state=seed)
     confusion = np.zeros((len(data.classes), len(data.classes)), dtype=np.int64)
     index = {name: i for i, name in enumerate(data.classes)}
-    for train_idx, test_idx in splitter.split(data.features[:, 0, :], data.labels):
-        model = TerrainClassifier(cfg).fit(data.features[train_idx], data.labels[train_idx])
-        predicted = model.predict(data.features[test_idx])
-        for true, pred in zip(data.labels[test_idx], predicted, strict=True):
+    for train_idx, test_idx in splitter.split(np.zeros((data.labels.size, 1)), data.labels):
+        train, test = data.select(train_idx), data.select(test_idx)  # all tiles of an image
+        model = TerrainClassifier(cfg).fit(train.features, train.labels, train.region)
+        predicted = model.predict(test.features, test.region)
+        for true, pred in zip(test.labels, predicted, strict=True):
             confusion[index[true], index[pred]] += 1
     return CrossValidation(cfg, data.classes, folds, confusion)
 
@@ -242,7 +243,7 @@ def train(
     out = Path(out)
     _check_output_file(out)
     data = extract_feature_sets(scan_image_folder(images), [cfg], jobs=jobs, progress=progress)[0]
-    model = TerrainClassifier(cfg).fit(data.features, data.labels)
+    model = TerrainClassifier(cfg).fit(data.features, data.labels, data.region)
     folds = min(folds, *data.counts().values())
     validation = cross_validate(data, folds=folds) if folds >= 2 else None
     model.save(out)

@@ -19,10 +19,16 @@ import numpy as np
 import pytest
 import skimage.data
 
+from terrain_odom import training
 from terrain_odom.cli.main import main
 from terrain_odom.training import cross_validate, report_accuracy, train
 from terrain_odom.vision.classifier import ClassifierConfig, TerrainClassifier, paper_config
-from terrain_odom.vision.dataset import extract_feature_sets, read_image_rgb, scan_image_folder
+from terrain_odom.vision.dataset import (
+    LabelledFeatures,
+    extract_feature_sets,
+    read_image_rgb,
+    scan_image_folder,
+)
 
 REPO = Path(__file__).resolve().parents[2]
 SRC = REPO / "src"
@@ -30,12 +36,17 @@ INDOOR = REPO.parent / "shared" / "data" / "indoor_surface"
 TINTS = {"grass": (0.6, 1.0, 0.5), "gravel": (1.0, 0.9, 0.8), "brick": (1.0, 0.5, 0.4)}
 
 
-def make_folder(root: Path, per_class: int = 6, size: int = 48) -> Path:
-    """``per_class`` tinted crops of each skimage texture, one sub-folder per class."""
+def make_folder(root: Path, per_class: int = 6, sizes: tuple[int, ...] = (48, 48, 96)) -> Path:
+    """``per_class`` tinted crops of each skimage texture, one sub-folder per class.
+
+    Image ``i`` is ``sizes[i % len(sizes)]`` pixels square: by default every
+    third image is 96 px (3x3 tiles with the defaults), the others 48 px (one tile).
+    """
     for name, tint in TINTS.items():
         grey = getattr(skimage.data, name)()
         (root / name).mkdir(parents=True)
         for i in range(per_class):
+            size = sizes[i % len(sizes)]
             crop = grey[(i // 4) * size : (i // 4 + 1) * size, (i % 4) * size : (i % 4 + 1) * size]
             rgb = np.clip(crop[..., None] * np.array(tint), 0, 255).astype(np.uint8)
             cv2.imwrite(str(root / name / f"{i}.png"), cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR))
@@ -54,6 +65,7 @@ def test_train_prints_counts_and_accuracy_and_writes_a_model(tmp_path, capsys):
     assert f"model: {model_path}" in out
     model = TerrainClassifier.load(model_path, expected=ClassifierConfig())
     assert model.n_training_images == 18
+    assert len(model.training_labels) == 12 * 1 + 6 * 9  # ragged: 48 px and 96 px images
     label, confidence = model.classify(read_image_rgb(root / "brick" / "0.png"))
     assert label == "brick" and confidence > 0.5
 
@@ -73,17 +85,24 @@ def test_train_options_override_the_config_file(tmp_path, capsys):
         "3",
         "--tiles",
         "2",
+        "--min-tile-size",
+        "24",
     ]
     assert main(args) == 0
-    assert "4-fold cross-validated" in capsys.readouterr().out  # fewer images than 5 folds
-    cfg = TerrainClassifier.load(tmp_path / "m.npz").cfg
-    assert (cfg.features, cfg.scale, cfg.k, cfg.tiles, cfg.weights) == (
+    out = capsys.readouterr().out
+    assert "4-fold cross-validated" in out  # fewer images than 5 folds
+    assert "tiles=2 min_tile_size=24" in out
+    model = TerrainClassifier.load(tmp_path / "m.npz")
+    cfg = model.cfg
+    assert (cfg.features, cfg.scale, cfg.k, cfg.tiles, cfg.min_tile_size, cfg.weights) == (
         "sfta",
         False,
         3,
         2,
+        24,
         "uniform",
     )
+    assert len(model.training_labels) == 3 * 4 * 2**2  # 2x2 tiles of every 48 and 96 px image
 
 
 def test_train_api_returns_a_summary(tmp_path):
@@ -94,11 +113,52 @@ def test_train_api_returns_a_summary(tmp_path):
     assert summary.model_path.is_file()
 
 
+def test_cross_validation_keeps_all_tiles_of_an_image_in_one_fold(monkeypatch):
+    # Ragged synthetic data: image i has 1 to 4 tiles; feature 0 of a tile is its image.
+    rng = np.random.default_rng(0)
+    tile_counts = rng.integers(1, 5, size=30)
+    region = np.repeat(np.arange(30), tile_counts)
+    features = np.column_stack([region, rng.normal(size=region.size)])
+    labels = np.array(["a", "b", "c"] * 10)
+    paths = tuple(Path(f"{i}.png") for i in range(30))
+    cfg = ClassifierConfig(k=1)
+    data = LabelledFeatures(cfg, features, region, labels, paths, np.ones(30), ("a", "b", "c"), ())
+    calls = []
+
+    class Spy(TerrainClassifier):
+        def fit(self, features, labels, region=None):
+            calls.append((features[:, 0].astype(int), region, labels))
+            return super().fit(features, labels, region)
+
+        def predict(self, features, region=None):
+            calls.append((features[:, 0].astype(int), region, None))
+            return super().predict(features, region)
+
+    monkeypatch.setattr(training, "TerrainClassifier", Spy)
+    result = cross_validate(data, folds=5)
+    assert result.confusion.sum() == 30 and len(calls) == 10
+    tested = []
+    for (fit_images, fit_region, fit_labels), (test_images, test_region, _) in zip(
+        calls[::2], calls[1::2], strict=True
+    ):
+        assert not set(fit_images) & set(test_images)
+        for images, local in ((fit_images, fit_region), (test_images, test_region)):
+            used = np.unique(images)
+            np.testing.assert_array_equal(np.bincount(images)[used], tile_counts[used])
+            image_of = np.zeros(used.size, dtype=int)
+            image_of[local] = images  # region numbers map to images one to one
+            np.testing.assert_array_equal(image_of[local], images)
+            assert sorted(image_of.tolist()) == used.tolist()
+        np.testing.assert_array_equal(fit_labels[fit_region], labels[fit_images])
+        tested += np.unique(test_images).tolist()
+    assert sorted(tested) == list(range(30))
+
+
 def test_report_accuracy_writes_json_csv_png_with_the_paper_configuration(tmp_path, capsys):
     root = make_folder(tmp_path / "images")
     out_dir = tmp_path / "report"
     argv = ["report", "accuracy", "--images", str(root), "--folds", "3", "--out", str(out_dir)]
-    assert main([*argv, "--jobs", "1", "--k", "3"]) == 0
+    assert main([*argv, "--jobs", "1", "--k", "3", "--min-tile-size", "40"]) == 0
     printed = capsys.readouterr().out
     assert "3-fold cross-validation" in printed and "paper (Chen et al.)" in printed
     assert printed.count("mean accuracy") == 2
@@ -106,6 +166,7 @@ def test_report_accuracy_writes_json_csv_png_with_the_paper_configuration(tmp_pa
     assert report["folds"] == 3 and report["counts"] == {"brick": 6, "grass": 6, "gravel": 6}
     chosen, paper = report["configurations"]["chosen"], report["configurations"]["paper"]
     assert chosen["config"]["k"] == 3 and chosen["config"]["scale"] is True
+    assert chosen["config"]["min_tile_size"] == 40
     assert paper["config"]["features"] == "sfta" and paper["config"]["scale"] is False
     for entry in (chosen, paper):
         np.testing.assert_allclose(np.sum(entry["confusion_percent"], axis=1), 100.0)
@@ -195,6 +256,7 @@ def test_indoor_surface_accuracy_acceptance():
         scan_image_folder(INDOOR), [ClassifierConfig(), paper_config()], progress=False
     )
     assert default.counts() == {"carpet": 726, "tiles": 595, "wood": 453}
+    assert np.all(np.bincount(default.region) == 16)  # short side >= 320 px: 4x4 tiles
     result = cross_validate(default)
     assert result.mean_accuracy >= 90.0
     assert min(result.per_class_accuracy.values()) >= 85.0

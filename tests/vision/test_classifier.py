@@ -15,8 +15,10 @@ import skimage.data
 from terrain_odom.errors import ConfigError, InputFileError
 from terrain_odom.vision.classifier import (
     FEATURE_VERSION,
+    MODEL_FORMAT_VERSION,
     ClassifierConfig,
     TerrainClassifier,
+    check_regions,
     colour_statistics,
     image_features,
     load_classifier_config,
@@ -24,18 +26,23 @@ from terrain_odom.vision.classifier import (
     paper_config,
     region_features,
     split_tiles,
+    tiles_per_side,
 )
 
 TILE = 64
 TEXTURES = ("grass", "gravel", "brick")
 
 
-def texture_tiles(name: str, half: int) -> list[np.ndarray]:
-    """Non-overlapping 64x64 RGB tiles of the left (0) or right (1) half of a skimage texture."""
+def texture_half(name: str, half: int) -> np.ndarray:
+    """Left (0) or right (1) half of a skimage texture, as RGB."""
     grey = getattr(skimage.data, name)()
     width = grey.shape[1] // 2
-    part = grey[:, half * width : (half + 1) * width]
-    rgb = np.repeat(part[..., None], 3, axis=2)
+    return np.repeat(grey[:, half * width : (half + 1) * width, None], 3, axis=2)
+
+
+def texture_tiles(name: str, half: int) -> list[np.ndarray]:
+    """Non-overlapping 64x64 RGB tiles of the left (0) or right (1) half of a skimage texture."""
+    rgb = texture_half(name, half)
     return [
         rgb[r : r + TILE, c : c + TILE]
         for r in range(0, rgb.shape[0] - TILE + 1, TILE)
@@ -43,14 +50,16 @@ def texture_tiles(name: str, half: int) -> list[np.ndarray]:
     ]
 
 
-SMALL_PATCH = ClassifierConfig(tiles=2)
-"""The defaults, voting over 32x32 tiles: 4x4 tiles of 16 px are too small for box counting."""
+def stack_regions(per_region: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """Flat tile features and region index of a list of :func:`image_features` results."""
+    region = np.repeat(np.arange(len(per_region)), [len(f) for f in per_region])
+    return np.concatenate(per_region), region
 
 
 @pytest.fixture(scope="module")
-def texture_features() -> dict[int, tuple[np.ndarray, np.ndarray]]:
-    """Features (:data:`SMALL_PATCH`) and labels of the 64x64 tiles of each image half."""
-    cfg = SMALL_PATCH
+def texture_features() -> dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """Default features, region index and labels of the 64x64 tiles of each image half."""
+    cfg = ClassifierConfig()
     out = {}
     for half in (0, 1):
         feats, labels = [], []
@@ -58,38 +67,47 @@ def texture_features() -> dict[int, tuple[np.ndarray, np.ndarray]]:
             for tile in texture_tiles(name, half):
                 feats.append(image_features(tile, cfg))
                 labels.append(name)
-        out[half] = (np.stack(feats), np.array(labels))
+        out[half] = (*stack_regions(feats), np.array(labels))
     return out
 
 
 def test_skimage_textures_are_classified_from_the_other_image_half(texture_features):
-    # 2-fold cross-validation over disjoint image halves: train on one, test on the other.
+    # 2-fold cross-validation over disjoint image halves: train on one, test on the other,
+    # with the default configuration (64 px patches: 2x2 tiles of 32 px).
     correct = total = 0
     for train_half in (0, 1):
-        x_train, y_train = texture_features[train_half]
-        x_test, y_test = texture_features[1 - train_half]
-        predicted = TerrainClassifier(SMALL_PATCH).fit(x_train, y_train).predict(x_test)
+        x_train, r_train, y_train = texture_features[train_half]
+        x_test, r_test, y_test = texture_features[1 - train_half]
+        model = TerrainClassifier().fit(x_train, y_train, r_train)
+        predicted = model.predict(x_test, r_test)
         correct += int(np.sum(predicted == y_test))
         total += len(y_test)
     assert total == 2 * 3 * 32
+    assert np.all(np.bincount(texture_features[0][1]) == 4)
     assert correct / total >= 0.97
 
 
 def test_model_round_trip_gives_identical_predictions(tmp_path, texture_features):
-    x_train, y_train = texture_features[0]
-    x_test, _ = texture_features[1]
-    model = TerrainClassifier(SMALL_PATCH).fit(x_train, y_train)
+    x_train, r_train, y_train = texture_features[0]
+    x_test, r_test, _ = texture_features[1]
+    model = TerrainClassifier().fit(x_train, y_train, r_train)
     path = model.save(tmp_path / "model.npz")
-    loaded = TerrainClassifier.load(path, expected=SMALL_PATCH)
+    loaded = TerrainClassifier.load(path, expected=ClassifierConfig())
     assert loaded.cfg == model.cfg
     assert loaded.classes == sorted(TEXTURES)
-    np.testing.assert_array_equal(loaded.predict(x_test), model.predict(x_test))
-    np.testing.assert_array_equal(
-        loaded.predict_proba(x_test[:, 0]), model.predict_proba(x_test[:, 0])
-    )
+    np.testing.assert_array_equal(loaded.training_region, r_train)
+    for ours, theirs in zip(
+        loaded.predict_with_confidence(x_test, r_test),
+        model.predict_with_confidence(x_test, r_test),
+        strict=True,
+    ):
+        np.testing.assert_array_equal(ours, theirs)
+    np.testing.assert_array_equal(loaded.predict_proba(x_test), model.predict_proba(x_test))
     meta = loaded.metadata()
-    assert meta["n_training_images"] == len(y_train)
+    assert loaded.n_training_images == meta["n_training_images"] == len(y_train)
+    assert meta["n_training_samples"] == len(x_train) == 4 * len(y_train)
     assert meta["feature_version"] == FEATURE_VERSION
+    assert meta["config"]["min_tile_size"] == ClassifierConfig().min_tile_size
 
 
 def test_model_file_holds_no_pickle_and_readable_metadata(tmp_path):
@@ -102,15 +120,19 @@ def test_model_file_holds_no_pickle_and_readable_metadata(tmp_path):
     with np.load(path, allow_pickle=False) as data:  # would raise on object arrays
         meta = json.loads(str(data["metadata"]))
         assert data["labels"].dtype.kind == "U"
+        assert data["region"].tolist() == list(range(6))
         assert data["scaler_mean"].size == 0  # no scaler in the paper's recipe
     assert meta["classes"] == ["a", "b"]
     assert meta["config"]["features"] == "sfta"
     assert {"format_version", "created", "terrain_odom_version", "n_training_images"} <= set(meta)
 
 
-def _rewrite_metadata(path: Path, **changes) -> None:
+def _rewrite_model(path: Path, arrays_changes: dict | None = None, **changes) -> None:
+    """Rewrite a model file with other arrays (None: removed) and metadata ``changes``."""
     with np.load(path, allow_pickle=False) as data:
         arrays = {name: data[name] for name in data.files}
+    arrays.update(arrays_changes or {})
+    arrays = {name: array for name, array in arrays.items() if array is not None}
     meta = json.loads(str(arrays["metadata"]))
     meta.update(changes)
     arrays["metadata"] = np.array(json.dumps(meta))
@@ -120,12 +142,28 @@ def _rewrite_metadata(path: Path, **changes) -> None:
 
 def test_load_refuses_a_model_of_another_feature_version(tmp_path):
     path = TerrainClassifier().fit(np.eye(6), list("aaabbb")).save(tmp_path / "m.npz")
-    _rewrite_metadata(path, feature_version=FEATURE_VERSION + 1)
+    _rewrite_model(path, feature_version=FEATURE_VERSION + 1)
     with pytest.raises(InputFileError, match="feature_version") as info:
         TerrainClassifier.load(path)
     message = str(info.value)
     assert str(path) in message and str(FEATURE_VERSION + 1) in message
     assert f"uses {FEATURE_VERSION}" in message
+
+
+def test_load_refuses_a_model_of_the_old_format_without_region_index(tmp_path):
+    # Format 1 stored (n_images * tiles**2) rows and no region index.
+    path = TerrainClassifier().fit(np.eye(6), list("aaabbb")).save(tmp_path / "m.npz")
+    _rewrite_model(path, {"region": None}, format_version=1, feature_version=1)
+    with pytest.raises(InputFileError, match="format_version is 1") as info:
+        TerrainClassifier.load(path)
+    assert f"uses {MODEL_FORMAT_VERSION}" in str(info.value) and "retrain" in str(info.value)
+
+
+def test_load_refuses_an_inconsistent_region_index(tmp_path):
+    path = TerrainClassifier().fit(np.eye(6), list("aaabbb")).save(tmp_path / "m.npz")
+    _rewrite_model(path, {"region": np.array([0, 1, 2, 4, 4, 5])})  # region 3 has no tile
+    with pytest.raises(InputFileError, match=r"inconsistent model file \(region\(s\) \[3\]"):
+        TerrainClassifier.load(path)
 
 
 @pytest.mark.parametrize(
@@ -134,6 +172,7 @@ def test_load_refuses_a_model_of_another_feature_version(tmp_path):
         (ClassifierConfig(n_t=3), "n_t=4.*n_t=3"),
         (ClassifierConfig(features="sfta"), "features='sfta\\+lab'.*features='sfta'"),
         (ClassifierConfig(tiles=3), "tiles"),
+        (ClassifierConfig(min_tile_size=24), "min_tile_size=32.*min_tile_size=24"),
     ],
 )
 def test_load_refuses_a_model_with_other_feature_settings(tmp_path, expected, text):
@@ -185,10 +224,12 @@ def test_confidence_is_the_neighbour_vote_share():
 def test_tile_vote_confidence_is_the_share_of_tiles():
     cfg = dataclasses.replace(paper_config(), k=1)
     model = TerrainClassifier(cfg).fit(np.array([[0.0], [1.0]]), np.array(["a", "b"]))
-    tiles = np.array([[[0.0], [0.1], [0.9], [0.2]], [[1.0], [0.9], [0.2], [0.95]]])
-    labels, confidence = model.predict_with_confidence(tiles)
-    assert labels.tolist() == ["a", "b"]
-    np.testing.assert_allclose(confidence, [0.75, 0.75])
+    # Ragged regions, rows in any order: region 0 has 4 tiles, 1 has 3, 2 has 1.
+    tiles = np.array([[0.0], [1.0], [0.1], [0.9], [0.9], [0.2], [0.3], [0.95]])
+    region = np.array([0, 1, 0, 1, 0, 2, 0, 1])
+    labels, confidence = model.predict_with_confidence(tiles, region)
+    assert labels.tolist() == ["a", "b", "a"]
+    np.testing.assert_allclose(confidence, [0.75, 1.0, 1.0])
 
 
 def test_tile_vote_tie_goes_to_the_larger_neighbour_share():
@@ -196,17 +237,86 @@ def test_tile_vote_tie_goes_to_the_larger_neighbour_share():
     x = np.array([[0.0], [0.1], [1.0], [1.1], [1.2]])
     model = TerrainClassifier(cfg).fit(x, np.array(list("aabbb")))
     # Tile shares: a 2/3, a 2/3, b 3/3, b 3/3 -> 2 votes each, b has more weight.
-    labels, confidence = model.predict_with_confidence(np.array([[[0.0], [0.05], [1.1], [1.2]]]))
-    assert labels.tolist() == ["b"]
-    np.testing.assert_allclose(confidence, [0.5])
+    tiles = np.array([[0.0], [0.05], [1.1], [1.2], [0.4]])
+    labels, confidence = model.predict_with_confidence(tiles, [0, 0, 0, 0, 1])
+    assert labels.tolist() == ["b", "a"]
+    # A one-tile region keeps the neighbour vote share (0.4: 0.1, 0.0 and 1.0).
+    np.testing.assert_allclose(confidence, [0.5, 2 / 3])
+
+
+def test_region_index_is_checked():
+    model = TerrainClassifier(ClassifierConfig(k=1)).fit(np.eye(2), ["a", "b"])
+    with pytest.raises(ValueError, match=r"region\(s\) \[1\] have no feature rows"):
+        model.predict(np.eye(2), [0, 2])
+    with pytest.raises(ValueError, match="one integer per feature row"):
+        model.predict(np.eye(2), [0.0, 1.0])
+    with pytest.raises(ValueError, match="shape \\(n_tiles, n_features\\)"):
+        model.predict(np.zeros((1, 2, 2)))
+    with pytest.raises(ValueError, match=r"in 0 \.\. 1"):  # 3 regions for 2 labels
+        TerrainClassifier(ClassifierConfig(k=1)).fit(np.eye(3), ["a", "b"], [0, 1, 2])
+    assert check_regions(np.eye(3), [1, 0, 1])[2].tolist() == [1, 2]
+
+
+def test_tile_grid_adapts_to_the_region_size():
+    cfg = ClassifierConfig()
+    assert (cfg.tiles, cfg.min_tile_size) == (4, 32)
+    # Below 2 * min_tile_size on the short side: one tile, whatever the long side.
+    assert tiles_per_side(63, 500, cfg) == tiles_per_side(1, 1, cfg) == 1
+    assert tiles_per_side(64, 64, cfg) == 2
+    assert tiles_per_side(120, 160, cfg) == 3
+    assert tiles_per_side(427, 320, cfg) == tiles_per_side(320, 427, cfg) == 4
+    assert tiles_per_side(427, 320, ClassifierConfig(tiles=6)) == 6
+    assert tiles_per_side(427, 320, ClassifierConfig(min_tile_size=200)) == 1
+    rng = np.random.default_rng(2)
+    for shape, rows in (((63, 90), 1), ((64, 64), 4), ((120, 160), 9), ((427, 320), 16)):
+        image = rng.integers(0, 256, size=(*shape, 3), dtype=np.uint8)
+        assert image_features(image, cfg).shape == (rows, 30)
+    tiny = image_features(rng.integers(0, 256, size=(2, 3, 3), dtype=np.uint8), cfg)
+    assert tiny.shape == (1, 30) and np.all(np.isfinite(tiny))
+
+
+def test_fit_and_classify_regions_of_mixed_sizes():
+    # Training regions of 48, 64 and 128 px: 1, 4 and 16 tiles (ragged), a row of each.
+    cfg = ClassifierConfig()
+    per_region, labels = [], []
+    for name in TEXTURES:
+        rgb, top = texture_half(name, 0), 0
+        for size in (48, 64, 128):
+            for left in range(0, rgb.shape[1] - size + 1, size):
+                per_region.append(image_features(rgb[top : top + size, left : left + size], cfg))
+                labels.append(name)
+            top += size
+    features, region = stack_regions(per_region)
+    assert np.bincount(region).tolist() == ([1] * 5 + [4] * 4 + [16] * 2) * 3
+    model = TerrainClassifier(cfg).fit(features, labels, region)
+    assert model.n_training_images == 33 and len(model.training_labels) == 3 * 53
+    assert model.training_labels[region == 10].tolist() == ["grass"] * 16
+    assert model.training_labels[region == 11].tolist() == ["gravel"]
+    # Regions of the other half, of several sizes, one at a time.
+    correct = total = 0
+    for name in TEXTURES:
+        rgb = texture_half(name, 1)
+        for size in (96, 120, 128, 256):  # 3x3, 3x3, 4x4, 4x4 tiles
+            for top in range(0, rgb.shape[0] - size + 1, size):
+                for left in range(0, rgb.shape[1] - size + 1, size):
+                    label, confidence = model.classify(rgb[top : top + size, left : left + size])
+                    assert 1 / 3 <= confidence <= 1.0  # a plurality of the tiles
+                    correct += label == name
+                    total += 1
+        label, confidence = model.classify(rgb[:40, :56])  # one tile: neighbour share
+        assert label in TEXTURES and 0.0 < confidence <= 1.0
+    assert total == 3 * (10 + 8 + 8 + 2)
+    assert correct / total >= 0.95
 
 
 def test_classify_a_whole_image_and_with_tiles():
     tile = texture_tiles("brick", 0)[0]
     for tiles in (1, 2):
         cfg = ClassifierConfig(tiles=tiles, k=1)
-        x = np.stack([image_features(texture_tiles(name, 0)[1], cfg) for name in TEXTURES])
-        model = TerrainClassifier(cfg).fit(x, np.array(TEXTURES))
+        x, region = stack_regions(
+            [image_features(texture_tiles(name, 0)[1], cfg) for name in TEXTURES]
+        )
+        model = TerrainClassifier(cfg).fit(x, np.array(TEXTURES), region)
         label, confidence = model.classify(tile)
         assert isinstance(label, str) and label in TEXTURES
         assert isinstance(confidence, float) and 0.0 < confidence <= 1.0
@@ -230,7 +340,7 @@ def test_region_features_length_and_finite():
         features = region_features(image, cfg)
         assert features.shape == (length,)
         assert np.all(np.isfinite(features))
-    assert image_features(image, ClassifierConfig(tiles=3)).shape == (9, 30)
+    assert image_features(image, ClassifierConfig(tiles=3, min_tile_size=8)).shape == (9, 30)
 
 
 def test_relative_counts_are_fractions_of_the_area():
@@ -272,11 +382,13 @@ def test_image_features_rejects_non_rgb_input():
 def test_classifier_config_file_and_overrides(tmp_path):
     path = tmp_path / "c.yaml"
     path.write_text("k: 7\nweights: uniform\n")
-    cfg = load_classifier_config(path, {"tiles": 2})
-    assert (cfg.k, cfg.weights, cfg.tiles) == (7, "uniform", 2)
+    cfg = load_classifier_config(path, {"tiles": 2, "min_tile_size": 24})
+    assert (cfg.k, cfg.weights, cfg.tiles, cfg.min_tile_size) == (7, "uniform", 2, 24)
     path.write_text("kk: 7\n")
     with pytest.raises(ConfigError, match=r"c\.yaml: .*unknown key"):
         load_classifier_config(path)
+    with pytest.raises(ConfigError, match="min_tile_size: must be a whole number >= 1"):
+        load_classifier_config(None, {"min_tile_size": 0})
     with pytest.raises(ConfigError, match="features: must be one of"):
         load_classifier_config(None, {"features": "rgb"})
     with pytest.raises(ConfigError, match="not found"):

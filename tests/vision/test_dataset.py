@@ -35,9 +35,12 @@ def texture(name: str, index: int, size: int = 48) -> np.ndarray:
 
 
 def make_folder(root: Path) -> Path:
-    """3 grass (png), 2 gravel (upper-case JPG, one nested), 2 brick (tiff + bmp) and noise."""
+    """3 grass (png), 2 gravel (upper-case JPG, one nested), 2 brick (tiff + bmp) and noise.
+
+    All 48x48 (one tile with the default ``min_tile_size``) but ``grass/g1.png``, 96x96.
+    """
     for i in range(3):
-        write_rgb(root / "grass" / f"g{i}.png", texture("grass", i))
+        write_rgb(root / "grass" / f"g{i}.png", texture("grass", i, 96 if i == 1 else 48))
     write_rgb(root / "gravel" / "a.JPG", texture("gravel", 0))
     write_rgb(root / "gravel" / "day2" / "b.jpeg", texture("gravel", 1))
     write_rgb(root / "brick" / "a.tiff", texture("brick", 0))
@@ -70,28 +73,50 @@ def test_read_image_converts_bgr_to_rgb(tmp_path):
     assert read_image_rgb(tmp_path / "empty.jpg") is None
 
 
-def test_features_match_image_features_and_time_is_recorded(tmp_path):
-    cfg = ClassifierConfig(tiles=2)
+def test_features_are_flat_tiles_with_their_image_index(tmp_path):
+    cfg = ClassifierConfig()
     data = extract_features(scan_image_folder(make_folder(tmp_path)), cfg, jobs=1, progress=False)
-    assert data.features.shape == (7, 4, 30)
     assert data.counts() == {"brick": 2, "grass": 3, "gravel": 2}
-    expected = image_features(read_image_rgb(data.paths[3]), cfg)
-    np.testing.assert_array_equal(data.features[3], expected)
+    assert data.paths[3].name == "g1.png"  # 96 px: 3x3 tiles, the others one tile
+    assert np.bincount(data.region).tolist() == [1, 1, 1, 9, 1, 1, 1]
+    assert data.features.shape == (15, 30) and data.region.shape == (15,)
+    for i in (3, 4):
+        expected = image_features(read_image_rgb(data.paths[i]), cfg)
+        np.testing.assert_array_equal(data.features[data.region == i], expected)
     assert data.seconds.shape == (7,) and np.all(data.seconds > 0)
     assert data.skipped == ()
 
 
-def test_unreadable_image_is_skipped_and_listed(tmp_path):
+def test_select_keeps_all_tiles_of_the_chosen_images(tmp_path):
+    data = extract_features(
+        scan_image_folder(make_folder(tmp_path)), ClassifierConfig(), jobs=1, progress=False
+    )
+    part = data.select([4, 3, 0])
+    assert part.labels.tolist() == ["grass", "grass", "brick"]
+    assert part.paths == (data.paths[4], data.paths[3], data.paths[0])
+    np.testing.assert_array_equal(part.seconds, data.seconds[[4, 3, 0]])
+    assert part.region.tolist() == [0] + [1] * 9 + [2]
+    for new, old in enumerate((4, 3, 0)):
+        np.testing.assert_array_equal(
+            part.features[part.region == new], data.features[data.region == old]
+        )
+    assert part.cfg == data.cfg and part.classes == data.classes
+    with pytest.raises(ValueError, match="distinct"):
+        data.select([1, 1])
+
+
+def test_unreadable_image_is_skipped_and_a_tiny_one_is_one_tile(tmp_path):
     root = make_folder(tmp_path)
     (root / "grass" / "broken.png").write_text("this is not a png")
-    write_rgb(root / "gravel" / "tiny.png", texture("gravel", 2)[:2, :2])
-    cfg = ClassifierConfig(tiles=3)
-    data = extract_features(scan_image_folder(root), cfg, jobs=1, progress=False)
-    skipped = {s.path.name: s.reason for s in data.skipped}
-    assert set(skipped) == {"broken.png", "tiny.png"}
-    assert "cannot be read" in skipped["broken.png"]
-    assert "3x3 tiles" in skipped["tiny.png"]
-    assert data.counts() == {"brick": 2, "grass": 3, "gravel": 2}
+    write_rgb(root / "gravel" / "tiny.png", texture("gravel", 2)[:2, :3])
+    data = extract_features(scan_image_folder(root), ClassifierConfig(), jobs=1, progress=False)
+    assert [(s.path.name, s.reason) for s in data.skipped] == [
+        ("broken.png", "cannot be read as an image")
+    ]
+    assert data.counts() == {"brick": 2, "grass": 3, "gravel": 3}
+    tiny = data.paths.index(root / "gravel" / "tiny.png")
+    assert np.count_nonzero(data.region == tiny) == 1
+    assert np.all(np.isfinite(data.features))
 
 
 def test_a_class_of_unreadable_images_is_an_error(tmp_path):
@@ -121,10 +146,14 @@ def test_parallel_extraction_equals_serial_and_shares_equal_feature_settings(tmp
     images = scan_image_folder(make_folder(tmp_path))
     paper = paper_config()
     knn_only_change = dataclasses.replace(paper, k=3)
-    serial = extract_feature_sets(images, [paper, knn_only_change], jobs=1, progress=False)
-    parallel = extract_feature_sets(images, [paper], jobs=2, progress=False)
-    np.testing.assert_array_equal(parallel[0].features, serial[0].features)
-    assert parallel[0].paths == serial[0].paths
+    default = ClassifierConfig()  # ragged: g1.png has 9 tiles
+    serial = extract_feature_sets(images, [paper, knn_only_change, default], jobs=1, progress=False)
+    parallel = extract_feature_sets(images, [paper, default], jobs=2, progress=False)
+    for ours, theirs in ((parallel[0], serial[0]), (parallel[1], serial[2])):
+        np.testing.assert_array_equal(ours.features, theirs.features)
+        np.testing.assert_array_equal(ours.region, theirs.region)
+        assert ours.paths == theirs.paths
+    assert serial[2].features.shape[0] == 15
     assert serial[1].cfg == knn_only_change
     np.testing.assert_array_equal(serial[1].features, serial[0].features)
     with pytest.raises(ConfigError, match="jobs"):

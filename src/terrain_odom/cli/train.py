@@ -20,7 +20,7 @@ def add_classifier_options(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--config",
         help="classifier YAML: any of features, n_t, relative_counts, pyramid_levels, "
-        "scale, k, weights, tiles (default: built-in defaults)",
+        "scale, k, weights, tiles, min_tile_size (default: built-in defaults)",
     )
     p.add_argument(
         "--features",
@@ -33,7 +33,12 @@ def add_classifier_options(p: argparse.ArgumentParser) -> None:
         help="raw Euclidean distance on unstandardised features (Chen et al.)",
     )
     p.add_argument("--k", type=int, help="number of neighbours voting")
-    p.add_argument("--tiles", type=int, help="tiles per side for tile voting (1: whole image)")
+    p.add_argument("--tiles", type=int, help="most tiles per side for tile voting (1: whole image)")
+    p.add_argument(
+        "--min-tile-size",
+        type=int,
+        help="smallest tile side in pixels: smaller images get fewer tiles per side",
+    )
     p.add_argument("--jobs", type=int, help="feature-extraction processes (default: all cores)")
 
 
@@ -43,7 +48,7 @@ def classifier_config(args: argparse.Namespace) -> ClassifierConfig:
 
     overrides: dict[str, Any] = {
         name: getattr(args, name)
-        for name in ("features", "k", "tiles")
+        for name in ("features", "k", "tiles", "min_tile_size")
         if getattr(args, name) is not None
     }
     if args.no_scale:
@@ -56,7 +61,7 @@ def describe(cfg: ClassifierConfig) -> str:
     return (
         f"features={cfg.features} n_t={cfg.n_t} relative_counts={cfg.relative_counts} "
         f"pyramid_levels={cfg.pyramid_levels} scale={cfg.scale} k={cfg.k} "
-        f"weights={cfg.weights} tiles={cfg.tiles}"
+        f"weights={cfg.weights} tiles={cfg.tiles} min_tile_size={cfg.min_tile_size}"
     )
 
 

@@ -19,15 +19,21 @@ that recipe selectable (``features="sfta"``, ``relative_counts=False``,
   SFTA throws away colour, which is what separates e.g. wood from carpet;
 - **image pyramid** (``pyramid_levels``): SFTA also of the region halved
   ``1, 2, ...`` times, describing the texture at coarser scales;
-- **tile voting** (``tiles``): a region is cut into ``tiles x tiles`` tiles,
-  each tile is classified, and the region gets the majority label with the
-  vote share as its confidence;
+- **tile voting** (``tiles``, ``min_tile_size``): a region is cut into up to
+  ``tiles x tiles`` tiles of at least ``min_tile_size`` pixels a side
+  (:func:`tiles_per_side`), each tile is classified, and the region gets the
+  majority label with the vote share as its confidence;
 - **distance weighting** of the neighbours' votes (``weights``).
 
+Regions of different sizes have different numbers of tiles, so the features
+of several regions are *flat*: one row per tile, ``(n_tiles, n_features)``,
+and a ``region`` index ``(n_tiles,)`` giving the region (0, 1, ...) of each
+row.
+
 A KNN model *is* its training set: :meth:`TerrainClassifier.save` writes the
-training features, labels, scaler parameters and metadata to one ``.npz``
-file (no pickle), and :meth:`TerrainClassifier.load` refuses a model whose
-feature format differs from this code's.
+training features, labels, region index, scaler parameters and metadata to
+one ``.npz`` file (no pickle), and :meth:`TerrainClassifier.load` refuses a
+model whose file or feature format differs from this code's.
 """
 
 from __future__ import annotations
@@ -65,17 +71,19 @@ __all__ = [
     "load_classifier_config",
     "colour_statistics",
     "region_features",
+    "tiles_per_side",
     "split_tiles",
     "image_features",
     "make_pipeline",
+    "check_regions",
     "TerrainClassifier",
     "write_atomic",
 ]
 
-FEATURE_VERSION = 1
+FEATURE_VERSION = 2
 """Version of the feature vector; bump it whenever :func:`image_features` changes."""
 
-MODEL_FORMAT_VERSION = 1
+MODEL_FORMAT_VERSION = 2
 """Version of the model file layout written by :meth:`TerrainClassifier.save`."""
 
 PAPER_K = 5
@@ -83,7 +91,7 @@ PAPER_K = 5
 
 FeatureOption = Literal["sfta", "sfta+lab", "sfta+hsv"]
 
-FEATURE_FIELDS = ("features", "n_t", "relative_counts", "pyramid_levels", "tiles")
+FEATURE_FIELDS = ("features", "n_t", "relative_counts", "pyramid_levels", "tiles", "min_tile_size")
 """Fields of :class:`ClassifierConfig` that change the feature vectors."""
 
 
@@ -111,7 +119,16 @@ class ClassifierConfig:
     weights : {"uniform", "distance"}
         Each neighbour's vote counts 1 (Chen) or ``1 / distance``.
     tiles : int
-        Tiles per side for tile voting; 1 classifies the whole region.
+        Most tiles per side for tile voting; 1 classifies the whole region.
+    min_tile_size : int
+        Smallest tile side, px: a region is cut into fewer tiles per side
+        when ``tiles`` would make them smaller (:func:`tiles_per_side`), and
+        a region under ``2 * min_tile_size`` px a side is one tile. Box
+        counting fits the box sides ``1, 2, 4, ...`` up to the first at which
+        every box is occupied: in 16 px tiles of floor photos or skimage's
+        textures that leaves about 3 sizes (up to 17 % of the dimensions are
+        two-point slopes), in 32 px tiles about 4 (at most 3 %). 64x64
+        skimage patches: 96.4 % with 16 px tiles, 98.4 % with 32 px.
     """
 
     features: FeatureOption = "sfta+lab"
@@ -122,6 +139,7 @@ class ClassifierConfig:
     k: int = 5
     weights: Literal["uniform", "distance"] = "distance"
     tiles: int = 4
+    min_tile_size: int = 32
 
     def feature_key(self) -> dict[str, Any]:
         """Return the fields that define the feature vectors (:data:`FEATURE_FIELDS`)."""
@@ -280,6 +298,22 @@ def region_features(image_rgb: NDArray[np.uint8], cfg: ClassifierConfig) -> NDAr
     return _features(image_rgb, None if space is None else _convert(image_rgb, space), cfg)
 
 
+def tiles_per_side(height: int, width: int, cfg: ClassifierConfig) -> int:
+    """Return the number of tiles per side of a ``height x width`` region.
+
+    ``min(cfg.tiles, max(1, min(height, width) // cfg.min_tile_size))``: as
+    many as ``cfg.tiles`` allows with tiles of at least ``cfg.min_tile_size``
+    pixels a side, and at least one.
+
+    >>> cfg = ClassifierConfig(tiles=4, min_tile_size=32)
+    >>> tiles_per_side(427, 320, cfg), tiles_per_side(120, 160, cfg), tiles_per_side(64, 64, cfg)
+    (4, 3, 2)
+    >>> tiles_per_side(63, 200, cfg)
+    1
+    """
+    return min(cfg.tiles, max(1, min(height, width) // cfg.min_tile_size))
+
+
 def split_tiles(image: NDArray, tiles: int) -> list[NDArray]:
     """Cut an image into ``tiles x tiles`` tiles, row by row.
 
@@ -307,24 +341,26 @@ def image_features(image_rgb: NDArray[np.uint8], cfg: ClassifierConfig) -> NDArr
     Parameters
     ----------
     image_rgb : ndarray of uint8, shape (H, W, 3)
-        RGB region; at least ``cfg.tiles`` pixels on each side.
+        RGB region of any size.
     cfg : ClassifierConfig
 
     Returns
     -------
-    ndarray of float64, shape (cfg.tiles ** 2, n_features)
-        :func:`region_features` of each tile (one row when ``tiles == 1``).
+    ndarray of float64, shape (n ** 2, n_features)
+        :func:`region_features` of each tile, row by row, with
+        ``n = tiles_per_side(H, W, cfg)`` (one row when ``n == 1``).
     """
     image_rgb = np.asarray(image_rgb)
     if image_rgb.ndim != 3 or image_rgb.shape[2] != 3 or image_rgb.dtype != np.uint8:
         raise ValueError(
             f"expected an RGB uint8 image (H, W, 3), got {image_rgb.dtype} {image_rgb.shape}"
         )
-    rgb_tiles = split_tiles(image_rgb, cfg.tiles)
+    tiles = tiles_per_side(image_rgb.shape[0], image_rgb.shape[1], cfg)
+    rgb_tiles = split_tiles(image_rgb, tiles)
     space = _colour_space(cfg)
     if space is None:
         return np.stack([_features(tile, None, cfg) for tile in rgb_tiles])
-    colour_tiles = split_tiles(_convert(image_rgb, space), cfg.tiles)  # one conversion
+    colour_tiles = split_tiles(_convert(image_rgb, space), tiles)  # one conversion
     return np.stack([_features(*pair, cfg) for pair in zip(rgb_tiles, colour_tiles, strict=True)])
 
 
@@ -340,18 +376,66 @@ def make_pipeline(cfg: ClassifierConfig) -> Pipeline:
     return Pipeline(steps)
 
 
-def _as_regions(features: NDArray) -> NDArray:
-    """View features as (n_regions, n_tiles, n_features)."""
+def check_regions(
+    features: NDArray, region: NDArray | None = None, n_regions: int | None = None
+) -> tuple[NDArray, NDArray, NDArray]:
+    """Check flat tile features and their region index.
+
+    Parameters
+    ----------
+    features : array_like, shape (n_tiles, n_features)
+        One row per tile, e.g. :func:`image_features` of several regions
+        concatenated.
+    region : array_like of int, shape (n_tiles,), optional
+        Region of each row, numbered ``0 .. n_regions - 1`` in any order;
+        every region has at least one row. Default: each row is a region.
+    n_regions : int, optional
+        Number of regions (default: ``max(region) + 1``).
+
+    Returns
+    -------
+    features : ndarray of float64, shape (n_tiles, n_features)
+    region : ndarray of intp, shape (n_tiles,)
+    tile_counts : ndarray of intp, shape (n_regions,)
+        Rows of each region.
+
+    Raises
+    ------
+    ValueError
+        Shapes that do not match, or a region without rows.
+
+    >>> check_regions([[0.0], [1.0], [2.0]], [1, 0, 1])[2].tolist()
+    [1, 2]
+    """
     features = np.asarray(features, dtype=np.float64)
-    if features.ndim == 2:
-        return features[:, None, :]
-    if features.ndim != 3:
-        raise ValueError(f"features must have 2 or 3 dimensions, got shape {features.shape}")
-    return features
+    if features.ndim != 2:
+        raise ValueError(f"features must have shape (n_tiles, n_features), got {features.shape}")
+    if region is None:
+        region = np.arange(features.shape[0])
+    region = np.asarray(region)
+    if region.shape != features.shape[:1] or (region.size and region.dtype.kind not in "iu"):
+        raise ValueError(
+            f"region must hold one integer per feature row ({features.shape[0]}), "
+            f"got {region.dtype} {region.shape}"
+        )
+    region = region.astype(np.intp, copy=False)
+    if n_regions is None:
+        n_regions = int(region.max()) + 1 if region.size else 0
+    if region.size and (region.min() < 0 or region.max() >= n_regions):
+        raise ValueError(f"region numbers must be in 0 .. {n_regions - 1}")
+    tile_counts = np.bincount(region, minlength=n_regions)
+    if not np.all(tile_counts):
+        empty = np.flatnonzero(tile_counts == 0)
+        raise ValueError(f"region(s) {empty[:5].tolist()} have no feature rows")
+    return features, region, tile_counts
 
 
 class TerrainClassifier:
     """KNN terrain classifier with optional tile voting.
+
+    Features come flat, one row per tile, with a ``region`` index telling
+    which region (image) each row belongs to (see :func:`check_regions`);
+    without it every row is a region of its own.
 
     Parameters
     ----------
@@ -364,6 +448,8 @@ class TerrainClassifier:
     ...     np.array([[0.0, 0.0], [1.0, 1.0]]), np.array(["grass", "gravel"]))
     >>> clf.predict(np.array([[0.1, 0.2]])).tolist()
     ['grass']
+    >>> clf.predict(np.array([[0.1, 0.2], [0.9, 0.8], [0.7, 0.9]]), region=[0, 1, 1]).tolist()
+    ['grass', 'gravel']
     """
 
     def __init__(self, cfg: ClassifierConfig | None = None) -> None:
@@ -371,22 +457,32 @@ class TerrainClassifier:
         self.pipeline = make_pipeline(self.cfg)
         self.training_features = np.empty((0, 0))
         self.training_labels = np.empty(0, dtype=str)
-        self.n_training_images = 0
+        self.training_region = np.empty(0, dtype=np.intp)
 
     @property
     def classes(self) -> list[str]:
         """Class names, sorted (the columns of :meth:`predict_proba`)."""
         return [str(c) for c in self.pipeline.classes_]
 
-    def fit(self, features: NDArray, labels: NDArray) -> TerrainClassifier:
+    @property
+    def n_training_images(self) -> int:
+        """Number of training regions (images); 0 before :meth:`fit`."""
+        return int(self.training_region.max()) + 1 if self.training_region.size else 0
+
+    def fit(
+        self, features: NDArray, labels: NDArray, region: NDArray | None = None
+    ) -> TerrainClassifier:
         """Fit on the tiles of labelled regions.
 
         Parameters
         ----------
-        features : ndarray, shape (n_regions, n_tiles, n_features) or (n_regions, n_features)
-            Output of :func:`image_features` per training region.
+        features : ndarray, shape (n_tiles, n_features)
+            The :func:`image_features` rows of every training region.
         labels : array_like of str, shape (n_regions,)
             Terrain of each region; every tile of a region gets its label.
+        region : array_like of int, shape (n_tiles,), optional
+            Region of each row (:func:`check_regions`); default: each row is
+            a region.
 
         Returns
         -------
@@ -397,20 +493,21 @@ class TerrainClassifier:
         ------
         ConfigError
             ``k`` is larger than the number of training samples (tiles).
+        ValueError
+            ``features``, ``labels`` and ``region`` do not match.
         """
-        regions = _as_regions(features)
         labels = np.asarray(labels).astype(str)
-        if labels.shape != (regions.shape[0],):
-            raise ValueError(f"{regions.shape[0]} regions but labels of shape {labels.shape}")
-        if self.cfg.k > regions.shape[0] * regions.shape[1]:
+        if labels.ndim != 1:
+            raise ValueError(f"labels must have shape (n_regions,), got {labels.shape}")
+        features, region, _ = check_regions(features, region, labels.size)
+        if self.cfg.k > features.shape[0]:
             raise ConfigError(
-                f"k: {self.cfg.k} neighbours but only {regions.shape[0] * regions.shape[1]} "
-                "training samples"
+                f"k: {self.cfg.k} neighbours but only {features.shape[0]} training samples"
             )
-        self.training_features = regions.reshape(-1, regions.shape[2])
-        self.training_labels = np.repeat(labels, regions.shape[1])
+        self.training_features = features
+        self.training_labels = labels[region]
+        self.training_region = region
         self.pipeline.fit(self.training_features, self.training_labels)
-        self.n_training_images = regions.shape[0]
         return self
 
     def predict_proba(self, features: NDArray) -> NDArray:
@@ -429,56 +526,64 @@ class TerrainClassifier:
         """
         return self.pipeline.predict_proba(np.asarray(features, dtype=np.float64))
 
-    def predict_with_confidence(self, features: NDArray) -> tuple[NDArray, NDArray]:
+    def predict_with_confidence(
+        self, features: NDArray, region: NDArray | None = None
+    ) -> tuple[NDArray, NDArray]:
         """Label and confidence of each region.
 
         Parameters
         ----------
-        features : ndarray, shape (n_regions, n_tiles, n_features) or (n_regions, n_features)
+        features : ndarray, shape (n_tiles, n_features)
+        region : array_like of int, shape (n_tiles,), optional
+            Region of each row (:func:`check_regions`); default: each row is
+            a region.
 
         Returns
         -------
         labels : ndarray of str, shape (n_regions,)
-            With one tile: the KNN label (eq. 26). With several: the label
-            most tiles get; a tie goes to the class with the larger summed
-            neighbour vote share.
+            Of a one-tile region: the KNN label (eq. 26). Of a region of
+            several tiles: the label most of its tiles get; a tie goes to the
+            class with the larger summed neighbour vote share.
         confidence : ndarray of float, shape (n_regions,)
-            With one tile: the neighbour vote share of the label. With
-            several: the share of tiles that voted for the label.
+            Of a one-tile region: the neighbour vote share of the label. Of a
+            region of several tiles: the share of its tiles that voted for
+            the label.
         """
-        regions = _as_regions(features)
-        n_regions, n_tiles, n_features = regions.shape
-        proba = self.predict_proba(regions.reshape(-1, n_features)).reshape(n_regions, n_tiles, -1)
-        rows = np.arange(n_regions)
-        if n_tiles == 1:
-            best = proba[:, 0, :].argmax(axis=1)
-            confidence = proba[rows, 0, best]
-        else:
-            tile_labels = proba.argmax(axis=2)
-            votes = (tile_labels[..., None] == np.arange(proba.shape[2])).sum(axis=1)
-            # The summed vote shares (< n_tiles) only break ties between vote counts.
-            best = (votes + proba.sum(axis=1) / (n_tiles + 1)).argmax(axis=1)
-            confidence = votes[rows, best] / n_tiles
+        features, region, tile_counts = check_regions(features, region)
+        proba = self.predict_proba(features)
+        shape = (tile_counts.size, proba.shape[1])
+        votes, shares = np.zeros(shape), np.zeros(shape)
+        np.add.at(votes, (region, proba.argmax(axis=1)), 1.0)
+        np.add.at(shares, region, proba)
+        # The summed vote shares (< the region's tiles) only break ties between vote counts;
+        # with one tile the label is the tile's.
+        best = (votes + shares / (tile_counts[:, None] + 1)).argmax(axis=1)
+        rows = np.arange(tile_counts.size)
+        confidence = np.where(tile_counts == 1, shares[rows, best], votes[rows, best] / tile_counts)
         return np.asarray(self.pipeline.classes_)[best], confidence
 
-    def predict(self, features: NDArray) -> NDArray:
+    def predict(self, features: NDArray, region: NDArray | None = None) -> NDArray:
         """Label of each region (see :meth:`predict_with_confidence`)."""
-        return self.predict_with_confidence(features)[0]
+        return self.predict_with_confidence(features, region)[0]
 
     def classify(self, image_rgb: NDArray[np.uint8]) -> tuple[str, float]:
-        """Classify one RGB image region.
+        """Classify one RGB image region of any size.
 
         Parameters
         ----------
         image_rgb : ndarray of uint8, shape (H, W, 3)
+            Cut into :func:`tiles_per_side` tiles per side.
 
         Returns
         -------
         label : str
         confidence : float
-            Vote share in [0, 1] (of the tiles when tiling, else of the neighbours).
+            Vote share in [0, 1] (of the tiles with several, else of the neighbours).
         """
-        labels, confidence = self.predict_with_confidence(image_features(image_rgb, self.cfg)[None])
+        features = image_features(image_rgb, self.cfg)
+        labels, confidence = self.predict_with_confidence(
+            features, np.zeros(features.shape[0], dtype=np.intp)
+        )
         return str(labels[0]), float(confidence[0])
 
     def metadata(self) -> dict[str, Any]:
@@ -497,11 +602,12 @@ class TerrainClassifier:
     def save(self, path: str | Path) -> Path:
         """Write the model atomically to one ``.npz`` file (no pickle).
 
-        Arrays: ``features`` (n_samples, n_features) raw training features,
-        ``labels`` (n_samples,) str, ``scaler_mean`` and ``scaler_scale``
-        (n_features,) (empty without scaling), ``metadata`` a JSON string
-        (:meth:`metadata`). The file is written as given, even without the
-        ``.npz`` suffix.
+        Arrays: ``features`` (n_samples, n_features) raw training features
+        (one row per tile), ``labels`` (n_samples,) str, ``region``
+        (n_samples,) int64 the training image of each row (numbered from 0),
+        ``scaler_mean`` and ``scaler_scale`` (n_features,) (empty without
+        scaling), ``metadata`` a JSON string (:meth:`metadata`). The file is
+        written as given, even without the ``.npz`` suffix.
 
         Returns
         -------
@@ -518,6 +624,7 @@ class TerrainClassifier:
         arrays = {
             "features": self.training_features,
             "labels": self.training_labels,
+            "region": self.training_region.astype(np.int64),
             "scaler_mean": mean,
             "scaler_scale": scale,
             "metadata": np.array(json.dumps(self.metadata())),
@@ -539,9 +646,10 @@ class TerrainClassifier:
         Raises
         ------
         InputFileError
-            The file is missing or not a model, or its format version,
-            feature version or feature settings differ from this code's or
-            ``expected``'s (the message names the file and both values).
+            The file is missing, not a model or inconsistent, or its format
+            version, feature version or feature settings differ from this
+            code's or ``expected``'s (the message names the file and both
+            values).
         """
         path = Path(path)
         try:
@@ -551,20 +659,29 @@ class TerrainClassifier:
             raise InputFileError(f"{path}: model file not found") from None
         except (OSError, ValueError) as exc:
             raise InputFileError(f"{path}: not a terrain-odom model file ({exc})") from None
-        missing = {"features", "labels", "scaler_mean", "scaler_scale", "metadata"} - set(arrays)
-        if missing:
-            raise InputFileError(f"{path}: not a terrain-odom model file (no {sorted(missing)})")
         try:
             meta = json.loads(str(arrays["metadata"]))
+        except KeyError:
+            raise InputFileError(f"{path}: not a terrain-odom model file (no metadata)") from None
         except json.JSONDecodeError:
             meta = None
         if not isinstance(meta, dict):
             raise InputFileError(f"{path}: not a terrain-odom model file (bad metadata)")
-        cfg = _check_model_metadata(path, meta, expected)
+        cfg = _check_model_metadata(path, meta, expected)  # versions before the arrays
+        missing = {"features", "labels", "region", "scaler_mean", "scaler_scale"} - set(arrays)
+        if missing:
+            raise InputFileError(f"{path}: not a terrain-odom model file (no {sorted(missing)})")
+        labels = arrays["labels"]
+        try:
+            features, region, _ = check_regions(arrays["features"], arrays["region"])
+            if labels.shape != region.shape:
+                raise ValueError(f"{labels.size} labels for {region.size} feature rows")
+        except ValueError as exc:
+            raise InputFileError(f"{path}: inconsistent model file ({exc})") from None
         model = cls(cfg)
-        model.training_features = arrays["features"]
-        model.training_labels = arrays["labels"]
-        samples = model.training_features
+        model.training_features = samples = features
+        model.training_labels = labels
+        model.training_region = region
         if cfg.scale:  # the stored scaler, not one refitted
             scaler = model.pipeline["scaler"]
             scaler.mean_, scaler.scale_ = arrays["scaler_mean"], arrays["scaler_scale"]
@@ -573,7 +690,6 @@ class TerrainClassifier:
             scaler.n_samples_seen_ = samples.shape[0]
             samples = scaler.transform(samples)
         model.pipeline["knn"].fit(samples, model.training_labels)
-        model.n_training_images = int(meta["n_training_images"])
         return model
 
 

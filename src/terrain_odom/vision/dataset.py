@@ -9,7 +9,9 @@ any letter case; hidden files and folders are ignored)::
       wood/    a.png ...
 
 Images are decoded with OpenCV (BGR) and converted to RGB here, at the edge;
-everything after works on RGB.
+everything after works on RGB. Images may differ in size, and so in their
+number of tiles: their features are flat, one row per tile, with the index
+of each row's image (:class:`LabelledFeatures`).
 """
 
 from __future__ import annotations
@@ -18,7 +20,7 @@ import os
 import time
 from collections import Counter
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import cv2
@@ -87,11 +89,14 @@ class LabelledFeatures:
     ----------
     cfg : ClassifierConfig
         Configuration the features were computed with.
-    features : ndarray of float64, shape (n_images, cfg.tiles ** 2, n_features)
-        :func:`~terrain_odom.vision.classifier.image_features` of each image.
+    features : ndarray of float64, shape (n_tiles, n_features)
+        :func:`~terrain_odom.vision.classifier.image_features` of every
+        image, concatenated in image order (an image's tiles are adjacent).
+    region : ndarray of intp, shape (n_tiles,)
+        Image of each row of ``features`` (index into ``labels`` and ``paths``).
     labels : ndarray of str, shape (n_images,)
     paths : tuple of Path
-        The images, in the order of ``features``.
+        The images, in the order of ``labels``.
     seconds : ndarray of float64, shape (n_images,)
         Feature-extraction time of each image, s (decoding excluded; measured
         in the worker process, so it includes contention from the others).
@@ -102,6 +107,7 @@ class LabelledFeatures:
 
     cfg: ClassifierConfig
     features: NDArray[np.float64]
+    region: NDArray[np.intp]
     labels: NDArray[np.str_]
     paths: tuple[Path, ...]
     seconds: NDArray[np.float64]
@@ -112,6 +118,37 @@ class LabelledFeatures:
         """Return the number of used images of each class, in class order."""
         counter = Counter(self.labels.tolist())
         return {name: counter[name] for name in self.classes}
+
+    def select(self, images: Sequence[int] | NDArray[np.integer]) -> LabelledFeatures:
+        """Return the data of some images, all their tiles, in the given order.
+
+        Parameters
+        ----------
+        images : sequence of int
+            Distinct image indices (into ``labels``).
+
+        Returns
+        -------
+        LabelledFeatures
+            Image ``images[j]`` becomes image ``j``: its rows of ``features``
+            (in their order) have ``region == j``. ``skipped`` is unchanged.
+        """
+        images = np.asarray(images, dtype=np.intp)
+        renumber = np.full(self.labels.size, -1, dtype=np.intp)
+        renumber[images] = np.arange(images.size)
+        if np.count_nonzero(renumber >= 0) != images.size:
+            raise ValueError("select: image indices must be distinct")
+        new_region = renumber[self.region]
+        rows = np.flatnonzero(new_region >= 0)
+        rows = rows[np.argsort(new_region[rows], kind="stable")]
+        return replace(
+            self,
+            features=self.features[rows],
+            region=new_region[rows],
+            labels=self.labels[images],
+            paths=tuple(self.paths[i] for i in images),
+            seconds=self.seconds[images],
+        )
 
 
 def _is_hidden(path: Path, root: Path) -> bool:
@@ -180,10 +217,7 @@ def _extract_one(
     features, seconds = [], []
     for cfg in configs:
         start = time.perf_counter()
-        try:
-            features.append(image_features(image, cfg))
-        except ValueError as exc:  # e.g. smaller than the tile grid
-            return str(exc)
+        features.append(image_features(image, cfg))
         seconds.append(time.perf_counter() - start)
     return features, seconds
 
@@ -285,18 +319,23 @@ def _collect(
     empty = [name for name in images.classes if not used[name]]
     if empty:
         raise InputFileError(f"{images.root}: no readable image in class(es) {empty}")
-    return [
-        LabelledFeatures(
-            cfg=cfg,
-            features=np.stack([results[i][0][slot] for i in good]),
-            labels=labels,
-            paths=tuple(images.paths[i] for i in good),
-            seconds=np.array([results[i][1][slot] for i in good]),
-            classes=images.classes,
-            skipped=skipped,
+    out = []
+    for cfg, slot in zip(configs, slots, strict=True):
+        per_image = [results[i][0][slot] for i in good]
+        tile_counts = [len(rows) for rows in per_image]
+        out.append(
+            LabelledFeatures(
+                cfg=cfg,
+                features=np.concatenate(per_image),
+                region=np.repeat(np.arange(len(per_image)), tile_counts),
+                labels=labels,
+                paths=tuple(images.paths[i] for i in good),
+                seconds=np.array([results[i][1][slot] for i in good]),
+                classes=images.classes,
+                skipped=skipped,
+            )
         )
-        for cfg, slot in zip(configs, slots, strict=True)
-    ]
+    return out
 
 
 def extract_features(
