@@ -1,0 +1,186 @@
+"""Write a simulated run to a folder.
+
+Layout of ``OUT``:
+
+- ``log.csv``: wheel log (``t,v_l,v_r,x,y,yaw,terrain``): measured track
+  speeds (m/s), GPS-like poses (empty cells on rows without one), true
+  terrain under the robot.
+- ``groundtruth.csv``: ``t,x,y,yaw,y_l,y_r,x_icr,terrain,alpha,v_l,v_r``, one
+  row per wheel sample: true pose at ``t``, true parameters and noise-free
+  track speeds held from ``t`` to the next row.
+- ``frames/NNNNNN.png`` and ``frames.csv`` (``t,file``, file relative to ``OUT``).
+- ``patches/<terrain>/NNNN.png``: labelled training patches (the labelled-image
+  layout of ``terrain-odom train``), from ground the run does not drive over.
+- ``simulation.json``: scenario, seed, terrain table, camera, robot, counts.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from terrain_odom.io import TrajectoryWriter
+from terrain_odom.io.report import write_json
+from terrain_odom.sim.simulation import Simulation, iter_frames, sample_patches
+
+__all__ = ["SimOutput", "write_simulation"]
+
+LOG_COLUMNS = ("t", "v_l", "v_r", "x", "y", "yaw", "terrain")
+TRUTH_COLUMNS = ("t", "x", "y", "yaw", "y_l", "y_r", "x_icr", "terrain", "alpha", "v_l", "v_r")
+
+
+@dataclass
+class SimOutput:
+    """What :func:`write_simulation` wrote (paths and counts)."""
+
+    out: Path
+    log_csv: Path
+    groundtruth_csv: Path
+    frames_csv: Path | None
+    patches_dir: Path | None
+    metadata_json: Path
+    rows: int
+    pose_rows: int
+    frames: int
+    patches: dict[str, int] = field(default_factory=dict)
+
+
+def _write_log(sim: Simulation, path: Path) -> None:
+    m, pose = sim.motion, sim.measured_pose
+    with TrajectoryWriter(path, LOG_COLUMNS) as writer:
+        for k in range(m.t.size):
+            writer.write(
+                {
+                    "t": round(float(m.t[k]), 6),
+                    "v_l": float(sim.v_l[k]),
+                    "v_r": float(sim.v_r[k]),
+                    "x": float(pose[k, 0]),
+                    "y": float(pose[k, 1]),
+                    "yaw": float(pose[k, 2]),
+                    "terrain": str(m.terrain[k]),
+                }
+            )
+
+
+def _write_truth(sim: Simulation, path: Path) -> None:
+    m = sim.motion
+    with TrajectoryWriter(path, TRUTH_COLUMNS) as writer:
+        for k in range(m.t.size):
+            y_l, y_r, x_icr, alpha = (float(a) for a in m.params[k])
+            writer.write(
+                {
+                    "t": round(float(m.t[k]), 6),
+                    "x": float(m.pose[k, 0]),
+                    "y": float(m.pose[k, 1]),
+                    "yaw": float(m.pose[k, 2]),
+                    "y_l": y_l,
+                    "y_r": y_r,
+                    "x_icr": x_icr,
+                    "terrain": str(m.terrain[k]),
+                    "alpha": alpha,
+                    "v_l": float(m.v_l[k]),
+                    "v_r": float(m.v_r[k]),
+                }
+            )
+
+
+def _write_png(path: Path, rgb: np.ndarray) -> None:
+    if not cv2.imwrite(str(path), cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR)):
+        raise OSError(f"cannot write {path}")
+
+
+def _write_frames(sim: Simulation, out: Path) -> int:
+    (out / "frames").mkdir(exist_ok=True)
+    count = 0
+    with TrajectoryWriter(out / "frames.csv", ("t", "file")) as writer:
+        for count, (t, frame) in enumerate(iter_frames(sim), start=1):
+            name = f"frames/{count - 1:06d}.png"
+            _write_png(out / name, frame)
+            writer.write({"t": round(t, 6), "file": name})
+    return count
+
+
+def _write_patches(sim: Simulation, folder: Path) -> dict[str, int]:
+    counts = {}
+    for terrain, patches in sample_patches(sim).items():
+        (folder / terrain).mkdir(parents=True, exist_ok=True)
+        for i, patch in enumerate(patches):
+            _write_png(folder / terrain / f"{i:04d}.png", patch)
+        counts[terrain] = len(patches)
+    return counts
+
+
+def _metadata(sim: Simulation, output: SimOutput) -> dict:
+    sc = sim.scenario
+    return {
+        "format_version": 1,
+        "scenario": sc.name,
+        "description": sc.description,
+        "seed": sim.seed,
+        "duration_s": sc.duration,
+        "rates_hz": {"wheel": sc.wheel_rate, "pose": sc.pose_rate, "frame": sc.frame_rate},
+        "noise": {
+            "encoder_m_s": sc.sigma_encoder,
+            "pose_xy_m": sc.sigma_xy,
+            "pose_yaw_rad": sc.sigma_yaw,
+            "pixel": sc.lighting.noise,
+        },
+        "terrains": {k: dataclasses.asdict(v) for k, v in sc.table.items()},
+        "map": {
+            "extent_m": list(sim.ground.extent),
+            "resolution_m": sim.ground.resolution,
+            "textures": "skimage.data photos (grass, gravel, brick), mirror-tiled and tinted",
+        },
+        "camera": dataclasses.asdict(sc.camera),
+        "robot": dataclasses.asdict(sc.robot),
+        "counts": {
+            "rows": output.rows,
+            "pose_rows": output.pose_rows,
+            "frames": output.frames,
+            "patches": output.patches,
+        },
+    }
+
+
+def write_simulation(
+    sim: Simulation, out: str | Path, *, frames: bool = True, patches: bool = True
+) -> SimOutput:
+    """Write a simulated run to ``out`` (created if needed; files overwritten).
+
+    Parameters
+    ----------
+    sim : Simulation
+    out : str or Path
+        Output folder.
+    frames, patches : bool
+        Render the camera frames / the training patches.
+
+    Returns
+    -------
+    SimOutput
+    """
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    output = SimOutput(
+        out=out,
+        log_csv=out / "log.csv",
+        groundtruth_csv=out / "groundtruth.csv",
+        frames_csv=out / "frames.csv" if frames else None,
+        patches_dir=out / "patches" if patches else None,
+        metadata_json=out / "simulation.json",
+        rows=int(sim.motion.t.size),
+        pose_rows=int(np.isfinite(sim.measured_pose[:, 0]).sum()),
+        frames=0,
+    )
+    _write_log(sim, output.log_csv)
+    _write_truth(sim, output.groundtruth_csv)
+    if frames:
+        output.frames = _write_frames(sim, out)
+    if patches:
+        output.patches = _write_patches(sim, out / "patches")
+    write_json(output.metadata_json, _metadata(sim, output))
+    return output

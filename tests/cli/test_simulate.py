@@ -1,0 +1,56 @@
+"""Tests of ``terrain-odom simulate``."""
+
+from __future__ import annotations
+
+import csv
+import json
+
+import cv2
+
+from terrain_odom.cli.main import main
+from terrain_odom.io import read_wheel_log
+
+
+def test_simulate_writes_a_run_and_prints_where(tmp_path, capsys):
+    out = tmp_path / "run"
+    code = main(["simulate", "--out", str(out), "--seed", "3", "--duration", "1", "--no-patches"])
+    assert code == 0
+    printed = capsys.readouterr().out
+    assert str(out / "log.csv") in printed and str(out / "frames.csv") in printed
+    log = read_wheel_log(out / "log.csv")
+    assert log.t.size == 50 and set(log.terrain) == {"grass"}
+    with (out / "frames.csv").open(newline="") as handle:
+        rows = list(csv.DictReader(handle))
+    assert len(rows) == 10 and all((out / r["file"]).is_file() for r in rows)
+    meta = json.loads((out / "simulation.json").read_text())
+    assert meta["scenario"] == "chen2023" and meta["seed"] == 3
+    assert not (out / "patches").exists()
+
+
+def test_simulate_takes_camera_and_robot_from_the_config(tmp_path):
+    config = tmp_path / "c.yaml"
+    config.write_text(
+        "robot: {track_width: 1.0}\ncamera: {width: 64, height: 48, cx: 31.5, cy: 23.5}\n"
+    )
+    out = tmp_path / "run"
+    args = [
+        "simulate",
+        "--out",
+        str(out),
+        "--duration",
+        "0.2",
+        "--no-patches",
+        "--config",
+        str(config),
+    ]
+    assert main(args) == 0
+    assert cv2.imread(str(out / "frames" / "000000.png")).shape == (48, 64, 3)
+    meta = json.loads((out / "simulation.json").read_text())
+    assert meta["terrains"]["grass"]["y_l"] == 0.84
+
+
+def test_unknown_scenario_is_a_one_line_error(tmp_path, capsys):
+    code = main(["simulate", "--out", str(tmp_path / "x"), "--scenario", "moon"])
+    assert code == 2
+    err = capsys.readouterr().err
+    assert "unknown scenario 'moon'" in err and "chen2023" in err
