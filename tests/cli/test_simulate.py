@@ -6,6 +6,7 @@ import csv
 import json
 
 import cv2
+import numpy as np
 
 from terrain_odom.cli.main import main
 from terrain_odom.io import read_wheel_log
@@ -54,3 +55,18 @@ def test_unknown_scenario_is_a_one_line_error(tmp_path, capsys):
     assert code == 2
     err = capsys.readouterr().err
     assert "unknown scenario 'moon'" in err and "chen2023" in err
+
+
+def test_simulate_rates_from_the_command_line(tmp_path):
+    out = tmp_path / "run"
+    args = ["simulate", "--out", str(out), "--duration", "1", "--no-patches"]
+    assert main([*args, "--pose-rate", "5", "--frame-rate", "2"]) == 0
+    log = read_wheel_log(out / "log.csv")
+    assert (~np.isnan(log.pose[:, 0])).sum() == 5
+    assert len((out / "frames.csv").read_text().splitlines()) == 1 + 2
+
+
+def test_a_rate_the_wheel_rate_is_not_a_multiple_of_is_an_error(tmp_path, capsys):
+    args = ["simulate", "--out", str(tmp_path / "x"), "--frame-rate", "7"]
+    assert main(args) == 2
+    assert "frame_rate" in capsys.readouterr().err

@@ -15,6 +15,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
     p.add_argument("--duration", type=float, help="seconds to simulate (default: the scenario's)")
     p.add_argument(
+        "--pose-rate", type=float, help="GPS-like pose rate, Hz (default: the scenario's)"
+    )
+    p.add_argument(
+        "--frame-rate", type=float, help="camera frame rate, Hz (default: the scenario's)"
+    )
+    p.add_argument(
         "--config",
         help="YAML configuration: its camera and robot sections replace the scenario's",
     )
@@ -31,10 +37,16 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     from terrain_odom.sim import get_scenario, simulate, write_simulation
 
     scenario = get_scenario(args.scenario)
-    if args.duration is not None:
-        if not args.duration > 0.0:
-            raise ConfigError(f"--duration must be > 0 s, got {args.duration}")
-        scenario = dataclasses.replace(scenario, duration=args.duration)
+    changes = {
+        "duration": args.duration,
+        "pose_rate": args.pose_rate,
+        "frame_rate": args.frame_rate,
+    }
+    for name, value in changes.items():
+        if value is not None and not value > 0.0:
+            raise ConfigError(f"--{name.replace('_', '-')} must be > 0, got {value}")
+    given = {k: v for k, v in changes.items() if v is not None}
+    scenario = dataclasses.replace(scenario, **given)
     robot = camera = None
     if args.config is not None:
         cfg = load_config(args.config)

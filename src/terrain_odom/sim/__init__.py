@@ -13,8 +13,8 @@ Examples
 >>> import dataclasses
 >>> sc = dataclasses.replace(get_scenario("chen2023"), duration=2.0)
 >>> sim = simulate(sc, seed=1)
->>> sim.motion.t.size, sim.motion.terrain[0]
-(100, np.str_('grass'))
+>>> sim.motion.t.size, str(sim.motion.terrain[0])
+(100, 'grass')
 """
 
 from terrain_odom.sim.render import Lighting, Renderer, frame_homography
