@@ -151,6 +151,22 @@ def test_patches_are_labelled_folders_of_the_patch_size(run_dir):
         assert cv2.imread(str(files[0])).shape == (32, 32, 3)
 
 
+def test_patches_see_no_ground_near_the_driven_path_and_only_their_terrain(run_dir):
+    sim, out = run_dir
+    with (out / "patches.csv").open(newline="") as handle:
+        rows = list(csv.DictReader(handle))
+    assert len(rows) == 9 and all((out / r["file"]).is_file() for r in rows)
+    size, path = sim.scenario.patch_size, sim.motion.pose[:, :2]
+    grid = np.linspace(0.0, size - 1.0, 7)
+    for row in rows:
+        pose = [float(row[k]) for k in ("x", "y", "yaw")]
+        uv = np.stack(np.meshgrid(grid + int(row["u0"]), grid + int(row["v0"])), -1).reshape(-1, 2)
+        seen = sim.renderer.ground_points(uv, pose)
+        assert set(sim.ground.terrain_at(seen).tolist()) == {row["terrain"]}
+        distance = np.hypot(*(seen[:, None, :] - path[None]).transpose(2, 0, 1)).min()
+        assert distance > sim.scenario.patch_margin - 0.05
+
+
 def test_chen2023_is_grass_then_about_20_s_of_gravel_then_grass():
     sim = simulate(get_scenario("chen2023"), seed=0)
     terrain, t = sim.motion.terrain, sim.motion.t

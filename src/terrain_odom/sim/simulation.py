@@ -22,7 +22,7 @@ from terrain_odom.sim.scenarios import Scenario
 from terrain_odom.sim.world import GroundMap, build_map
 from terrain_odom.vision.camera import CameraConfig, GroundCamera
 
-__all__ = ["Simulation", "simulate", "frame_rows", "iter_frames", "sample_patches"]
+__all__ = ["Simulation", "Patch", "simulate", "frame_rows", "iter_frames", "sample_patches"]
 
 _STREAMS = ("map", "encoder", "pose", "lighting", "frames", "patches")
 
@@ -163,7 +163,28 @@ def _crop_terrain(sim: Simulation, pose: np.ndarray, corner: np.ndarray, mask: n
     return -1 if mask[pix[:, 1], pix[:, 0]].any() else int(labels[0])
 
 
-def sample_patches(sim: Simulation, max_tries: int = 20000) -> dict[str, list[np.ndarray]]:
+@dataclass(frozen=True)
+class Patch:
+    """A labelled training patch.
+
+    Attributes
+    ----------
+    terrain : str
+    image : ndarray, shape (S, S, 3), uint8
+        RGB crop of a rendered frame.
+    pose : ndarray, shape (3,)
+        Robot pose the frame was rendered from (m, m, rad).
+    corner : tuple of 2 int
+        Top-left pixel ``(u0, v0)`` of the crop in that frame.
+    """
+
+    terrain: str
+    image: np.ndarray
+    pose: np.ndarray
+    corner: tuple[int, int]
+
+
+def sample_patches(sim: Simulation, max_tries: int = 20000) -> list[Patch]:
     """Labelled training patches rendered through the run's camera.
 
     Random robot poses over the map; a ``patch_size`` crop of the frame is
@@ -173,27 +194,29 @@ def sample_patches(sim: Simulation, max_tries: int = 20000) -> dict[str, list[np
 
     Returns
     -------
-    dict of str to list of ndarray
-        Terrain -> RGB uint8 patches (up to ``patches_per_terrain`` each).
+    list of Patch
+        Up to ``patches_per_terrain`` per terrain, in the order drawn.
     """
     sc, ground = sim.scenario, sim.ground
     rng, mask = sim.rng("patches"), _path_mask(sim)
     want = sc.patches_per_terrain
-    patches: dict[str, list[np.ndarray]] = {name: [] for name in ground.terrains}
+    counts = dict.fromkeys(ground.terrains, 0)
+    patches: list[Patch] = []
     x_min, x_max, y_min, y_max = ground.extent
     cam = sim.renderer.camera
     for _ in range(max_tries):
-        if all(len(p) >= want for p in patches.values()):
+        if all(n >= want for n in counts.values()):
             break
         pose = np.array([rng.uniform(x_min, x_max), rng.uniform(y_min, y_max), 0.0])
         pose[2] = rng.uniform(-np.pi, np.pi)
         corner = rng.integers(0, (cam.width - sc.patch_size + 1, cam.height - sc.patch_size + 1))
         index = _crop_terrain(sim, pose, corner, mask)
-        if index < 0 or len(patches[ground.terrains[index]]) >= want:
+        if index < 0 or counts[ground.terrains[index]] >= want:
             continue
+        name = ground.terrains[index]
         frame = sim.renderer.render(pose, float(rng.uniform(0.0, sc.duration)), rng)
         u0, v0 = int(corner[0]), int(corner[1])
-        patches[ground.terrains[index]].append(
-            frame[v0 : v0 + sc.patch_size, u0 : u0 + sc.patch_size].copy()
-        )
+        crop = frame[v0 : v0 + sc.patch_size, u0 : u0 + sc.patch_size].copy()
+        patches.append(Patch(name, crop, pose, (u0, v0)))
+        counts[name] += 1
     return patches

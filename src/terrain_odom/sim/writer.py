@@ -10,7 +10,9 @@ Layout of ``OUT``:
   track speeds held from ``t`` to the next row.
 - ``frames/NNNNNN.png`` and ``frames.csv`` (``t,file``, file relative to ``OUT``).
 - ``patches/<terrain>/NNNN.png``: labelled training patches (the labelled-image
-  layout of ``terrain-odom train``), from ground the run does not drive over.
+  layout of ``terrain-odom train``), from ground the run does not drive over;
+  ``patches.csv`` (``file,terrain,x,y,yaw,u0,v0``): the robot pose each was
+  rendered from and the crop's top-left pixel.
 - ``simulation.json``: scenario, seed, terrain table, camera, robot, counts.
 """
 
@@ -104,13 +106,29 @@ def _write_frames(sim: Simulation, out: Path) -> int:
     return count
 
 
-def _write_patches(sim: Simulation, folder: Path) -> dict[str, int]:
-    counts = {}
-    for terrain, patches in sample_patches(sim).items():
-        (folder / terrain).mkdir(parents=True, exist_ok=True)
-        for i, patch in enumerate(patches):
-            _write_png(folder / terrain / f"{i:04d}.png", patch)
-        counts[terrain] = len(patches)
+def _write_patches(sim: Simulation, out: Path) -> dict[str, int]:
+    counts = dict.fromkeys(sim.ground.terrains, 0)
+    columns = ("file", "terrain", "x", "y", "yaw", "u0", "v0")
+    with TrajectoryWriter(out / "patches.csv", columns) as writer:
+        for patch in sample_patches(sim):
+            folder = out / "patches" / patch.terrain
+            folder.mkdir(parents=True, exist_ok=True)
+            name = f"patches/{patch.terrain}/{counts[patch.terrain]:04d}.png"
+            _write_png(out / name, patch.image)
+            counts[patch.terrain] += 1
+            x, y, yaw = (float(a) for a in patch.pose)
+            u0, v0 = patch.corner
+            writer.write(
+                {
+                    "file": name,
+                    "terrain": patch.terrain,
+                    "x": x,
+                    "y": y,
+                    "yaw": yaw,
+                    "u0": u0,
+                    "v0": v0,
+                }
+            )
     return counts
 
 
@@ -181,6 +199,6 @@ def write_simulation(
     if frames:
         output.frames = _write_frames(sim, out)
     if patches:
-        output.patches = _write_patches(sim, out / "patches")
+        output.patches = _write_patches(sim, out)
     write_json(output.metadata_json, _metadata(sim, output))
     return output
