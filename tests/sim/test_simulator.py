@@ -10,7 +10,7 @@ import cv2
 import numpy as np
 import pytest
 
-from terrain_odom.config import RobotConfig
+from terrain_odom.config import RobotConfig, load_config
 from terrain_odom.io import read_trajectory_csv, read_wheel_log
 from terrain_odom.kinematics import integrate, twist_icr, wrap_angle
 from terrain_odom.sim import (
@@ -165,6 +165,13 @@ def test_patches_see_no_ground_near_the_driven_path_and_only_their_terrain(run_d
         assert set(sim.ground.terrain_at(seen).tolist()) == {row["terrain"]}
         distance = np.hypot(*(seen[:, None, :] - path[None]).transpose(2, 0, 1)).min()
         assert distance > sim.scenario.patch_margin - 0.05
+
+
+def test_config_yaml_of_the_run_loads_with_its_camera_and_robot(run_dir):
+    sim, out = run_dir
+    cfg = load_config(out / "config.yaml")
+    assert cfg.camera == sim.scenario.camera and cfg.robot == sim.scenario.robot
+    assert cv2.imread(str(out / "map.png")).shape == (300, 500, 3)
 
 
 def test_chen2023_is_grass_then_about_20_s_of_gravel_then_grass():

@@ -13,6 +13,10 @@ Layout of ``OUT``:
   layout of ``terrain-odom train``), from ground the run does not drive over;
   ``patches.csv`` (``file,terrain,x,y,yaw,u0,v0``): the robot pose each was
   rendered from and the crop's top-left pixel.
+- ``config.yaml``: the ``robot`` and ``camera`` configuration sections the run
+  was simulated with (``terrain-odom run --config OUT/config.yaml``).
+- ``map.png``: the ground map, downscaled to at most 2000 px, with the true
+  path in red.
 - ``simulation.json``: scenario, seed, terrain table, camera, robot, counts.
 """
 
@@ -24,6 +28,7 @@ from pathlib import Path
 
 import cv2
 import numpy as np
+import yaml
 
 from terrain_odom.io import TrajectoryWriter
 from terrain_odom.io.report import write_json
@@ -132,6 +137,28 @@ def _write_patches(sim: Simulation, out: Path) -> dict[str, int]:
     return counts
 
 
+def _write_config(sim: Simulation, path: Path) -> None:
+    sections = {
+        "robot": dataclasses.asdict(sim.scenario.robot),
+        "camera": dataclasses.asdict(sim.scenario.camera),
+    }
+    header = f"# robot and camera of the simulated run ({sim.scenario.name}, seed {sim.seed})\n"
+    path.write_text(header + yaml.safe_dump(sections, sort_keys=False), encoding="utf-8")
+
+
+def _write_map_preview(sim: Simulation, path: Path, max_side: int = 2000) -> float:
+    """Write the downscaled map with the true path; return its resolution, m/px."""
+    ground = sim.ground
+    scale = min(1.0, max_side / max(ground.image.shape[:2]))
+    size = (round(ground.image.shape[1] * scale), round(ground.image.shape[0] * scale))
+    preview = cv2.resize(ground.image, size, interpolation=cv2.INTER_AREA)
+    uv = (ground.world_to_pixel(sim.motion.pose[:, :2]) + 0.5) * scale - 0.5
+    pts = np.rint(uv * 16).astype(np.int32)
+    cv2.polylines(preview, [pts], False, (255, 0, 0), 2, lineType=cv2.LINE_AA, shift=4)
+    _write_png(path, preview)
+    return ground.resolution / scale
+
+
 def _metadata(sim: Simulation, output: SimOutput) -> dict:
     sc = sim.scenario
     return {
@@ -200,5 +227,9 @@ def write_simulation(
         output.frames = _write_frames(sim, out)
     if patches:
         output.patches = _write_patches(sim, out)
-    write_json(output.metadata_json, _metadata(sim, output))
+    _write_config(sim, out / "config.yaml")
+    preview_resolution = _write_map_preview(sim, out / "map.png")
+    meta = _metadata(sim, output)
+    meta["map"]["preview"] = {"file": "map.png", "resolution_m": preview_resolution}
+    write_json(output.metadata_json, meta)
     return output
