@@ -7,6 +7,7 @@ its inputs, calls the pure core (``kinematics``, ``estimation``,
 
 from __future__ import annotations
 
+import contextlib
 import enum
 import time
 from dataclasses import asdict, dataclass
@@ -19,6 +20,7 @@ from tqdm import tqdm
 from terrain_odom import __version__
 from terrain_odom.config import Config, config_to_dict, load_config
 from terrain_odom.errors import InputFileError
+from terrain_odom.estimation.frames import FRAME_COLUMNS, FramePipeline
 from terrain_odom.estimation.odometry import OdometryRow, run_icr_ekf
 from terrain_odom.evaluation import (
     absolute_trajectory_error,
@@ -30,10 +32,13 @@ from terrain_odom.evaluation import (
     window_errors,
 )
 from terrain_odom.io import TrajectoryWriter, read_trajectory_csv, read_wheel_log, write_tum
+from terrain_odom.io.frames import read_frames
 from terrain_odom.io.params import ModelParams, read_params
 from terrain_odom.io.report import write_json
 from terrain_odom.kinematics import get_model, twist_icr
 from terrain_odom.types import WheelLog
+from terrain_odom.vision.camera import GroundCamera
+from terrain_odom.vision.classifier import TerrainClassifier
 
 __all__ = ["TerrainSource", "RunSummary", "run", "evaluate", "trajectory_columns"]
 
@@ -89,6 +94,9 @@ def run(
     config_path: str | Path | None = None,
     terrain: TerrainSource = TerrainSource.AUTO,
     progress: bool | None = None,
+    images: str | Path | None = None,
+    model: str | Path | None = None,
+    use_roi: bool = True,
 ) -> RunSummary:
     """Run the terrain-adaptive ICR EKF over a wheel log and write the results.
 
@@ -107,6 +115,15 @@ def run(
         Source of the labels driving the covariance reset.
     progress : bool, optional
         Show a progress bar; ``None`` shows it only on a terminal.
+    images : str or Path, optional
+        Folder of camera frames (see :mod:`terrain_odom.io.frames`): their
+        classified terrain drives the covariance reset instead of the log's
+        terrain column, and ``frames.csv`` is written. Ignored (frames not
+        read) when ``terrain`` is ``NONE``.
+    model : str or Path, optional
+        Terrain classifier model file; required with ``images``.
+    use_roi : bool
+        Classify the region of interest (default) or the whole frame.
 
     Returns
     -------
@@ -115,7 +132,14 @@ def run(
     started = time.perf_counter()
     cfg = config if config is not None else load_config(config_path)
     log = read_wheel_log(wheels, wheel_radius=cfg.robot.wheel_radius)
-    labels = _labels(log, terrain)
+    use_frames = images is not None and terrain is not TerrainSource.NONE
+    labels = None if use_frames else _labels(log, terrain)
+    frame_list = classifier = None
+    if use_frames:
+        if model is None:
+            raise InputFileError("--images needs --model (a classifier from 'terrain-odom train')")
+        frame_list = read_frames(images)  # type: ignore[arg-type]
+        classifier = TerrainClassifier.load(model)
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise InputFileError(f"{out}: --out must be a directory, but a file of that name exists")
@@ -126,7 +150,23 @@ def run(
     columns = trajectory_columns(state_names)
     csv_path = out / "trajectory.csv"
     bar = tqdm(total=len(log), unit="row", disable=None if progress is None else not progress)
-    with TrajectoryWriter(csv_path, columns) as writer, bar:
+    frames_csv = out / "frames.csv"
+    with contextlib.ExitStack() as stack:
+        writer = stack.enter_context(TrajectoryWriter(csv_path, columns))
+        stack.enter_context(bar)
+        pipeline = None
+        if frame_list is not None and classifier is not None:
+            frame_writer = stack.enter_context(TrajectoryWriter(frames_csv, FRAME_COLUMNS))
+            root = Path(images)  # type: ignore[arg-type]
+            pipeline = FramePipeline(
+                frame_list,
+                classifier,
+                GroundCamera(cfg.camera),
+                cfg.roi,
+                use_roi=use_roi,
+                on_frame=lambda record: frame_writer.write(record.row()),
+                names=lambda path: _relative(path, root),  # type: ignore[arg-type]
+            )
 
         def on_row(row: OdometryRow) -> None:
             values: dict[str, Any] = {"t": row.t, "terrain": row.terrain}
@@ -137,7 +177,8 @@ def run(
             writer.write(values)
             bar.update(1)
 
-        result = run_icr_ekf(log, cfg, labels=labels, on_row=on_row)
+        extra = {} if pipeline is None else {"frames": pipeline}
+        result = run_icr_ekf(log, cfg, labels=labels, on_row=on_row, **extra)
     states = result.states
     tum_path = out / "trajectory.tum"
     write_tum(tum_path, log.t, states[:, 0], states[:, 1], states[:, 2])
@@ -147,7 +188,9 @@ def run(
         "terrain_odom_version": __version__,
         "command": "run",
         "inputs": {"wheels": str(Path(wheels).resolve()), "config": _path_or_none(config_path)},
-        "terrain_source": terrain.value if labels is not None else "none",
+        "terrain_source": (
+            "camera" if use_frames else terrain.value if labels is not None else "none"
+        ),
         "config": config_to_dict(cfg),
         "counts": {
             "rows": len(log),
@@ -162,9 +205,49 @@ def run(
         "outputs": {"trajectory_csv": csv_path.name, "trajectory_tum": tum_path.name},
         "run_time_s": seconds,
     }
+    if images is not None:
+        report["inputs"]["images"] = str(Path(images).resolve())
+        report["inputs"]["model"] = _path_or_none(model)
+        report["frames"] = _frames_report(result, pipeline, use_roi)
+        if pipeline is not None:
+            report["frame_problems"] = pipeline.problems
+            report["outputs"]["frames_csv"] = frames_csv.name
     report_path = out / "report.json"
     write_json(report_path, report)
     return RunSummary(csv_path, tum_path, report_path, len(log), seconds)
+
+
+def _relative(path: Path, root: Path) -> str:
+    try:
+        return path.relative_to(root).as_posix()
+    except ValueError:
+        return str(path)
+
+
+def _frames_report(result: Any, pipeline: FramePipeline | None, use_roi: bool) -> dict[str, Any]:
+    """Return the ``frames`` section of a run's report.json."""
+    if pipeline is None:
+        return {"classification": "skipped (--no-terrain: frames not read)"}
+    ms = np.asarray(pipeline.ms_total)
+    unusable = sum(
+        n for status, n in pipeline.roi_counts.items() if status in ("outside", "too_small")
+    )
+    return {
+        "classification": "region of interest" if use_roi else "whole frame (--no-roi)",
+        "total": len(pipeline.frames),
+        "classified": int(ms.size),
+        "skipped": {
+            "before_first_wheel_sample": result.frames_before,
+            "after_last_wheel_sample": result.frames_after,
+            "missing_or_unreadable": len(pipeline.problems),
+            "roi_outside_or_too_small": unusable,
+        },
+        "roi_status": dict(sorted(pipeline.roi_counts.items())),
+        "ms_per_frame": {
+            "mean": float(ms.mean()) if ms.size else None,
+            "max": float(ms.max()) if ms.size else None,
+        },
+    }
 
 
 def _path_or_none(path: str | Path | None) -> str | None:

@@ -11,6 +11,15 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--wheels", required=True, help="wheel log CSV")
     p.add_argument("--out", required=True, help="output directory")
     p.add_argument("--config", help="YAML configuration (default: built-in defaults)")
+    p.add_argument(
+        "--images",
+        help="folder of camera frames (frames.csv with t,file, or images named by their "
+        "time in s): their classified terrain drives the reset; writes OUT/frames.csv",
+    )
+    p.add_argument("--model", help="terrain classifier model (from 'terrain-odom train')")
+    p.add_argument(
+        "--no-roi", action="store_true", help="classify whole frames, not the region of interest"
+    )
     terrain = p.add_mutually_exclusive_group()
     terrain.add_argument(
         "--terrain-from-log",
@@ -24,6 +33,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
+    from terrain_odom.errors import ConfigError
     from terrain_odom.workflows import TerrainSource, run
 
     if args.no_terrain:
@@ -32,7 +42,17 @@ def _cmd_run(args: argparse.Namespace) -> int:
         source = TerrainSource.LOG
     else:
         source = TerrainSource.AUTO
-    summary = run(args.wheels, args.out, config_path=args.config, terrain=source)
+    if args.images is not None and args.terrain_from_log:
+        raise ConfigError("--images and --terrain-from-log exclude each other")
+    summary = run(
+        args.wheels,
+        args.out,
+        config_path=args.config,
+        terrain=source,
+        images=args.images,
+        model=args.model,
+        use_roi=not args.no_roi,
+    )
     print(f"{summary.rows} rows in {summary.seconds:.2f} s")
     print(f"trajectory: {summary.trajectory_csv}")
     print(f"report:     {summary.report_json}")

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from typing import Protocol
 
 import numpy as np
 
@@ -21,7 +22,7 @@ from terrain_odom.estimation.icr_ekf import IcrEkf, TerrainChange
 from terrain_odom.estimation.terrain import TerrainTracker
 from terrain_odom.types import WheelLog
 
-__all__ = ["OdometryRow", "OdometryResult", "run_icr_ekf"]
+__all__ = ["FrameObserver", "OdometryRow", "OdometryResult", "run_icr_ekf"]
 
 
 @dataclass(frozen=True)
@@ -49,6 +50,29 @@ class OdometryRow:
     terrain: str
 
 
+class FrameObserver(Protocol):
+    """Camera frames interleaved with the log rows (see :func:`run_icr_ekf`).
+
+    ``times`` are the frame times (s, non-decreasing). For each frame in the
+    log's time span, :meth:`observe` returns the terrain label seen (None if
+    none, e.g. an unreadable frame) from the current wheel speeds and ICR
+    parameters, then :meth:`confirmed` gets the confirmed terrain after the
+    tracker has seen that label.
+    """
+
+    times: np.ndarray
+
+    def observe(
+        self, index: int, t: float, v_l: float, v_r: float, icr_params: np.ndarray
+    ) -> str | None:
+        """Terrain label of frame ``index`` (None: no label)."""
+        ...  # pragma: no cover
+
+    def confirmed(self, index: int, label: str) -> None:
+        """Take the confirmed terrain after frame ``index`` (``""`` if none yet)."""
+        ...  # pragma: no cover
+
+
 @dataclass
 class OdometryResult:
     """Everything an EKF run over a log produced.
@@ -65,6 +89,8 @@ class OdometryResult:
         Confirmed terrain changes, with the log time of each.
     n_updates : int
         Pose measurements fused.
+    frames_before, frames_after : int
+        Frames before the first log row or after the last one (skipped).
     """
 
     names: tuple[str, ...]
@@ -73,6 +99,8 @@ class OdometryResult:
     terrain: np.ndarray
     changes: list[TerrainChange] = field(default_factory=list)
     n_updates: int = 0
+    frames_before: int = 0
+    frames_after: int = 0
 
 
 def run_icr_ekf(
@@ -81,6 +109,7 @@ def run_icr_ekf(
     *,
     labels: Sequence[str] | None = None,
     on_row: Callable[[OdometryRow], None] | None = None,
+    frames: FrameObserver | None = None,
 ) -> OdometryResult:
     """Estimate pose and ICRs over a whole log.
 
@@ -96,6 +125,11 @@ def run_icr_ekf(
         runs without terrain information.
     on_row : callable, optional
         Called with an :class:`OdometryRow` after every row (to stream output).
+    frames : FrameObserver, optional
+        Camera frames supplying the terrain labels (instead of ``labels``):
+        a frame at ``t_f`` is observed right after the last row with
+        ``t <= t_f`` (with that row's wheel speeds and the filter's state
+        then); frames before the first row or after the last are skipped.
 
     Returns
     -------
@@ -103,6 +137,8 @@ def run_icr_ekf(
     """
     if labels is not None and len(labels) != len(log):
         raise ValueError(f"labels has {len(labels)} entries for a log of {len(log)} rows")
+    if labels is not None and frames is not None:
+        raise ValueError("give terrain labels or frames, not both")
     ekf = IcrEkf(config.ekf, config.terrain)
     ekf.t = float(log.t[0]) if len(log) else 0.0
     tracker = TerrainTracker(config.terrain.confirm)
@@ -113,6 +149,11 @@ def run_icr_ekf(
     anchored = False
     n_updates = 0
     changes: list[TerrainChange] = []
+    frame_t = np.empty(0) if frames is None else np.asarray(frames.times, dtype=float)
+    # frames observed after row k: those with t[k] <= t_f < t[k + 1] (t_f <= t[-1] for the last)
+    bounds = np.searchsorted(frame_t, log.t, side="left") if n_rows else np.zeros(0, int)
+    n_after = int(frame_t.size - np.searchsorted(frame_t, log.t[-1], side="right")) if n_rows else 0
+    frames_before = int(bounds[0]) if n_rows else int(frame_t.size)
     for k in range(n_rows):
         if k > 0 and log.segment[k] != log.segment[k - 1]:
             anchored = False  # a break: nothing is integrated across it
@@ -130,11 +171,31 @@ def run_icr_ekf(
         elif np.any(np.isfinite(z)) and anchored:
             ekf.update(z)
             n_updates += 1
+        if frames is not None:
+            stop = int(bounds[k + 1]) if k + 1 < n_rows else frame_t.size - n_after
+            for i in range(int(bounds[k]), stop):
+                label = frames.observe(
+                    i, float(frame_t[i]), float(log.v_l[k]), float(log.v_r[k]), ekf.params
+                )
+                if label is not None:
+                    change = _observe_terrain(ekf, tracker, label, adapt=config.terrain.adapt)
+                    if change is not None:
+                        changes.append(change)
+                frames.confirmed(i, ekf.terrain or "")
         states[k], stds[k] = ekf.x, ekf.std
         terrain[k] = ekf.terrain or ""
         if on_row is not None:
             on_row(OdometryRow(k, float(log.t[k]), states[k], stds[k], terrain[k]))
-    return OdometryResult(ekf.names, states, stds, terrain.astype(str), changes, n_updates)
+    return OdometryResult(
+        ekf.names,
+        states,
+        stds,
+        terrain.astype(str),
+        changes,
+        n_updates,
+        frames_before=frames_before,
+        frames_after=n_after,
+    )
 
 
 def _observe_terrain(

@@ -1,0 +1,176 @@
+"""Per-frame terrain classification for the run: decode, region of interest, SFTA + KNN.
+
+:class:`FramePipeline` is the :class:`~terrain_odom.estimation.odometry.FrameObserver`
+that :func:`~terrain_odom.estimation.odometry.run_icr_ekf` calls for every
+frame in the log's time span. For each frame it decodes the image, places the
+region of interest from the current wheel speeds and ICR estimate
+(:func:`~terrain_odom.vision.camera.region_of_interest`; the whole frame with
+``use_roi=False``), classifies it, and hands one record per frame to
+``on_frame`` once the terrain tracker has seen the label.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from terrain_odom.errors import InputFileError
+from terrain_odom.io.frames import FrameList
+from terrain_odom.vision.camera import GroundCamera, RoiConfig, crop, region_of_interest
+from terrain_odom.vision.classifier import TerrainClassifier
+from terrain_odom.vision.dataset import read_image_rgb
+
+__all__ = ["FRAME_COLUMNS", "FrameRecord", "FramePipeline"]
+
+FRAME_COLUMNS = (
+    "t",
+    "file",
+    "label",
+    "confidence",
+    "confirmed_label",
+    "roi_x0",
+    "roi_y0",
+    "roi_x1",
+    "roi_y1",
+    "ms_features",
+    "ms_total",
+    "roi_status",
+)
+"""Columns of ``OUT/frames.csv``."""
+
+FULL_FRAME = "full_frame"
+"""``roi_status`` of a frame classified whole (``--no-roi``)."""
+
+
+@dataclass
+class FrameRecord:
+    """What was done with one frame (a row of ``frames.csv``).
+
+    ``label`` is ``""`` and ``confidence``/``box`` are empty when the region
+    of interest has no usable box (``roi_status`` ``outside`` or
+    ``too_small``); ``ms_features`` is the SFTA + KNN time, ``ms_total``
+    includes decoding and the region of interest.
+    """
+
+    t: float
+    file: str
+    label: str = ""
+    confidence: float = float("nan")
+    confirmed_label: str = ""
+    box: tuple[int, int, int, int] | None = None
+    ms_features: float = float("nan")
+    ms_total: float = float("nan")
+    roi_status: str = ""
+
+    def row(self) -> dict[str, object]:
+        """Return the record as a ``frames.csv`` row."""
+        box: tuple[object, ...] = self.box if self.box is not None else ("", "", "", "")
+        return {
+            "t": self.t,
+            "file": self.file,
+            "label": self.label,
+            "confidence": self.confidence,
+            "confirmed_label": self.confirmed_label,
+            **dict(zip(("roi_x0", "roi_y0", "roi_x1", "roi_y1"), box, strict=True)),
+            "ms_features": self.ms_features,
+            "ms_total": self.ms_total,
+            "roi_status": self.roi_status,
+        }
+
+
+@dataclass
+class FramePipeline:
+    """Classify the frames of a run (a ``FrameObserver``).
+
+    Parameters
+    ----------
+    frames : FrameList
+    classifier : TerrainClassifier
+    camera : GroundCamera
+        Must match the frames' size (checked on every decoded frame).
+    roi : RoiConfig
+    use_roi : bool
+        False: classify the whole frame.
+    on_frame : callable, optional
+        Called with the :class:`FrameRecord` of every frame processed.
+    names : callable, optional
+        Maps a frame's path to the text of its ``file`` cell.
+
+    Attributes
+    ----------
+    problems : list of dict
+        Missing or unreadable frames (``t, file, problem``), skipped.
+    roi_counts : dict of str to int
+        Frames per ``roi_status``.
+    ms_total : list of float
+        Time spent on each classified frame, ms.
+    """
+
+    frames: FrameList
+    classifier: TerrainClassifier
+    camera: GroundCamera
+    roi: RoiConfig
+    use_roi: bool = True
+    on_frame: Callable[[FrameRecord], None] | None = None
+    names: Callable[[object], str] = str
+    problems: list[dict[str, object]] = field(default_factory=list)
+    roi_counts: dict[str, int] = field(default_factory=dict)
+    ms_total: list[float] = field(default_factory=list)
+    _pending: FrameRecord | None = field(default=None, init=False, repr=False)
+
+    @property
+    def times(self) -> np.ndarray:
+        """Frame times, s."""
+        return self.frames.t
+
+    def observe(
+        self, index: int, t: float, v_l: float, v_r: float, icr_params: np.ndarray
+    ) -> str | None:
+        """Classify frame ``index``; None if it is unreadable or has no usable region."""
+        started = time.perf_counter()
+        path = self.frames.files[index]
+        self._pending = None
+        image = read_image_rgb(path)
+        if image is None:
+            problem = "missing" if not path.is_file() else "unreadable (not a decodable image)"
+            self.problems.append({"t": t, "file": self.names(path), "problem": problem})
+            return None
+        height, width = image.shape[:2]
+        if self.use_roi and (width, height) != (self.camera.width, self.camera.height):
+            raise InputFileError(
+                f"{path}: image is {width}x{height} px but the camera configuration says "
+                f"{self.camera.width}x{self.camera.height}; fix camera.width/height in --config "
+                "(or use --no-roi)"
+            )
+        record = FrameRecord(t, self.names(path))
+        if self.use_roi:
+            result = region_of_interest(self.camera, self.roi, v_l, v_r, icr_params)
+            record.roi_status = result.status.value
+            record.box = result.box
+            region = crop(image, result) if result.box is not None else None
+        else:
+            record.roi_status = FULL_FRAME
+            record.box = (0, 0, width, height)
+            region = image
+        self.roi_counts[record.roi_status] = self.roi_counts.get(record.roi_status, 0) + 1
+        if region is not None:
+            features_start = time.perf_counter()
+            record.label, record.confidence = self.classifier.classify(region)
+            done = time.perf_counter()
+            record.ms_features = 1e3 * (done - features_start)
+            record.ms_total = 1e3 * (done - started)
+            self.ms_total.append(record.ms_total)
+        self._pending = record
+        return record.label or None
+
+    def confirmed(self, index: int, label: str) -> None:
+        """Record the confirmed terrain after frame ``index`` and emit its record."""
+        record, self._pending = self._pending, None
+        if record is None:
+            return
+        record.confirmed_label = label
+        if self.on_frame is not None:
+            self.on_frame(record)
