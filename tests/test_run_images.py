@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from terrain_odom import workflows
 from terrain_odom.cli.main import main
 from terrain_odom.config import load_config
 from terrain_odom.estimation.frames import FRAME_COLUMNS
@@ -169,7 +170,8 @@ def test_model_with_other_feature_settings_stops_before_processing(sim, tmp_path
     assert not out.exists()
 
 
-def test_images_need_a_model(sim, tmp_path, capsys):
+def test_images_without_a_model_or_its_default_is_an_error(sim, tmp_path, capsys, monkeypatch):
+    monkeypatch.setattr(workflows, "default_model_path", lambda: tmp_path / "no" / "default.npz")
     args = ["run", "--wheels", str(sim / "log.csv"), "--out", str(tmp_path / "o")]
     assert main([*args, "--images", str(sim)]) == 2
     assert "--model" in capsys.readouterr().err

@@ -40,9 +40,52 @@ from terrain_odom.types import WheelLog
 from terrain_odom.vision.camera import GroundCamera
 from terrain_odom.vision.classifier import TerrainClassifier
 
-__all__ = ["TerrainSource", "RunSummary", "run", "evaluate", "trajectory_columns"]
+__all__ = [
+    "TerrainSource",
+    "RunSummary",
+    "run",
+    "evaluate",
+    "trajectory_columns",
+    "default_model",
+    "default_model_path",
+    "images_config",
+]
 
 REPORT_FORMAT_VERSION = 1
+
+
+def default_model_path() -> Path:
+    """Return where the repository's default classifier is: ``models/default.npz``.
+
+    The file ships with a clone of the repository, next to ``src/``; an
+    editable install (``pip install -e .``) finds it there.
+    """
+    import terrain_odom
+
+    return Path(terrain_odom.__file__).resolve().parents[2] / "models" / "default.npz"
+
+
+def default_model() -> Path:
+    """Return :func:`default_model_path`, or raise if it is missing.
+
+    Raises
+    ------
+    InputFileError
+        The default model is not there (e.g. a non-editable install).
+    """
+    path = default_model_path()
+    if not path.is_file():
+        raise InputFileError(
+            f"no --model given and the default classifier {path} is missing (it ships with "
+            "a clone of the repository installed with 'pip install -e'): pass --model FILE"
+        )
+    return path
+
+
+def images_config(images: str | Path) -> Path | None:
+    """Return ``images/config.yaml`` if that file exists (a simulated run's camera and robot)."""
+    path = Path(images) / "config.yaml"
+    return path if path.is_file() else None
 
 
 class TerrainSource(enum.Enum):
@@ -110,7 +153,9 @@ def run(
     config : Config, optional
         Configuration; loaded from ``config_path`` (or the defaults) if omitted.
     config_path : str or Path, optional
-        YAML configuration file.
+        YAML configuration file. If neither ``config`` nor ``config_path`` is
+        given and ``images/config.yaml`` exists, that file is used; else the
+        built-in defaults.
     terrain : TerrainSource
         Source of the labels driving the covariance reset.
     progress : bool, optional
@@ -121,7 +166,8 @@ def run(
         terrain column, and ``frames.csv`` is written. Ignored (frames not
         read) when ``terrain`` is ``NONE``.
     model : str or Path, optional
-        Terrain classifier model file; required with ``images``.
+        Terrain classifier model file; the repository's ``models/default.npz``
+        (:func:`default_model`) if omitted.
     use_roi : bool
         Classify the region of interest (default) or the whole frame.
 
@@ -130,6 +176,8 @@ def run(
     RunSummary
     """
     started = time.perf_counter()
+    if config is None and config_path is None and images is not None:
+        config_path = images_config(images)
     cfg = config if config is not None else load_config(config_path)
     log = read_wheel_log(wheels, wheel_radius=cfg.robot.wheel_radius)
     use_frames = images is not None and terrain is not TerrainSource.NONE
@@ -137,7 +185,7 @@ def run(
     frame_list = classifier = None
     if use_frames:
         if model is None:
-            raise InputFileError("--images needs --model (a classifier from 'terrain-odom train')")
+            model = default_model()
         frame_list = read_frames(images)  # type: ignore[arg-type]
         classifier = TerrainClassifier.load(model)
     out = Path(out_dir)

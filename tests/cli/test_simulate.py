@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 import csv
+import dataclasses
 import json
 
 import cv2
 import numpy as np
+import pytest
 
 from terrain_odom.cli.main import main
 from terrain_odom.io import read_wheel_log
@@ -70,3 +72,47 @@ def test_a_rate_the_wheel_rate_is_not_a_multiple_of_is_an_error(tmp_path, capsys
     args = ["simulate", "--out", str(tmp_path / "x"), "--frame-rate", "7"]
     assert main(args) == 2
     assert "frame_rate" in capsys.readouterr().err
+
+
+def test_jpg_frame_format_writes_jpeg_frames_and_map(tmp_path):
+    out = tmp_path / "run"
+    args = ["simulate", "--out", str(out), "--duration", "1", "--frame-rate", "2"]
+    assert main([*args, "--no-patches", "--frame-format", "jpg"]) == 0
+    with (out / "frames.csv").open(newline="") as handle:
+        rows = list(csv.DictReader(handle))
+    assert [r["file"] for r in rows] == ["frames/000000.jpg", "frames/000001.jpg"]
+    for row in rows:
+        data = (out / row["file"]).read_bytes()
+        assert data[:3] == b"\xff\xd8\xff"  # JPEG start-of-image marker
+        assert cv2.imread(str(out / row["file"])).shape == (240, 320, 3)
+    assert not list((out / "frames").glob("*.png"))
+    assert (out / "map.jpg").is_file() and not (out / "map.png").exists()
+    meta = json.loads((out / "simulation.json").read_text())
+    assert meta["map"]["preview"]["file"] == "map.jpg"
+
+
+def test_jpg_frames_are_smaller_and_close_to_the_png_ones(tmp_path):
+    args = ["simulate", "--duration", "0.2", "--frame-rate", "5", "--no-patches"]
+    assert main([*args, "--out", str(tmp_path / "png")]) == 0
+    assert main([*args, "--out", str(tmp_path / "jpg"), "--frame-format", "jpg"]) == 0
+    png = tmp_path / "png" / "frames" / "000000.png"
+    jpg = tmp_path / "jpg" / "frames" / "000000.jpg"
+    assert jpg.stat().st_size < png.stat().st_size / 3
+    a = cv2.imread(str(png)).astype(float)
+    b = cv2.imread(str(jpg)).astype(float)
+    assert np.abs(a - b).mean() < 4.0
+
+
+def test_unknown_frame_format_is_refused(tmp_path, capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["simulate", "--out", str(tmp_path / "x"), "--frame-format", "gif"])
+    assert exc.value.code == 2
+    assert "--frame-format" in capsys.readouterr().err
+
+
+def test_write_simulation_checks_the_frame_format(tmp_path):
+    from terrain_odom.sim import get_scenario, simulate, write_simulation
+
+    sim = simulate(dataclasses.replace(get_scenario("chen2023"), duration=0.1), seed=0)
+    with pytest.raises(ValueError, match="frame_format"):
+        write_simulation(sim, tmp_path / "x", frame_format="bmp")

@@ -10,13 +10,21 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("run", help="EKF odometry over a wheel log (terrain-adaptive)")
     p.add_argument("--wheels", required=True, help="wheel log CSV")
     p.add_argument("--out", required=True, help="output directory")
-    p.add_argument("--config", help="YAML configuration (default: built-in defaults)")
+    p.add_argument(
+        "--config",
+        help="YAML configuration (default: IMAGES/config.yaml if --images has one, "
+        "else built-in defaults)",
+    )
     p.add_argument(
         "--images",
         help="folder of camera frames (frames.csv with t,file, or images named by their "
         "time in s): their classified terrain drives the reset; writes OUT/frames.csv",
     )
-    p.add_argument("--model", help="terrain classifier model (from 'terrain-odom train')")
+    p.add_argument(
+        "--model",
+        help="terrain classifier model (from 'terrain-odom train'; default: the "
+        "repository's models/default.npz)",
+    )
     p.add_argument(
         "--no-roi", action="store_true", help="classify whole frames, not the region of interest"
     )
@@ -34,7 +42,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 def _cmd_run(args: argparse.Namespace) -> int:
     from terrain_odom.errors import ConfigError
-    from terrain_odom.workflows import TerrainSource, run
+    from terrain_odom.workflows import TerrainSource, default_model, images_config, run
 
     if args.no_terrain:
         source = TerrainSource.NONE
@@ -44,13 +52,21 @@ def _cmd_run(args: argparse.Namespace) -> int:
         source = TerrainSource.AUTO
     if args.images is not None and args.terrain_from_log:
         raise ConfigError("--images and --terrain-from-log exclude each other")
+    config, model = args.config, args.model
+    if args.images is not None and config is None:
+        config = images_config(args.images)
+        if config is not None:
+            print(f"config:     {config} (found in the --images folder; --config to change)")
+    if args.images is not None and not args.no_terrain and model is None:
+        model = default_model()
+        print(f"model:      {model} (default; --model to change)")
     summary = run(
         args.wheels,
         args.out,
-        config_path=args.config,
+        config_path=config,
         terrain=source,
         images=args.images,
-        model=args.model,
+        model=model,
         use_roi=not args.no_roi,
     )
     print(f"{summary.rows} rows in {summary.seconds:.2f} s")

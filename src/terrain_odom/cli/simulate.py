@@ -24,6 +24,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "--config",
         help="YAML configuration: its camera and robot sections replace the scenario's",
     )
+    p.add_argument(
+        "--frame-format",
+        choices=("png", "jpg"),
+        default="png",
+        help="image format of the frames and map preview: png (lossless, default) or "
+        "jpg (JPEG quality 90, about 6x smaller)",
+    )
     p.add_argument("--no-frames", action="store_true", help="do not render camera frames")
     p.add_argument("--no-patches", action="store_true", help="do not render training patches")
     p.set_defaults(func=_cmd_simulate)
@@ -52,7 +59,13 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
         cfg = load_config(args.config)
         robot, camera = cfg.robot, cfg.camera
     sim = simulate(scenario, args.seed, robot=robot, camera=camera)
-    out = write_simulation(sim, args.out, frames=not args.no_frames, patches=not args.no_patches)
+    out = write_simulation(
+        sim,
+        args.out,
+        frames=not args.no_frames,
+        patches=not args.no_patches,
+        frame_format=args.frame_format,
+    )
     print(f"scenario {scenario.name} (seed {args.seed}): {scenario.description}")
     print(f"wheel log:    {out.log_csv} ({out.rows} rows, {out.pose_rows} poses)")
     print(f"ground truth: {out.groundtruth_csv}")

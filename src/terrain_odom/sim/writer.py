@@ -8,15 +8,16 @@ Layout of ``OUT``:
 - ``groundtruth.csv``: ``t,x,y,yaw,y_l,y_r,x_icr,terrain,alpha,v_l,v_r``, one
   row per wheel sample: true pose at ``t``, true parameters and noise-free
   track speeds held from ``t`` to the next row.
-- ``frames/NNNNNN.png`` and ``frames.csv`` (``t,file``, file relative to ``OUT``).
+- ``frames/NNNNNN.png`` (or ``.jpg``, JPEG quality 90, with ``frame_format="jpg"``)
+  and ``frames.csv`` (``t,file``, file relative to ``OUT``).
 - ``patches/<terrain>/NNNN.png``: labelled training patches (the labelled-image
   layout of ``terrain-odom train``), from ground the run does not drive over;
   ``patches.csv`` (``file,terrain,x,y,yaw,u0,v0``): the robot pose each was
   rendered from and the crop's top-left pixel.
 - ``config.yaml``: the ``robot`` and ``camera`` configuration sections the run
   was simulated with (``terrain-odom run --config OUT/config.yaml``).
-- ``map.png``: the ground map, downscaled to at most 2000 px, with the true
-  path in red.
+- ``map.png`` (``map.jpg`` with ``frame_format="jpg"``): the ground map,
+  downscaled to at most 2000 px, with the true path in red.
 - ``simulation.json``: scenario, seed, terrain table, camera, robot, counts.
 """
 
@@ -34,7 +35,10 @@ from terrain_odom.io import TrajectoryWriter
 from terrain_odom.io.report import write_json
 from terrain_odom.sim.simulation import Simulation, iter_frames, sample_patches
 
-__all__ = ["SimOutput", "write_simulation"]
+__all__ = ["FRAME_FORMATS", "SimOutput", "write_simulation"]
+
+FRAME_FORMATS = ("png", "jpg")
+JPEG_QUALITY = 90
 
 LOG_COLUMNS = ("t", "v_l", "v_r", "x", "y", "yaw", "terrain")
 TRUTH_COLUMNS = ("t", "x", "y", "yaw", "y_l", "y_r", "x_icr", "terrain", "alpha", "v_l", "v_r")
@@ -95,18 +99,20 @@ def _write_truth(sim: Simulation, path: Path) -> None:
             )
 
 
-def _write_png(path: Path, rgb: np.ndarray) -> None:
-    if not cv2.imwrite(str(path), cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR)):
+def _write_image(path: Path, rgb: np.ndarray) -> None:
+    """Write an RGB image; the format follows the suffix (JPEG at quality 90)."""
+    params = [cv2.IMWRITE_JPEG_QUALITY, JPEG_QUALITY] if path.suffix == ".jpg" else []
+    if not cv2.imwrite(str(path), cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR), params):
         raise OSError(f"cannot write {path}")
 
 
-def _write_frames(sim: Simulation, out: Path) -> int:
+def _write_frames(sim: Simulation, out: Path, frame_format: str = "png") -> int:
     (out / "frames").mkdir(exist_ok=True)
     count = 0
     with TrajectoryWriter(out / "frames.csv", ("t", "file")) as writer:
         for count, (t, frame) in enumerate(iter_frames(sim), start=1):
-            name = f"frames/{count - 1:06d}.png"
-            _write_png(out / name, frame)
+            name = f"frames/{count - 1:06d}.{frame_format}"
+            _write_image(out / name, frame)
             writer.write({"t": round(t, 6), "file": name})
     return count
 
@@ -119,7 +125,7 @@ def _write_patches(sim: Simulation, out: Path) -> dict[str, int]:
             folder = out / "patches" / patch.terrain
             folder.mkdir(parents=True, exist_ok=True)
             name = f"patches/{patch.terrain}/{counts[patch.terrain]:04d}.png"
-            _write_png(out / name, patch.image)
+            _write_image(out / name, patch.image)
             counts[patch.terrain] += 1
             x, y, yaw = (float(a) for a in patch.pose)
             u0, v0 = patch.corner
@@ -155,7 +161,7 @@ def _write_map_preview(sim: Simulation, path: Path, max_side: int = 2000) -> flo
     uv = (ground.world_to_pixel(sim.motion.pose[:, :2]) + 0.5) * scale - 0.5
     pts = np.rint(uv * 16).astype(np.int32)
     cv2.polylines(preview, [pts], False, (255, 0, 0), 2, lineType=cv2.LINE_AA, shift=4)
-    _write_png(path, preview)
+    _write_image(path, preview)
     return ground.resolution / scale
 
 
@@ -192,7 +198,12 @@ def _metadata(sim: Simulation, output: SimOutput) -> dict:
 
 
 def write_simulation(
-    sim: Simulation, out: str | Path, *, frames: bool = True, patches: bool = True
+    sim: Simulation,
+    out: str | Path,
+    *,
+    frames: bool = True,
+    patches: bool = True,
+    frame_format: str = "png",
 ) -> SimOutput:
     """Write a simulated run to ``out`` (created if needed; files overwritten).
 
@@ -203,11 +214,17 @@ def write_simulation(
         Output folder.
     frames, patches : bool
         Render the camera frames / the training patches.
+    frame_format : {"png", "jpg"}
+        Image format of the frames and the map preview: lossless PNG
+        (default) or JPEG at quality 90 (about 6x smaller; training patches
+        stay PNG).
 
     Returns
     -------
     SimOutput
     """
+    if frame_format not in FRAME_FORMATS:
+        raise ValueError(f"frame_format must be one of {FRAME_FORMATS}, got {frame_format!r}")
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     output = SimOutput(
@@ -224,12 +241,13 @@ def write_simulation(
     _write_log(sim, output.log_csv)
     _write_truth(sim, output.groundtruth_csv)
     if frames:
-        output.frames = _write_frames(sim, out)
+        output.frames = _write_frames(sim, out, frame_format)
     if patches:
         output.patches = _write_patches(sim, out)
     _write_config(sim, out / "config.yaml")
-    preview_resolution = _write_map_preview(sim, out / "map.png")
+    preview = f"map.{frame_format}"
+    preview_resolution = _write_map_preview(sim, out / preview)
     meta = _metadata(sim, output)
-    meta["map"]["preview"] = {"file": "map.png", "resolution_m": preview_resolution}
+    meta["map"]["preview"] = {"file": preview, "resolution_m": preview_resolution}
     write_json(output.metadata_json, meta)
     return output

@@ -1,0 +1,41 @@
+"""Regenerate ``models/default.npz``, the default terrain classifier of ``terrain-odom run``.
+
+Trained on the labelled patches (grass, gravel, brick; 40 each) of a
+simulated ``chen2023`` run with seed 1, drawn from map areas that run does
+not drive over, with the default classifier settings. The quick-start sample
+(``sample_images/chen2023``) is seed 0, so the model is not trained on it.
+From the repository root::
+
+    python models/make_default.py
+
+which runs exactly::
+
+    terrain-odom simulate --out TMP --scenario chen2023 --seed 1 --duration 48 --no-frames
+    terrain-odom train --images TMP/patches --out models/default.npz
+"""
+
+from __future__ import annotations
+
+import sys
+import tempfile
+from pathlib import Path
+
+from terrain_odom.cli.main import main as cli
+
+HERE = Path(__file__).resolve().parent
+MODEL = HERE / "default.npz"
+SEED = 1
+
+
+def make(out: str | Path = MODEL) -> int:
+    """Simulate the training patches and train the model into ``out``; return the exit code."""
+    with tempfile.TemporaryDirectory() as tmp:
+        args = ["simulate", "--out", tmp, "--scenario", "chen2023", "--seed", str(SEED)]
+        code = cli([*args, "--duration", "48", "--no-frames"])
+        if code == 0:
+            code = cli(["train", "--images", str(Path(tmp) / "patches"), "--out", str(out)])
+    return code
+
+
+if __name__ == "__main__":
+    sys.exit(make(sys.argv[1] if len(sys.argv) > 1 else MODEL))
