@@ -25,12 +25,12 @@ from sklearn.model_selection import StratifiedKFold
 
 from terrain_odom import __version__
 from terrain_odom.errors import ConfigError, InputFileError
+from terrain_odom.io.atomic import write_atomic
 from terrain_odom.io.report import write_json
 from terrain_odom.vision.classifier import (
     ClassifierConfig,
     TerrainClassifier,
     paper_config,
-    write_atomic,
 )
 from terrain_odom.vision.dataset import (
     LabelledFeatures,

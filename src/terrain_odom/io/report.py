@@ -2,15 +2,14 @@
 
 from __future__ import annotations
 
-import errno
 import json
 import math
-import os
-import tempfile
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from terrain_odom.io.atomic import write_atomic
 
 __all__ = ["write_json", "to_jsonable"]
 
@@ -34,20 +33,10 @@ def to_jsonable(value: Any) -> Any:
 
 
 def write_json(path: str | Path, data: Any) -> None:
-    """Write ``data`` as indented JSON atomically (temp file + rename).
+    """Write ``data`` as indented JSON atomically (see :func:`write_atomic`).
 
     A reader never sees a half-written file, and an existing file is only
     replaced once the new one is complete.
     """
-    path = Path(path)
-    if not path.parent.is_dir():
-        raise FileNotFoundError(errno.ENOENT, "directory does not exist", str(path.parent))
     text = json.dumps(to_jsonable(data), indent=2, allow_nan=False) + "\n"
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as handle:
-            handle.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    write_atomic(path, lambda handle: handle.write(text.encode("utf-8")))

@@ -18,15 +18,14 @@ import csv
 import math
 import numbers
 import os
-import secrets
 import time
 from collections.abc import Mapping, Sequence
-from pathlib import Path
 from types import TracebackType
 
 import numpy as np
 
 from terrain_odom.io._csv import CsvTable, floats_or_nan, read_csv
+from terrain_odom.io.atomic import write_atomic
 
 __all__ = ["TrajectoryWriter", "read_trajectory_csv", "write_tum"]
 
@@ -241,7 +240,8 @@ def write_tum(path: StrPath, t: np.ndarray, x: np.ndarray, y: np.ndarray, yaw: n
     columns = _tum_columns(t, x, y, yaw)
     lines = ["# timestamp tx ty tz qx qy qz qw\n"]
     lines += [" ".join(map(repr, values)) + "\n" for values in columns.T.tolist()]
-    _write_atomically(Path(path), "".join(lines))
+    text = "".join(lines)
+    write_atomic(path, lambda handle: handle.write(text.encode("utf-8")))
 
 
 def _checked_columns(columns: Sequence[str]) -> tuple[str, ...]:
@@ -299,16 +299,3 @@ def _tum_columns(t: np.ndarray, x: np.ndarray, y: np.ndarray, yaw: np.ndarray) -
     return np.stack(
         [arrays["t"], arrays["x"], arrays["y"], zero, zero, zero, np.sin(half), np.cos(half)]
     )
-
-
-def _write_atomically(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` through a synced temporary file and :func:`os.replace`."""
-    temporary = path.with_name(f".{path.name}.{secrets.token_hex(4)}.tmp")
-    try:
-        with open(temporary, "x", encoding="utf-8", newline="") as handle:
-            handle.write(text)
-            handle.flush()
-            os.fsync(handle.fileno())
-        os.replace(temporary, path)
-    finally:
-        temporary.unlink(missing_ok=True)

@@ -41,12 +41,10 @@ from __future__ import annotations
 import dataclasses
 import datetime
 import json
-import os
-import secrets
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, BinaryIO, Literal
+from typing import Any, Literal
 
 import cv2
 import numpy as np
@@ -59,6 +57,7 @@ from sklearn.preprocessing import StandardScaler
 from terrain_odom import __version__
 from terrain_odom.errors import ConfigError, InputFileError
 from terrain_odom.fields import build_section
+from terrain_odom.io.atomic import write_atomic
 from terrain_odom.vision.sfta import sfta_features
 
 __all__ = [
@@ -77,7 +76,6 @@ __all__ = [
     "make_pipeline",
     "check_regions",
     "TerrainClassifier",
-    "write_atomic",
 ]
 
 FEATURE_VERSION = 2
@@ -691,24 +689,6 @@ class TerrainClassifier:
             samples = scaler.transform(samples)
         model.pipeline["knn"].fit(samples, model.training_labels)
         return model
-
-
-def write_atomic(path: str | Path, write: Callable[[BinaryIO], object]) -> None:
-    """Write a file through ``write(handle)`` atomically.
-
-    The bytes go to a new temporary file in the same folder (created with the
-    usual permissions, i.e. subject to the umask), which then replaces
-    ``path``: a reader never sees a half-written file.
-    """
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.{secrets.token_hex(4)}.tmp")
-    try:
-        with open(tmp, "xb") as handle:
-            write(handle)
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
 
 
 def _check_model_metadata(

@@ -1,0 +1,39 @@
+"""Atomic file output: a reader never sees a half-written file."""
+
+from __future__ import annotations
+
+import errno
+import os
+import secrets
+from collections.abc import Callable
+from pathlib import Path
+from typing import BinaryIO
+
+__all__ = ["write_atomic"]
+
+
+def write_atomic(path: str | Path, write: Callable[[BinaryIO], object]) -> None:
+    """Write a file through ``write(handle)`` atomically.
+
+    The bytes go to a new temporary file in the same folder (created with the
+    usual permissions, i.e. subject to the umask), synced to disk, which then
+    replaces ``path``; on any error the temporary file is removed and an
+    existing ``path`` is left untouched.
+
+    Raises
+    ------
+    FileNotFoundError
+        If the folder of ``path`` does not exist (naming that folder).
+    """
+    path = Path(path)
+    if not path.parent.is_dir():
+        raise FileNotFoundError(errno.ENOENT, "directory does not exist", str(path.parent))
+    temporary = path.with_name(f".{path.name}.{secrets.token_hex(4)}.tmp")
+    try:
+        with open(temporary, "xb") as handle:
+            write(handle)
+            handle.flush()
+            os.fsync(handle.fileno())
+        os.replace(temporary, path)
+    finally:
+        temporary.unlink(missing_ok=True)
