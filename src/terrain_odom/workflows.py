@@ -21,6 +21,7 @@ from terrain_odom import __version__
 from terrain_odom.config import Config, config_to_dict, load_config
 from terrain_odom.errors import InputFileError
 from terrain_odom.estimation.frames import FRAME_COLUMNS, FramePipeline
+from terrain_odom.estimation.icr_ekf import state_names
 from terrain_odom.estimation.odometry import OdometryRow, run_icr_ekf
 from terrain_odom.evaluation import (
     absolute_trajectory_error,
@@ -107,13 +108,13 @@ class RunSummary:
     seconds: float
 
 
-def trajectory_columns(state_names: tuple[str, ...]) -> list[str]:
+def trajectory_columns(names: tuple[str, ...]) -> list[str]:
     """Column order of ``trajectory.csv`` for a filter with these states."""
-    extra = [n for n in state_names if n not in ("x", "y", "yaw", "y_l", "y_r", "x_icr")]
+    extra = [n for n in names if n not in ("x", "y", "yaw", "y_l", "y_r", "x_icr")]
     return (
         ["t", "x", "y", "yaw", "y_l", "y_r", "x_icr", "terrain"]
         + extra
-        + [f"std_{n}" for n in state_names]
+        + [f"std_{n}" for n in names]
     )
 
 
@@ -192,10 +193,8 @@ def run(
     if out.exists() and not out.is_dir():
         raise InputFileError(f"{out}: --out must be a directory, but a file of that name exists")
     out.mkdir(parents=True, exist_ok=True)
-    state_names = ("x", "y", "yaw", "y_l", "y_r", "x_icr") + (
-        ("alpha",) if cfg.ekf.estimate_alpha else ()
-    )
-    columns = trajectory_columns(state_names)
+    names = state_names(cfg.ekf.estimate_alpha)
+    columns = trajectory_columns(names)
     csv_path = out / "trajectory.csv"
     bar = tqdm(total=len(log), unit="row", disable=None if progress is None else not progress)
     frames_csv = out / "frames.csv"
@@ -218,15 +217,12 @@ def run(
 
         def on_row(row: OdometryRow) -> None:
             values: dict[str, Any] = {"t": row.t, "terrain": row.terrain}
-            values.update(zip(state_names, row.state.tolist(), strict=True))
-            values.update(
-                (f"std_{n}", s) for n, s in zip(state_names, row.std.tolist(), strict=True)
-            )
+            values.update(zip(names, row.state.tolist(), strict=True))
+            values.update((f"std_{n}", s) for n, s in zip(names, row.std.tolist(), strict=True))
             writer.write(values)
             bar.update(1)
 
-        extra = {} if pipeline is None else {"frames": pipeline}
-        result = run_icr_ekf(log, cfg, labels=labels, on_row=on_row, **extra)
+        result = run_icr_ekf(log, cfg, labels=labels, on_row=on_row, frames=pipeline)
     states = result.states
     tum_path = out / "trajectory.tum"
     write_tum(tum_path, log.t, states[:, 0], states[:, 1], states[:, 2])
@@ -248,8 +244,8 @@ def run(
             "terrain_changes": len(result.changes),
         },
         "terrain_changes": [asdict(c) for c in result.changes],
-        "final_state": dict(zip(state_names, states[-1].tolist(), strict=True)),
-        "final_std": dict(zip(state_names, result.stds[-1].tolist(), strict=True)),
+        "final_state": dict(zip(names, states[-1].tolist(), strict=True)),
+        "final_std": dict(zip(names, result.stds[-1].tolist(), strict=True)),
         "outputs": {"trajectory_csv": csv_path.name, "trajectory_tum": tum_path.name},
         "run_time_s": seconds,
     }

@@ -7,6 +7,7 @@ from terrain_odom.estimation.icr_ekf import (
     icr_step,
     icr_step_jacobian,
     icr_step_with_jacobian,
+    state_names,
 )
 from terrain_odom.estimation.terrain import TerrainTracker
 
@@ -18,4 +19,5 @@ __all__ = [
     "icr_step",
     "icr_step_jacobian",
     "icr_step_with_jacobian",
+    "state_names",
 ]

@@ -43,13 +43,18 @@ from terrain_odom.kinematics import (
     wrap_angle,
 )
 
-__all__ = ["IcrEkf", "TerrainChange", "icr_step", "icr_step_jacobian", "STATE_NAMES"]
+__all__ = ["state_names", "IcrEkf", "TerrainChange", "icr_step", "icr_step_jacobian", "STATE_NAMES"]
 
 logger = logging.getLogger(__name__)
 
 STATE_NAMES = ("x", "y", "yaw", "y_l", "y_r", "x_icr", "alpha")
 _POSE = slice(0, 3)
 _YAW = 2
+
+
+def state_names(estimate_alpha: bool) -> tuple[str, ...]:
+    """Names of the filter's states, in order; ``alpha`` last when estimated."""
+    return STATE_NAMES if estimate_alpha else STATE_NAMES[:6]
 
 
 def _params(state: np.ndarray) -> tuple[float, float, float, float]:
@@ -179,7 +184,7 @@ class IcrEkf:
     ) -> None:
         self.config = config
         self.terrain_config = terrain if terrain is not None else TerrainConfig()
-        self.names = STATE_NAMES if config.estimate_alpha else STATE_NAMES[:6]
+        self.names = state_names(config.estimate_alpha)
         n = len(self.names)
         ini = config.initial
         if not ini.y_l > ini.y_r:

@@ -149,6 +149,12 @@ def run_icr_ekf(
     anchored = False
     n_updates = 0
     changes: list[TerrainChange] = []
+
+    def observe(label: str) -> None:
+        change = _observe_terrain(ekf, tracker, label, adapt=config.terrain.adapt)
+        if change is not None:
+            changes.append(change)
+
     frame_t = np.empty(0) if frames is None else np.asarray(frames.times, dtype=float)
     # frames observed after row k: those with t[k] <= t_f < t[k + 1] (t_f <= t[-1] for the last)
     bounds = np.searchsorted(frame_t, log.t, side="left") if n_rows else np.zeros(0, int)
@@ -161,9 +167,7 @@ def run_icr_ekf(
         elif k > 0:
             ekf.predict(log.v_l[k - 1], log.v_r[k - 1], float(log.t[k] - log.t[k - 1]))
         if labels is not None:
-            change = _observe_terrain(ekf, tracker, str(labels[k]), adapt=config.terrain.adapt)
-            if change is not None:
-                changes.append(change)
+            observe(str(labels[k]))
         z = log.pose[k]
         if np.all(np.isfinite(z)) and not anchored:
             ekf.reset_pose(z)
@@ -178,9 +182,7 @@ def run_icr_ekf(
                     i, float(frame_t[i]), float(log.v_l[k]), float(log.v_r[k]), ekf.params
                 )
                 if label is not None:
-                    change = _observe_terrain(ekf, tracker, label, adapt=config.terrain.adapt)
-                    if change is not None:
-                        changes.append(change)
+                    observe(label)
                 frames.confirmed(i, ekf.terrain or "")
         states[k], stds[k] = ekf.x, ekf.std
         terrain[k] = ekf.terrain or ""
