@@ -15,7 +15,7 @@ from terrain_odom import workflows
 from terrain_odom.cli.main import main
 from terrain_odom.config import load_config
 from terrain_odom.estimation.frames import FRAME_COLUMNS
-from terrain_odom.estimation.odometry import run_icr_ekf
+from terrain_odom.estimation.odometry import Sighting, run_icr_ekf
 from terrain_odom.io import read_wheel_log
 
 DURATION_S = 45
@@ -226,7 +226,7 @@ class _Recorder:
 
     def observe(self, index, t, v_l, v_r, icr_params):
         self.calls.append((t, len(self.rows_seen)))
-        return "grass" if t < 0.5 else "sand"
+        return Sighting("grass" if t < 0.5 else "sand")
 
     def confirmed(self, index, label):
         self.confirmed_labels.append(label)

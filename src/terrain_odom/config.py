@@ -13,7 +13,7 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import yaml
 
@@ -176,12 +176,19 @@ class TerrainConfig:
         On returning to a terrain seen before, restore its last ICR estimate.
     memory_min_dwell : float
         Seconds on a terrain before its estimate is remembered, s.
+    reset_at : {"arrival", "immediate"}
+        When a change confirmed by the camera is applied: ``arrival`` (beyond
+        the paper) when the robot has travelled to the ground where the new
+        terrain was first seen ahead; ``immediate`` (Chen et al.) at the
+        confirming frame. Labels from the log describe the ground under the
+        robot and are always applied at once.
     """
 
     adapt: bool = True
     confirm: int = 2
     memory: bool = True
     memory_min_dwell: float = 10.0
+    reset_at: Literal["arrival", "immediate"] = "arrival"
 
 
 @dataclass(frozen=True)

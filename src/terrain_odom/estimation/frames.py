@@ -6,7 +6,10 @@ frame in the log's time span. For each frame it decodes the image, places the
 region of interest from the current wheel speeds and ICR estimate
 (:func:`~terrain_odom.vision.camera.region_of_interest`; the whole frame with
 ``use_roi=False``), classifies it, and hands one record per frame to
-``on_frame`` once the terrain tracker has seen the label.
+``on_frame`` once the terrain tracker has seen the label. Each label comes
+with how far ahead the classified ground is: the distance to the predicted
+pose at the region's centre, or with the whole frame to the ground point at
+the image centre.
 """
 
 from __future__ import annotations
@@ -18,6 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from terrain_odom.errors import InputFileError
+from terrain_odom.estimation.odometry import Sighting
 from terrain_odom.io.frames import FrameList
 from terrain_odom.vision.camera import GroundCamera, RoiConfig, crop, region_of_interest
 from terrain_odom.vision.classifier import TerrainClassifier
@@ -38,6 +42,7 @@ FRAME_COLUMNS = (
     "ms_features",
     "ms_total",
     "roi_status",
+    "ahead_m",
 )
 """Columns of ``OUT/frames.csv``."""
 
@@ -52,7 +57,8 @@ class FrameRecord:
     ``label`` is ``""`` and ``confidence``/``box`` are empty when the region
     of interest has no usable box (``roi_status`` ``outside`` or
     ``too_small``); ``ms_features`` is the SFTA + KNN time, ``ms_total``
-    includes decoding and the region of interest.
+    includes decoding and the region of interest; ``ahead`` is the distance
+    from the robot to the classified ground, m.
     """
 
     t: float
@@ -64,6 +70,7 @@ class FrameRecord:
     ms_features: float = float("nan")
     ms_total: float = float("nan")
     roi_status: str = ""
+    ahead: float = float("nan")
 
     def row(self) -> dict[str, object]:
         """Return the record as a ``frames.csv`` row."""
@@ -78,6 +85,7 @@ class FrameRecord:
             "ms_features": self.ms_features,
             "ms_total": self.ms_total,
             "roi_status": self.roi_status,
+            "ahead_m": self.ahead,
         }
 
 
@@ -128,7 +136,7 @@ class FramePipeline:
 
     def observe(
         self, index: int, t: float, v_l: float, v_r: float, icr_params: np.ndarray
-    ) -> str | None:
+    ) -> Sighting | None:
         """Classify frame ``index``; None if it is unreadable or has no usable region."""
         started = time.perf_counter()
         path = self.frames.files[index]
@@ -150,10 +158,12 @@ class FramePipeline:
             result = region_of_interest(self.camera, self.roi, v_l, v_r, icr_params)
             record.roi_status = result.status.value
             record.box = result.box
+            record.ahead = float(np.hypot(*result.pose[:2]))
             region = crop(image, result) if result.box is not None else None
         else:
             record.roi_status = FULL_FRAME
             record.box = (0, 0, width, height)
+            record.ahead = self._image_centre_ahead()
             region = image
         self.roi_counts[record.roi_status] = self.roi_counts.get(record.roi_status, 0) + 1
         if region is not None:
@@ -164,7 +174,13 @@ class FramePipeline:
             record.ms_total = 1e3 * (done - started)
             self.ms_total.append(record.ms_total)
         self._pending = record
-        return record.label or None
+        return Sighting(record.label, record.ahead) if record.label else None
+
+    def _image_centre_ahead(self) -> float:
+        """Distance to the ground at the image centre, m (0 if it is above the horizon)."""
+        centre = [(self.camera.width - 1) / 2.0, (self.camera.height - 1) / 2.0]
+        ahead = float(np.hypot(*self.camera.backproject([centre])[0]))
+        return ahead if np.isfinite(ahead) else 0.0
 
     def confirmed(self, index: int, label: str) -> None:
         """Record the confirmed terrain after frame ``index`` and emit its record."""

@@ -135,6 +135,9 @@ class TerrainChange:
     reset : bool
         Whether the ICR covariance was reset to ``P_B`` (False when terrain
         adaptation is off and the change is only recorded).
+    t_confirmed : float or None
+        When the change was confirmed, s, if earlier than ``t`` (a reset
+        scheduled for the robot's arrival on ground seen ahead).
     """
 
     t: float
@@ -142,6 +145,7 @@ class TerrainChange:
     label: str
     restored: bool
     reset: bool = True
+    t_confirmed: float | None = None
 
 
 class _Filter(ExtendedKalmanFilter):

@@ -7,12 +7,18 @@ pose is anchored at the first pose measurement of every log segment and is
 never propagated across a segment break. Terrain labels (from the log or a
 classifier) pass through a :class:`TerrainTracker`; a confirmed change resets
 the ICR covariance to ``P_B`` (and restores a remembered estimate).
+
+A camera sees ground ahead of the robot. With ``terrain.reset_at:
+arrival`` a change confirmed from frames is applied once the robot has
+travelled (odometer of the filter's own predictions) to where the first
+frame of the new terrain looked; pending changes are applied in order.
 """
 
 from __future__ import annotations
 
+from collections import deque
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Protocol
 
 import numpy as np
@@ -22,7 +28,7 @@ from terrain_odom.estimation.icr_ekf import IcrEkf, TerrainChange
 from terrain_odom.estimation.terrain import TerrainTracker
 from terrain_odom.types import WheelLog
 
-__all__ = ["FrameObserver", "OdometryRow", "OdometryResult", "run_icr_ekf"]
+__all__ = ["FrameObserver", "Sighting", "OdometryRow", "OdometryResult", "run_icr_ekf"]
 
 
 @dataclass(frozen=True)
@@ -50,26 +56,43 @@ class OdometryRow:
     terrain: str
 
 
+@dataclass(frozen=True)
+class Sighting:
+    """A terrain label seen by the camera.
+
+    Attributes
+    ----------
+    label : str
+        Terrain class of the classified region.
+    ahead : float
+        Distance along the path from the robot to that region, m (0: under
+        the robot).
+    """
+
+    label: str
+    ahead: float = 0.0
+
+
 class FrameObserver(Protocol):
     """Camera frames interleaved with the log rows (see :func:`run_icr_ekf`).
 
     ``times`` are the frame times (s, non-decreasing). For each frame in the
-    log's time span, :meth:`observe` returns the terrain label seen (None if
+    log's time span, :meth:`observe` returns the :class:`Sighting` (None if
     none, e.g. an unreadable frame) from the current wheel speeds and ICR
-    parameters, then :meth:`confirmed` gets the confirmed terrain after the
-    tracker has seen that label.
+    parameters, then :meth:`confirmed` gets the terrain confirmed by the
+    camera after the tracker has seen that label.
     """
 
     times: np.ndarray
 
     def observe(
         self, index: int, t: float, v_l: float, v_r: float, icr_params: np.ndarray
-    ) -> str | None:
-        """Terrain label of frame ``index`` (None: no label)."""
+    ) -> Sighting | None:
+        """Return what frame ``index`` shows (None: no label)."""
         ...  # pragma: no cover
 
     def confirmed(self, index: int, label: str) -> None:
-        """Take the confirmed terrain after frame ``index`` (``""`` if none yet)."""
+        """Take the camera-confirmed terrain after frame ``index`` (``""`` if none yet)."""
         ...  # pragma: no cover
 
 
@@ -141,20 +164,13 @@ def run_icr_ekf(
         raise ValueError("give terrain labels or frames, not both")
     ekf = IcrEkf(config.ekf, config.terrain)
     ekf.t = float(log.t[0]) if len(log) else 0.0
-    tracker = TerrainTracker(config.terrain.confirm)
+    terrain_flow = _TerrainFlow(ekf, config)
     n_rows, n_state = len(log), len(ekf.names)
     states = np.empty((n_rows, n_state))
     stds = np.empty((n_rows, n_state))
     terrain = np.full(n_rows, "", dtype=object)
     anchored = False
     n_updates = 0
-    changes: list[TerrainChange] = []
-
-    def observe(label: str) -> None:
-        change = _observe_terrain(ekf, tracker, label, adapt=config.terrain.adapt)
-        if change is not None:
-            changes.append(change)
-
     frame_t = np.empty(0) if frames is None else np.asarray(frames.times, dtype=float)
     # frames observed after row k: those with t[k] <= t_f < t[k + 1] (t_f <= t[-1] for the last)
     bounds = np.searchsorted(frame_t, log.t, side="left") if n_rows else np.zeros(0, int)
@@ -165,9 +181,9 @@ def run_icr_ekf(
             anchored = False  # a break: nothing is integrated across it
             ekf.t = float(log.t[k])
         elif k > 0:
-            ekf.predict(log.v_l[k - 1], log.v_r[k - 1], float(log.t[k] - log.t[k - 1]))
+            terrain_flow.predict(log.v_l[k - 1], log.v_r[k - 1], float(log.t[k] - log.t[k - 1]))
         if labels is not None:
-            observe(str(labels[k]))
+            terrain_flow.observe(Sighting(str(labels[k])))
         z = log.pose[k]
         if np.all(np.isfinite(z)) and not anchored:
             ekf.reset_pose(z)
@@ -178,12 +194,12 @@ def run_icr_ekf(
         if frames is not None:
             stop = int(bounds[k + 1]) if k + 1 < n_rows else frame_t.size - n_after
             for i in range(int(bounds[k]), stop):
-                label = frames.observe(
+                sighting = frames.observe(
                     i, float(frame_t[i]), float(log.v_l[k]), float(log.v_r[k]), ekf.params
                 )
-                if label is not None:
-                    observe(label)
-                frames.confirmed(i, ekf.terrain or "")
+                if sighting is not None:
+                    terrain_flow.observe(sighting)
+                frames.confirmed(i, terrain_flow.seen or "")
         states[k], stds[k] = ekf.x, ekf.std
         terrain[k] = ekf.terrain or ""
         if on_row is not None:
@@ -193,25 +209,69 @@ def run_icr_ekf(
         states,
         stds,
         terrain.astype(str),
-        changes,
+        terrain_flow.changes,
         n_updates,
         frames_before=frames_before,
         frames_after=n_after,
     )
 
 
-def _observe_terrain(
-    ekf: IcrEkf, tracker: TerrainTracker, label: str, *, adapt: bool
-) -> TerrainChange | None:
-    """Feed one label; name the first terrain, reset on a confirmed change."""
-    confirmed = tracker.observe(label)
-    if ekf.terrain is None:
-        ekf.set_terrain(tracker.current or label)
-        return None
-    if confirmed is None:
-        return None
-    if adapt:
-        return ekf.reset_on_terrain_change(confirmed)
-    change = TerrainChange(ekf.t, ekf.terrain, confirmed, restored=False, reset=False)
-    ekf.set_terrain(confirmed)
-    return change
+class _TerrainFlow:
+    """Terrain labels into filter resets: confirmation, scheduling, odometer.
+
+    ``seen`` is the terrain confirmed by the observations (ahead of the
+    robot for a camera); ``ekf.terrain`` the one applied to the filter.
+    """
+
+    def __init__(self, ekf: IcrEkf, config: Config) -> None:
+        self.ekf = ekf
+        self.adapt = config.terrain.adapt
+        self.on_arrival = config.terrain.reset_at == "arrival"
+        self.tracker = TerrainTracker(config.terrain.confirm)
+        self.travelled = 0.0  # m, odometer of the filter's predictions
+        self.pending: deque[tuple[float, str, float]] = deque()  # (odometer target, label, t)
+        self.changes: list[TerrainChange] = []
+
+    @property
+    def seen(self) -> str | None:
+        """Terrain confirmed by the observations so far."""
+        return self.tracker.current
+
+    def predict(self, v_l: float, v_r: float, dt: float) -> None:
+        """Predict the filter, advance the odometer and apply changes now reached."""
+        before = self.ekf.pose[:2]
+        self.ekf.predict(v_l, v_r, dt)
+        self.travelled += float(np.hypot(*(self.ekf.pose[:2] - before)))
+        while self.pending and self.travelled >= self.pending[0][0]:
+            _, label, t_confirmed = self.pending.popleft()
+            self._apply(label, t_confirmed)
+
+    def observe(self, sighting: Sighting) -> None:
+        """Feed one label; name the first terrain, apply or schedule a confirmed change."""
+        where = self.travelled + (sighting.ahead if self.on_arrival else 0.0)
+        confirmed = self.tracker.observe(sighting.label, at=where)
+        if self.ekf.terrain is None:
+            self.ekf.set_terrain(self.tracker.current or sighting.label)
+            return
+        if confirmed is None:
+            return
+        target = float(self.tracker.changed_at if self.tracker.changed_at is not None else where)
+        if target > self.travelled:
+            self.pending.append((target, confirmed, self.ekf.t))
+        elif not self.pending:
+            self._apply(confirmed, None)
+        else:  # reached already, but earlier changes are still pending: keep the order
+            self.pending.append((self.travelled, confirmed, self.ekf.t))
+
+    def _apply(self, label: str, t_confirmed: float | None) -> None:
+        ekf = self.ekf
+        if label == ekf.terrain:
+            return
+        if self.adapt:
+            change = ekf.reset_on_terrain_change(label)
+        else:
+            change = TerrainChange(ekf.t, ekf.terrain, label, restored=False, reset=False)
+            ekf.set_terrain(label)
+        if t_confirmed is not None and t_confirmed < change.t:
+            change = replace(change, t_confirmed=t_confirmed)
+        self.changes.append(change)

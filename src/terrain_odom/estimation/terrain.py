@@ -2,7 +2,10 @@
 
 A change of terrain is confirmed only when the new label has been observed
 on ``confirm`` consecutive observations (frames, or log rows when the labels
-come from the log), which filters out single misclassifications.
+come from the log), which filters out single misclassifications. Each
+observation may carry a mark (e.g. where the classified ground is along the
+path); a confirmed change reports the mark of its *first* observation, so
+the change can be applied where the new terrain was first seen.
 """
 
 from __future__ import annotations
@@ -25,6 +28,10 @@ class TerrainTracker:
     [None, None, None, None, 'sand']
     >>> tr.current
     'sand'
+    >>> [tr.observe(s, at=d) for s, d in [("mud", 7.0), ("mud", 8.0)]]
+    [None, 'mud']
+    >>> tr.changed_at
+    7.0
     """
 
     def __init__(self, confirm: int = 2) -> None:
@@ -34,12 +41,16 @@ class TerrainTracker:
         self.current: str | None = None
         self._candidate: str | None = None
         self._count = 0
+        self._candidate_at: float | None = None
+        self.changed_at: float | None = None
 
-    def observe(self, label: str) -> str | None:
+    def observe(self, label: str, at: float | None = None) -> str | None:
         """Feed one observation; return the new label when a change is confirmed.
 
         The first observation sets the current terrain without reporting a
-        change.
+        change. ``at`` is an optional mark of the observation; after a
+        confirmed change, :attr:`changed_at` holds the mark of the first of
+        the consecutive observations that confirmed it.
         """
         if self.current is None:
             self.current = label
@@ -48,9 +59,10 @@ class TerrainTracker:
             self._candidate, self._count = None, 0
             return None
         if label != self._candidate:
-            self._candidate, self._count = label, 0
+            self._candidate, self._count, self._candidate_at = label, 0, at
         self._count += 1
         if self._count < self.confirm:
             return None
         self.current, self._candidate, self._count = label, None, 0
+        self.changed_at = self._candidate_at
         return label

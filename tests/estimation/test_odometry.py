@@ -1,0 +1,101 @@
+"""Row loop of the ICR EKF: scheduling of camera-confirmed terrain changes."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from terrain_odom.config import Config
+from terrain_odom.estimation.odometry import Sighting, run_icr_ekf
+from terrain_odom.types import WheelLog
+
+SPEED = 0.5  # m/s on both tracks: straight line
+
+
+def _straight_log(seconds: float = 10.0, rate: float = 50.0) -> WheelLog:
+    t = np.arange(0.0, seconds + 1e-9, 1.0 / rate)
+    pose = np.full((t.size, 3), np.nan)
+    pose[0] = 0.0
+    speed = np.full(t.size, SPEED)
+    return WheelLog(t, speed, speed.copy(), pose, None, np.zeros(t.size, dtype=int), "straight")
+
+
+class _Script:
+    """Frame observer replaying (t, label, ahead) sightings."""
+
+    def __init__(self, sightings: list[tuple[float, str, float]]) -> None:
+        self.times = np.array([s[0] for s in sightings])
+        self._sightings = sightings
+        self.confirmed_labels: list[str] = []
+
+    def observe(self, index, t, v_l, v_r, icr_params):
+        _, label, ahead = self._sightings[index]
+        return Sighting(label, ahead)
+
+    def confirmed(self, index, label):
+        self.confirmed_labels.append(label)
+
+
+def _config(reset_at: str) -> Config:
+    cfg = Config()
+    ekf = dataclasses.replace(
+        cfg.ekf,
+        estimate_alpha=False,
+        initial=dataclasses.replace(cfg.ekf.initial, y_l=0.25, y_r=-0.25, x_icr=0.0),
+    )
+    return dataclasses.replace(
+        cfg, ekf=ekf, terrain=dataclasses.replace(cfg.terrain, reset_at=reset_at)
+    )
+
+
+def _frames(change_t: float, back_t: float | None = None, ahead: float = 1.0):
+    """Frames at 5 Hz over 10 s: grass, then sand from change_t (then grass from back_t)."""
+    out = []
+    for t in np.arange(0.0, 10.0, 0.2):
+        sand = t >= change_t - 1e-9 and (back_t is None or t < back_t - 1e-9)
+        out.append((float(t), "sand" if sand else "grass", ahead))
+    return out
+
+
+@pytest.mark.parametrize("reset_at", ["arrival", "immediate"])
+def test_camera_change_is_applied_on_arrival_or_at_confirmation(reset_at):
+    frames = _Script(_frames(change_t=2.0, ahead=1.0))
+    result = run_icr_ekf(_straight_log(), _config(reset_at), frames=frames)
+    (change,) = result.changes
+    assert change.label == "sand" and change.previous == "grass" and change.reset
+    if reset_at == "immediate":
+        # confirmed by the 2nd sand frame (t = 2.2 s), applied at once
+        assert change.t == pytest.approx(2.2, abs=0.021) and change.t_confirmed is None
+    else:
+        # first seen 1 m ahead at t = 2.0 s; at 0.5 m/s the robot is there at t = 4.0 s
+        assert change.t == pytest.approx(4.0, abs=0.021)
+        assert change.t_confirmed == pytest.approx(2.2, abs=0.021)
+    # frames.csv's confirmed_label is the camera's view, whatever the schedule
+    assert frames.confirmed_labels[11] == "sand" and frames.confirmed_labels[10] == "grass"
+    # trajectory terrain follows the applied change
+    row = np.searchsorted(_straight_log().t, change.t)
+    assert result.terrain[row - 2] == "grass" and result.terrain[row + 1] == "sand"
+
+
+def test_pending_changes_are_applied_in_order_across_a_narrow_strip():
+    # sand seen 3 m ahead from t = 2 s to 3 s only: a 0.5 m strip crossed at t = 8-9 s
+    frames = _Script(_frames(change_t=2.0, back_t=3.0, ahead=3.0))
+    result = run_icr_ekf(_straight_log(), _config("arrival"), frames=frames)
+    assert [(c.previous, c.label) for c in result.changes] == [("grass", "sand"), ("sand", "grass")]
+    assert [c.t for c in result.changes] == pytest.approx([8.0, 9.0], abs=0.021)
+
+
+def test_change_seen_under_the_robot_is_applied_at_once_even_on_arrival():
+    frames = _Script(_frames(change_t=2.0, ahead=0.0))
+    result = run_icr_ekf(_straight_log(), _config("arrival"), frames=frames)
+    assert [c.t for c in result.changes] == pytest.approx([2.2], abs=0.021)
+
+
+def test_log_labels_are_applied_at_once_on_arrival():
+    log = _straight_log()
+    labels = np.where(log.t < 3.0, "grass", "sand")
+    result = run_icr_ekf(log, _config("arrival"), labels=labels)
+    # the second consecutive "sand" row confirms it
+    assert [c.t for c in result.changes] == pytest.approx([3.02], abs=1e-9)
