@@ -61,10 +61,12 @@ def test_run_returns_summary_with_existing_paths(log_path: Path, tmp_path: Path)
     assert summary.trajectory_csv == out_dir / "trajectory.csv"
     assert summary.trajectory_tum == out_dir / "trajectory.tum"
     assert summary.report_json == out_dir / "report.json"
+    assert summary.report_md == out_dir / "report.md"
     for path in (summary.trajectory_csv, summary.trajectory_tum, summary.report_json):
         assert path.is_file(), path
     assert sorted(p.name for p in out_dir.iterdir()) == [
         "report.json",
+        "report.md",
         "trajectory.csv",
         "trajectory.tum",
     ]

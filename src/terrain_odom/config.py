@@ -193,9 +193,20 @@ class TerrainConfig:
 
 @dataclass(frozen=True)
 class EvaluationConfig:
-    """Model-odometry metric settings: ``horizon`` is ``h_e`` in metres."""
+    """Evaluation settings.
+
+    Attributes
+    ----------
+    horizon : float
+        ``h_e``, length of the model-odometry windows, m.
+    icr_tolerance : float
+        Half-width of the band the ICR estimate must stay in to count as
+        re-converged after a terrain change, as a fraction of the robot's
+        nominal track width (0.1: 5 cm for a 0.5-m robot).
+    """
 
     horizon: float = 2.0
+    icr_tolerance: float = 0.1
 
 
 @dataclass(frozen=True)

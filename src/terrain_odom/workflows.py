@@ -20,7 +20,7 @@ from tqdm import tqdm
 from terrain_odom import __version__
 from terrain_odom.config import Config, config_to_dict, load_config
 from terrain_odom.errors import InputFileError
-from terrain_odom.estimation.frames import FRAME_COLUMNS, FramePipeline
+from terrain_odom.estimation.frames import FRAME_COLUMNS, FramePipeline, FrameRecord
 from terrain_odom.estimation.icr_ekf import state_names
 from terrain_odom.estimation.odometry import OdometryRow, run_icr_ekf
 from terrain_odom.evaluation import (
@@ -33,10 +33,13 @@ from terrain_odom.evaluation import (
     window_errors,
 )
 from terrain_odom.io import TrajectoryWriter, read_trajectory_csv, read_wheel_log, write_tum
+from terrain_odom.io.atomic import write_atomic
 from terrain_odom.io.frames import read_frames
+from terrain_odom.io.groundtruth import GroundTruth, read_groundtruth
 from terrain_odom.io.params import ModelParams, read_params
-from terrain_odom.io.report import write_json
+from terrain_odom.io.report import to_jsonable, write_json
 from terrain_odom.kinematics import get_model, twist_icr
+from terrain_odom.reporting import GroundTruthReport, groundtruth_section, run_markdown
 from terrain_odom.types import WheelLog
 from terrain_odom.vision.camera import GroundCamera
 from terrain_odom.vision.classifier import TerrainClassifier
@@ -106,6 +109,7 @@ class RunSummary:
     report_json: Path
     rows: int
     seconds: float
+    report_md: Path | None = None
 
 
 def trajectory_columns(names: tuple[str, ...]) -> list[str]:
@@ -141,6 +145,7 @@ def run(
     images: str | Path | None = None,
     model: str | Path | None = None,
     use_roi: bool = True,
+    groundtruth: str | Path | None = None,
 ) -> RunSummary:
     """Run the terrain-adaptive ICR EKF over a wheel log and write the results.
 
@@ -171,6 +176,11 @@ def run(
         (:func:`default_model`) if omitted.
     use_roi : bool
         Classify the region of interest (default) or the whole frame.
+    groundtruth : str or Path, optional
+        Ground truth of the run (``groundtruth.csv`` of a simulated run):
+        scores the run and its filter variants against it in ``report.json``
+        (section ``groundtruth``), ``report.md`` and PNG plots in
+        ``out/plots/``; also times classification on whole frames.
 
     Returns
     -------
@@ -181,6 +191,7 @@ def run(
         config_path = images_config(images)
     cfg = config if config is not None else load_config(config_path)
     log = read_wheel_log(wheels, wheel_radius=cfg.robot.wheel_radius)
+    gt = _read_groundtruth(groundtruth, log) if groundtruth is not None else None
     use_frames = images is not None and terrain is not TerrainSource.NONE
     labels = None if use_frames else _labels(log, terrain)
     frame_list = classifier = None
@@ -198,6 +209,7 @@ def run(
     csv_path = out / "trajectory.csv"
     bar = tqdm(total=len(log), unit="row", disable=None if progress is None else not progress)
     frames_csv = out / "frames.csv"
+    records: list[FrameRecord] = []
     with contextlib.ExitStack() as stack:
         writer = stack.enter_context(TrajectoryWriter(csv_path, columns))
         stack.enter_context(bar)
@@ -205,14 +217,20 @@ def run(
         if frame_list is not None and classifier is not None:
             frame_writer = stack.enter_context(TrajectoryWriter(frames_csv, FRAME_COLUMNS))
             root = Path(images)  # type: ignore[arg-type]
+
+            def on_frame(record: FrameRecord) -> None:
+                frame_writer.write(record.row())
+                records.append(record)
+
             pipeline = FramePipeline(
                 frame_list,
                 classifier,
                 GroundCamera(cfg.camera),
                 cfg.roi,
                 use_roi=use_roi,
-                on_frame=lambda record: frame_writer.write(record.row()),
+                on_frame=on_frame,
                 names=lambda path: _relative(path, root),  # type: ignore[arg-type]
+                time_full_frame=gt is not None,
             )
 
         def on_row(row: OdometryRow) -> None:
@@ -256,9 +274,59 @@ def run(
         if pipeline is not None:
             report["frame_problems"] = pipeline.problems
             report["outputs"]["frames_csv"] = frames_csv.name
+    plots: list[str] = []
+    if gt is not None:
+        scored = groundtruth_section(
+            log,
+            cfg,
+            gt,
+            labels=labels,
+            records=records if pipeline is not None else None,
+            use_roi=use_roi,
+        )
+        report["inputs"]["groundtruth"] = str(Path(groundtruth).resolve())  # type: ignore[arg-type]
+        report["groundtruth"] = scored.section
+        plots = _write_plots(out, gt, log, scored, records)
     report_path = out / "report.json"
     write_json(report_path, report)
-    return RunSummary(csv_path, tum_path, report_path, len(log), seconds)
+    md_path = out / "report.md"
+    markdown = run_markdown(to_jsonable(report), plots)
+    write_atomic(md_path, lambda handle: handle.write(markdown.encode("utf-8")))
+    return RunSummary(csv_path, tum_path, report_path, len(log), seconds, md_path)
+
+
+def _read_groundtruth(path: str | Path, log: WheelLog) -> GroundTruth:
+    """Read ground truth and check it covers the log's time span."""
+    gt = read_groundtruth(path)
+    if len(log) and (log.t[0] < gt.t[0] - 1e-9 or log.t[-1] > gt.t[-1] + 1e-9):
+        raise InputFileError(
+            f"{gt.source}: covers {gt.t[0]:g}-{gt.t[-1]:g} s but the wheel log {log.source} "
+            f"spans {log.t[0]:g}-{log.t[-1]:g} s (is it the ground truth of this run?)"
+        )
+    return gt
+
+
+def _write_plots(
+    out: Path, gt: GroundTruth, log: WheelLog, scored: GroundTruthReport, records: list
+) -> list[str]:
+    """Write the PNG plots of a scored run into ``out/plots``; return their relative paths."""
+    from terrain_odom.reporting import plots
+
+    folder = out / "plots"
+    folder.mkdir(exist_ok=True)
+    jobs: dict[str, Any] = {
+        "trajectory.png": lambda h: plots.plot_trajectory(h, gt, log.t, scored.results),
+        "icr.png": lambda h: plots.plot_icr(
+            h, gt, log.t, scored.results, scored.section["true_changes"]
+        ),
+    }
+    if scored.frame_truth is not None:
+        t = np.array([r.t for r in records], dtype=float)
+        labels = [r.label for r in records]
+        jobs["frames.png"] = lambda h: plots.plot_frames(h, t, labels, scored.frame_truth)
+    for name, draw in jobs.items():
+        write_atomic(folder / name, draw)
+    return [f"plots/{name}" for name in jobs]
 
 
 def _relative(path: Path, root: Path) -> str:

@@ -205,7 +205,7 @@ def test_terrain_memory_restores_converged_estimate():
     ekf.set_terrain("grass")
     t, v_l, v_r, _, z = _simulate((0.9, -0.75, 0.15, 0.92), n=1200)
     _run(ekf, t, v_l, v_r, z)
-    grass = ekf.params
+    grass, grass_cov = ekf.params, ekf.P[3:, 3:]
     ekf.reset_on_terrain_change("asphalt")
     for _ in range(200):  # 20 s on asphalt
         ekf.predict(1.0, 1.0, 0.1)
@@ -214,6 +214,10 @@ def test_terrain_memory_restores_converged_estimate():
     change = ekf.reset_on_terrain_change("grass")
     assert change.restored
     np.testing.assert_array_equal(ekf.params, grass)
+    # the remembered covariance, not P_B, and no correlation with the pose
+    np.testing.assert_array_equal(ekf.P[3:, 3:], grass_cov)
+    assert np.all(ekf.P[:3, 3:] == 0.0)
+    assert np.all(np.diag(grass_cov) < 0.1 * np.array([1.0, 1.0, 1.0, 0.04]))  # << P_B
     no_memory = IcrEkf(_config(), TerrainConfig(memory=False))
     no_memory.set_terrain("grass")
     no_memory.reset_on_terrain_change("asphalt")

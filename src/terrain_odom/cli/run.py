@@ -28,6 +28,17 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--no-roi", action="store_true", help="classify whole frames, not the region of interest"
     )
+    p.add_argument(
+        "--groundtruth",
+        help="ground truth CSV (t,x,y,yaw,y_l,y_r,x_icr,terrain; a simulated run's "
+        "groundtruth.csv): scores the run and writes report.md and plots/*.png",
+    )
+    p.add_argument(
+        "--reset-at",
+        choices=("arrival", "immediate"),
+        help="when a camera-confirmed terrain change resets the filter (default: the "
+        "configuration's terrain.reset_at, 'arrival')",
+    )
     terrain = p.add_mutually_exclusive_group()
     terrain.add_argument(
         "--terrain-from-log",
@@ -41,6 +52,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
+    import dataclasses
+
+    from terrain_odom.config import load_config
     from terrain_odom.errors import ConfigError
     from terrain_odom.workflows import TerrainSource, default_model, images_config, run
 
@@ -60,16 +74,25 @@ def _cmd_run(args: argparse.Namespace) -> int:
     if args.images is not None and not args.no_terrain and model is None:
         model = default_model()
         print(f"model:      {model} (default; --model to change)")
+    cfg = load_config(config)
+    if args.reset_at is not None:
+        cfg = dataclasses.replace(
+            cfg, terrain=dataclasses.replace(cfg.terrain, reset_at=args.reset_at)
+        )
     summary = run(
         args.wheels,
         args.out,
+        config=cfg,
         config_path=config,
         terrain=source,
         images=args.images,
         model=model,
         use_roi=not args.no_roi,
+        groundtruth=args.groundtruth,
     )
     print(f"{summary.rows} rows in {summary.seconds:.2f} s")
     print(f"trajectory: {summary.trajectory_csv}")
     print(f"report:     {summary.report_json}")
+    if summary.report_md is not None:
+        print(f"            {summary.report_md}")
     return 0

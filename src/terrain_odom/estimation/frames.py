@@ -27,7 +27,7 @@ from terrain_odom.vision.camera import GroundCamera, RoiConfig, crop, region_of_
 from terrain_odom.vision.classifier import TerrainClassifier
 from terrain_odom.vision.dataset import read_image_rgb
 
-__all__ = ["FRAME_COLUMNS", "FrameRecord", "FramePipeline"]
+__all__ = ["FRAME_COLUMNS", "FrameRecord", "FramePipeline", "ReplayedFrames"]
 
 FRAME_COLUMNS = (
     "t",
@@ -43,6 +43,7 @@ FRAME_COLUMNS = (
     "ms_total",
     "roi_status",
     "ahead_m",
+    "ms_features_full",
 )
 """Columns of ``OUT/frames.csv``."""
 
@@ -58,7 +59,8 @@ class FrameRecord:
     of interest has no usable box (``roi_status`` ``outside`` or
     ``too_small``); ``ms_features`` is the SFTA + KNN time, ``ms_total``
     includes decoding and the region of interest; ``ahead`` is the distance
-    from the robot to the classified ground, m.
+    from the robot to the classified ground, m; ``ms_features_full`` the SFTA
+    + KNN time on the whole frame when that is timed for comparison.
     """
 
     t: float
@@ -71,6 +73,7 @@ class FrameRecord:
     ms_total: float = float("nan")
     roi_status: str = ""
     ahead: float = float("nan")
+    ms_features_full: float = float("nan")
 
     def row(self) -> dict[str, object]:
         """Return the record as a ``frames.csv`` row."""
@@ -86,6 +89,7 @@ class FrameRecord:
             "ms_total": self.ms_total,
             "roi_status": self.roi_status,
             "ahead_m": self.ahead,
+            "ms_features_full": self.ms_features_full,
         }
 
 
@@ -106,6 +110,9 @@ class FramePipeline:
         Called with the :class:`FrameRecord` of every frame processed.
     names : callable, optional
         Maps a frame's path to the text of its ``file`` cell.
+    time_full_frame : bool
+        Also time SFTA + KNN on the whole frame (its label is not used), for
+        Chen's Table 2 comparison.
 
     Attributes
     ----------
@@ -124,6 +131,7 @@ class FramePipeline:
     use_roi: bool = True
     on_frame: Callable[[FrameRecord], None] | None = None
     names: Callable[[object], str] = str
+    time_full_frame: bool = False
     problems: list[dict[str, object]] = field(default_factory=list)
     roi_counts: dict[str, int] = field(default_factory=dict)
     ms_total: list[float] = field(default_factory=list)
@@ -173,8 +181,17 @@ class FramePipeline:
             record.ms_features = 1e3 * (done - features_start)
             record.ms_total = 1e3 * (done - started)
             self.ms_total.append(record.ms_total)
+        if self.time_full_frame:
+            whole = self.use_roi and region is not None
+            record.ms_features_full = self._time_whole(image) if whole else record.ms_features
         self._pending = record
         return Sighting(record.label, record.ahead) if record.label else None
+
+    def _time_whole(self, image: np.ndarray) -> float:
+        """SFTA + KNN time on the whole frame, ms."""
+        started = time.perf_counter()
+        self.classifier.classify(image)
+        return 1e3 * (time.perf_counter() - started)
 
     def _image_centre_ahead(self) -> float:
         """Distance to the ground at the image centre, m (0 if it is above the horizon)."""
@@ -190,3 +207,35 @@ class FramePipeline:
         record.confirmed_label = label
         if self.on_frame is not None:
             self.on_frame(record)
+
+
+@dataclass
+class ReplayedFrames:
+    """A frame observer replaying the labels of recorded frames (no image is read).
+
+    Runs filter variants on the labels a :class:`FramePipeline` produced, e.g.
+    with and without terrain memory. The regions a variant would have
+    classified can differ slightly, as they follow its own ICR estimate.
+
+    Parameters
+    ----------
+    records : list of FrameRecord
+        Frames as recorded (with their ``label`` and ``ahead``).
+    """
+
+    records: list[FrameRecord]
+
+    @property
+    def times(self) -> np.ndarray:
+        """Frame times, s."""
+        return np.array([r.t for r in self.records], dtype=float)
+
+    def observe(
+        self, index: int, t: float, v_l: float, v_r: float, icr_params: np.ndarray
+    ) -> Sighting | None:
+        """Return the recorded sighting of frame ``index``."""
+        record = self.records[index]
+        return Sighting(record.label, record.ahead) if record.label else None
+
+    def confirmed(self, index: int, label: str) -> None:
+        """Ignore the confirmed terrain (nothing is written)."""

@@ -205,7 +205,7 @@ class IcrEkf:
         self.t = 0.0
         self.terrain: str | None = None
         self._terrain_since = 0.0
-        self._memory: dict[str, np.ndarray] = {}
+        self._memory: dict[str, tuple[np.ndarray, np.ndarray]] = {}
         self.last_nis = float("nan")
 
     # ----------------------------------------------------------------- state
@@ -348,9 +348,10 @@ class IcrEkf:
         Sets the ICR block of ``P`` to ``P_B`` (per terrain if configured) and
         clears its correlation with the pose, so the filter re-converges
         quickly (Chen et al. 2023, Sec. 3.2). With terrain memory, the ICR
-        estimate of the terrain being left is remembered (if the robot stayed
-        there at least ``memory_min_dwell`` s), and a remembered estimate of
-        ``label`` is restored.
+        estimate and covariance of the terrain being left are remembered (if
+        the robot stayed there at least ``memory_min_dwell`` s), and those of
+        ``label``, if remembered, are restored instead of ``P_B``: the filter
+        resumes where it left that terrain.
 
         Returns
         -------
@@ -360,20 +361,20 @@ class IcrEkf:
         label = str(label)
         tc = self.terrain_config
         previous = self.terrain
+        P = self._filter.P  # noqa: N806
         if (
             tc.memory
             and previous is not None
             and self.t - self._terrain_since >= tc.memory_min_dwell
         ):
-            self._memory[previous] = self.params
+            self._memory[previous] = (self.params, P[3:, 3:].copy())
         restored = tc.memory and label in self._memory
-        x = self._filter.x
-        if restored:
-            x[3:, 0] = self._memory[label]
-        P = self._filter.P  # noqa: N806
         P[3:, :] = 0.0
         P[:, 3:] = 0.0
-        P[3:, 3:] = np.diag(self._pb_variances(label))
+        if restored:
+            self._filter.x[3:, 0], P[3:, 3:] = self._memory[label]
+        else:
+            P[3:, 3:] = np.diag(self._pb_variances(label))
         change = TerrainChange(self.t, previous, label, bool(restored))
         logger.info("terrain %s -> %s at t=%.2f s (restored=%s)", previous, label, self.t, restored)
         self.set_terrain(label)

@@ -2,7 +2,7 @@
 
 ``chen2023``
     Chen et al. 2023, §4: terrain A (grass), then B (gravel) for about 20 s,
-    then A again. The robot drives a gently weaving straight line (x forward)
+    then A again. The robot slaloms along a straight line (x forward)
     across a gravel band; a brick area off the path gives a third class to
     the training patches.
 ``mixed``
@@ -68,16 +68,20 @@ def _ramp(t: float, seconds: float = 1.0) -> float:
 
 @dataclass(frozen=True)
 class WeavingDriver:
-    """Near-straight driving along the world x axis, weaving.
+    """Slalom along the world x axis.
 
     Speed difference ``v_r - v_l = weave * sin(2 pi t / period) - hold * (yaw
     + y / lookahead)`` (m/s, ``yaw`` in rad, ``y`` in m): a sinusoid plus a
-    lane keeper towards ``y = 0``; everything ramped up over 1 s.
+    lane keeper towards ``y = 0``; everything ramped up over 1 s. The default
+    slalom (+-0.8 m/s every 3 s, yaw swinging about +-20 degrees) turns enough
+    for every ICR coordinate to be observable within a couple of seconds; a
+    gentle weave (0.12 m/s every 8 s) leaves ``y_l`` and ``y_r`` apart
+    poorly observed for 10-20 s after a reset.
     """
 
     speed: float = 0.5
-    weave: float = 0.12
-    period: float = 8.0
+    weave: float = 0.8
+    period: float = 3.0
     hold: float = 0.4
     lookahead: float = 2.0
 

@@ -1,0 +1,166 @@
+"""``report.md``: a run's report.json rendered for people."""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+from typing import Any
+
+__all__ = ["table", "run_markdown"]
+
+
+def _cell(value: Any, digits: int) -> str:
+    if value is None:
+        return "-"
+    if isinstance(value, float):
+        return f"{value:.{digits}f}"
+    return str(value)
+
+
+def table(header: Sequence[str], rows: Iterable[Sequence[Any]], digits: int = 3) -> str:
+    """Markdown table; floats with ``digits`` decimals, None as ``-``.
+
+    Examples
+    --------
+    >>> print(table(["a", "b"], [["x", 0.5], ["y", None]]))
+    | a | b |
+    |---|---|
+    | x | 0.500 |
+    | y | - |
+    """
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    lines += ["| " + " | ".join(_cell(v, digits) for v in row) + " |" for row in rows]
+    return "\n".join(lines)
+
+
+def _percent(value: float | None) -> float | None:
+    return None if value is None else 100.0 * value
+
+
+def _changes(report: dict[str, Any]) -> str:
+    rows = [
+        [c["t"], c.get("t_confirmed"), c["previous"], c["label"], c["reset"], c["restored"]]
+        for c in report["terrain_changes"]
+    ]
+    if not rows:
+        return "No terrain change was confirmed."
+    return table(
+        ["applied at (s)", "confirmed at (s)", "from", "to", "P reset", "memory restored"],
+        rows,
+        digits=2,
+    )
+
+
+def _frames(frames: dict[str, Any]) -> list[str]:
+    accuracy, times = frames["accuracy"], frames["feature_time"]
+    acc_rows = [
+        [label, a["frames"], _percent(a["accuracy"]), a["confused_with"] or ""]
+        for label, a in accuracy["per_terrain"].items()
+    ]
+    overall = accuracy["overall"]
+    acc_rows.append(["**all**", overall["frames"], _percent(overall["accuracy"]), ""])
+    time_rows = [
+        [
+            label,
+            t["roi"]["mean_ms"],
+            t["roi"]["max_ms"],
+            t["full_frame"]["mean_ms"],
+            t["full_frame"]["max_ms"],
+            t["speedup"],
+        ]
+        for label, t in times.items()
+    ]
+    return [
+        "## Frame classification (true terrain of the ground each frame classified)",
+        table(["true terrain", "frames", "accuracy %", "misclassified as"], acc_rows, digits=1),
+        "## Feature extraction time per frame (Chen et al. 2023, Table 2 form)",
+        table(
+            [
+                "true terrain",
+                "with ROI: mean ms",
+                "max ms",
+                "whole frame: mean ms",
+                "max ms",
+                "speed-up",
+            ],
+            time_rows,
+            digits=2,
+        ),
+    ]
+
+
+def _odometry(section: dict[str, Any]) -> list[str]:
+    rows = []
+    for name, m in section["odometry"].items():
+        tr, rot = m["translation_m_per_m"], m["rotation_deg_per_m"]
+        rows.append(
+            [
+                name,
+                m["mean_position_error_m"],
+                m["mean_heading_error_deg"],
+                tr["median"],
+                rot["median"],
+                ", ".join(
+                    f"{k} {v:.3f}" for k, v in m["per_terrain_mean_position_error_m"].items()
+                ),
+            ]
+        )
+    horizon = section["settings"]["horizon_m"]
+    return [
+        f"## Model-odometry error ({horizon:g} m windows from the true pose)",
+        table(
+            [
+                "model",
+                "mean position error (m)",
+                "mean heading error (deg)",
+                "median m/m",
+                "median deg/m",
+                "mean position error per terrain (m)",
+            ],
+            rows,
+        ),
+    ]
+
+
+def _reconvergence(section: dict[str, Any]) -> list[str]:
+    rows = []
+    for name, changes in section["reconvergence"].items():
+        for c in changes:
+            rows.append([name, c["t"], f"{c['from']} -> {c['to']}", c["settling_s"]])
+    tol = section["settings"]["icr_tolerance_m"]
+    return [
+        f"## ICR re-convergence after each true terrain change (band +/- {tol:.3f} m)",
+        table(["filter", "true change at (s)", "change", "re-converged after (s)"], rows, 2)
+        + "\n\n`-`: not re-converged before the next change or the end of the run.",
+    ]
+
+
+def run_markdown(report: dict[str, Any], plots: Sequence[str] = ()) -> str:
+    """Render a run's ``report.json`` content as Markdown.
+
+    Parameters
+    ----------
+    report : dict
+        The report (see :func:`terrain_odom.workflows.run`).
+    plots : sequence of str
+        Relative paths of PNG plots to show.
+    """
+    counts = report["counts"]
+    parts = [
+        "# terrain-odom run report",
+        f"- wheels: `{report['inputs']['wheels']}`",
+        f"- terrain source: {report['terrain_source']}; reset at: "
+        f"{report['config']['terrain']['reset_at']}",
+        f"- rows: {counts['rows']}, pose measurements fused: {counts['updates']}, "
+        f"run time {report['run_time_s']:.1f} s",
+        "## Terrain changes",
+        _changes(report),
+    ]
+    section = report.get("groundtruth")
+    if section is not None:
+        if "frames" in section:
+            parts += _frames(section["frames"])
+        parts += _odometry(section) + _reconvergence(section)
+    if plots:
+        parts.append("## Plots")
+        parts += [f"![{p}]({p})" for p in plots]
+    return "\n\n".join(parts) + "\n"
