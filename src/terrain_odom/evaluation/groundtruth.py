@@ -240,12 +240,15 @@ def reconvergence(
     tolerance: float,
     *,
     changes: Sequence[tuple[float, str, str]] | None = None,
+    resets: Sequence[tuple[float, str]] = (),
 ) -> list[dict[str, Any]]:
     """Re-convergence time of an ICR estimate after each true terrain change.
 
     The clock starts when the robot enters the new terrain; the estimate has
     re-converged once ``y_l``, ``y_r`` and ``x_icr`` all stay within
-    ``tolerance`` of the new terrain's true values until the next change.
+    ``tolerance`` of the new terrain's true values until the next change
+    (the next true change, or the filter's switch to another terrain if
+    that comes first, e.g. a reset scheduled a little early).
 
     Parameters
     ----------
@@ -258,6 +261,8 @@ def reconvergence(
         Band half-width, m.
     changes : sequence, optional
         ``(t, previous, new)``; the ground truth's own changes by default.
+    resets : sequence of (float, str)
+        The filter's applied terrain changes ``(t, label)``.
 
     Returns
     -------
@@ -271,6 +276,7 @@ def reconvergence(
     out = []
     for i, (t_c, previous, new) in enumerate(changes):
         t_end = changes[i + 1][0] if i + 1 < len(changes) else np.inf
+        t_end = min([t_end] + [t_r for t_r, label in resets if t_c < t_r and label != new])
         rows = (t >= t_c) & (t < t_end)
         truth = gt.icr[np.searchsorted(gt.t, t_c)]
         settle = (

@@ -184,7 +184,14 @@ def groundtruth_section(
         "true_changes": [{"t": t, "from": a, "to": new} for t, a, new in changes],
         "odometry": model_odometry_error(true_log, true_terrain, models, horizon),
         "reconvergence": {
-            name: reconvergence(gt, log.t, _icr_columns(result), tolerance, changes=changes)
+            name: reconvergence(
+                gt,
+                log.t,
+                _icr_columns(result),
+                tolerance,
+                changes=changes,
+                resets=[(c.t, c.label) for c in result.changes],
+            )
             for name, result in results.items()
         },
         "resets": {
