@@ -22,7 +22,15 @@ from terrain_odom.estimation.icr_ekf import IcrEkf, TerrainChange
 from terrain_odom.estimation.terrain import TerrainTracker
 from terrain_odom.types import WheelLog
 
-__all__ = ["FrameObserver", "OdometryRow", "OdometryResult", "run_icr_ekf"]
+__all__ = [
+    "FrameObserver",
+    "OdometryRow",
+    "OdometryResult",
+    "RowFilter",
+    "RowStepper",
+    "run_icr_ekf",
+    "run_rows",
+]
 
 
 @dataclass(frozen=True)
@@ -103,6 +111,85 @@ class OdometryResult:
     frames_after: int = 0
 
 
+class RowFilter(Protocol):
+    """The part of a filter the shared row loop uses for terrain adaptation."""
+
+    t: float
+    terrain: str | None
+
+    def set_terrain(self, label: str) -> None:
+        """Name the terrain the filter starts on, without any reset."""
+        ...  # pragma: no cover
+
+    def reset_on_terrain_change(self, label: str) -> TerrainChange:
+        """Apply a confirmed change to terrain ``label``."""
+        ...  # pragma: no cover
+
+
+class RowStepper(Protocol):
+    """One estimator driven by :func:`run_rows` over the rows of a log.
+
+    For every row ``k`` the loop calls :meth:`advance` (propagate to
+    ``t[k]``; ``new_segment`` when row ``k`` starts a new log segment), then
+    feeds the row's terrain label, then calls :meth:`measure` (fuse the row's
+    measurement; True if one was fused), then observes camera frames with
+    :meth:`icr_params` and records :meth:`row`.
+    """
+
+    filter: RowFilter
+    names: tuple[str, ...]
+
+    def advance(self, k: int, new_segment: bool) -> None:
+        """Propagate from row ``k - 1`` to row ``k``."""
+        ...  # pragma: no cover
+
+    def measure(self, k: int) -> bool:
+        """Fuse the measurement of row ``k``; True if an update was made."""
+        ...  # pragma: no cover
+
+    def icr_params(self, k: int) -> np.ndarray:
+        """Return the current ``y_l, y_r, x_icr(, alpha)`` at row ``k`` (camera ROI)."""
+        ...  # pragma: no cover
+
+    def row(self, k: int) -> tuple[np.ndarray, np.ndarray]:
+        """Estimate and standard deviation after row ``k``, in ``names`` order."""
+        ...  # pragma: no cover
+
+
+class _IcrSteps:
+    """:class:`RowStepper` of the ICR EKF: predict every row, update at pose rows."""
+
+    def __init__(self, ekf: IcrEkf, log: WheelLog) -> None:
+        self.filter = ekf
+        self.names = ekf.names
+        self._log = log
+        self._anchored = False
+
+    def advance(self, k: int, new_segment: bool) -> None:
+        log = self._log
+        if new_segment:
+            self._anchored = False  # a break: nothing is integrated across it
+            self.filter.t = float(log.t[k])
+        elif k > 0:
+            self.filter.predict(log.v_l[k - 1], log.v_r[k - 1], float(log.t[k] - log.t[k - 1]))
+
+    def measure(self, k: int) -> bool:
+        z = self._log.pose[k]
+        if np.all(np.isfinite(z)) and not self._anchored:
+            self.filter.reset_pose(z)
+            self._anchored = True
+        elif np.any(np.isfinite(z)) and self._anchored:
+            self.filter.update(z)
+            return True
+        return False
+
+    def icr_params(self, k: int) -> np.ndarray:
+        return self.filter.params
+
+    def row(self, k: int) -> tuple[np.ndarray, np.ndarray]:
+        return self.filter.x, self.filter.std
+
+
 def run_icr_ekf(
     log: WheelLog,
     config: Config,
@@ -135,18 +222,36 @@ def run_icr_ekf(
     -------
     OdometryResult
     """
+    ekf = IcrEkf(config.ekf, config.terrain)
+    return run_rows(log, config, _IcrSteps(ekf, log), labels=labels, on_row=on_row, frames=frames)
+
+
+def run_rows(
+    log: WheelLog,
+    config: Config,
+    stepper: RowStepper,
+    *,
+    labels: Sequence[str] | None = None,
+    on_row: Callable[[OdometryRow], None] | None = None,
+    frames: FrameObserver | None = None,
+) -> OdometryResult:
+    """Drive an estimator over every row of a log (see :class:`RowStepper`).
+
+    Segment breaks, terrain tracking (labels or camera frames, the ``P``
+    reset on a confirmed change) and the per-row output are shared by every
+    estimator; the arguments are those of :func:`run_icr_ekf`.
+    """
     if labels is not None and len(labels) != len(log):
         raise ValueError(f"labels has {len(labels)} entries for a log of {len(log)} rows")
     if labels is not None and frames is not None:
         raise ValueError("give terrain labels or frames, not both")
-    ekf = IcrEkf(config.ekf, config.terrain)
+    ekf = stepper.filter
     ekf.t = float(log.t[0]) if len(log) else 0.0
     tracker = TerrainTracker(config.terrain.confirm)
-    n_rows, n_state = len(log), len(ekf.names)
+    n_rows, n_state = len(log), len(stepper.names)
     states = np.empty((n_rows, n_state))
     stds = np.empty((n_rows, n_state))
     terrain = np.full(n_rows, "", dtype=object)
-    anchored = False
     n_updates = 0
     changes: list[TerrainChange] = []
 
@@ -161,35 +266,29 @@ def run_icr_ekf(
     n_after = int(frame_t.size - np.searchsorted(frame_t, log.t[-1], side="right")) if n_rows else 0
     frames_before = int(bounds[0]) if n_rows else int(frame_t.size)
     for k in range(n_rows):
-        if k > 0 and log.segment[k] != log.segment[k - 1]:
-            anchored = False  # a break: nothing is integrated across it
-            ekf.t = float(log.t[k])
-        elif k > 0:
-            ekf.predict(log.v_l[k - 1], log.v_r[k - 1], float(log.t[k] - log.t[k - 1]))
+        stepper.advance(k, k > 0 and log.segment[k] != log.segment[k - 1])
         if labels is not None:
             observe(str(labels[k]))
-        z = log.pose[k]
-        if np.all(np.isfinite(z)) and not anchored:
-            ekf.reset_pose(z)
-            anchored = True
-        elif np.any(np.isfinite(z)) and anchored:
-            ekf.update(z)
-            n_updates += 1
+        n_updates += stepper.measure(k)
         if frames is not None:
             stop = int(bounds[k + 1]) if k + 1 < n_rows else frame_t.size - n_after
             for i in range(int(bounds[k]), stop):
                 label = frames.observe(
-                    i, float(frame_t[i]), float(log.v_l[k]), float(log.v_r[k]), ekf.params
+                    i,
+                    float(frame_t[i]),
+                    float(log.v_l[k]),
+                    float(log.v_r[k]),
+                    stepper.icr_params(k),
                 )
                 if label is not None:
                     observe(label)
                 frames.confirmed(i, ekf.terrain or "")
-        states[k], stds[k] = ekf.x, ekf.std
+        states[k], stds[k] = stepper.row(k)
         terrain[k] = ekf.terrain or ""
         if on_row is not None:
             on_row(OdometryRow(k, float(log.t[k]), states[k], stds[k], terrain[k]))
     return OdometryResult(
-        ekf.names,
+        stepper.names,
         states,
         stds,
         terrain.astype(str),
@@ -201,7 +300,7 @@ def run_icr_ekf(
 
 
 def _observe_terrain(
-    ekf: IcrEkf, tracker: TerrainTracker, label: str, *, adapt: bool
+    ekf: RowFilter, tracker: TerrainTracker, label: str, *, adapt: bool
 ) -> TerrainChange | None:
     """Feed one label; name the first terrain, reset on a confirmed change."""
     confirmed = tracker.observe(label)
