@@ -241,6 +241,9 @@ class SlipEkfConfig:
         ``k``; a feature switched off is taken as 0 (its parameters stay put).
     eps : float
         Regulariser of the curvature feature's denominator, m/s.
+    iterations : int
+        Gauss-Newton iterations of each measurement update (1: plain EKF,
+        more: iterated EKF, which copes with large initial uncertainty).
     initial : SlipParams
         Initial parameters (all 0: the no-slip model).
     sigma_p0 : SlipSigmas
@@ -259,6 +262,7 @@ class SlipEkfConfig:
     lateral_acceleration: bool = True
     curvature: bool = True
     eps: float = 1e-3
+    iterations: int = 3
     initial: SlipParams = field(default_factory=SlipParams)
     sigma_p0: SlipSigmas = field(default_factory=SlipSigmas)
     sigma_q: SlipSigmas = field(
