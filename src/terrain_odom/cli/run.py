@@ -28,6 +28,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--no-roi", action="store_true", help="classify whole frames, not the region of interest"
     )
+    p.add_argument(
+        "--estimator",
+        choices=("icr-ekf", "slip-ekf"),
+        default="icr-ekf",
+        help="icr-ekf: EKF over pose and ICRs (default); slip-ekf: EKF over the slip "
+        "parameters of the ICR functions, for low-rate or heading-only pose",
+    )
     terrain = p.add_mutually_exclusive_group()
     terrain.add_argument(
         "--terrain-from-log",
@@ -68,6 +75,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
         images=args.images,
         model=model,
         use_roi=not args.no_roi,
+        estimator=args.estimator,
     )
     print(f"{summary.rows} rows in {summary.seconds:.2f} s")
     print(f"trajectory: {summary.trajectory_csv}")

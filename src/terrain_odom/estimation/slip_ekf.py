@@ -27,7 +27,8 @@ measurement, expressed in the frame of the previous measured pose
 that interval (exact arcs, zero-order hold) with the current parameters; the
 Jacobian is analytic (chain rule through arcs and composition; tested against
 finite differences). When either pose lacks a position (a GPS outage), only
-the heading change is fused.
+the heading change is fused, and it leaves ``alpha`` alone (a heading change
+cannot tell a slip factor from a wider ICR spacing).
 
 References
 ----------
@@ -377,6 +378,8 @@ class SlipEkf:
         for _ in range(self.config.iterations):  # Gauss-Newton on the measurement (IEKF)
             change, jac = self.model.pose_change_with_jacobian(x_i, v_l, v_r, dt)
             h, H = change[rows], jac[rows]  # noqa: N806
+            if rows.size == 1:  # heading only: alpha is not observable from it, keep it
+                H = H * (np.arange(H.shape[1]) < 6)  # noqa: N806
             gain = p0 @ H.T @ np.linalg.inv(H @ p0 @ H.T + r)
             x_last, x_i = x_i, x0 + gain @ (residual(z[rows], h) - H @ (x0 - x_i))
         # The final step through filterpy (Joseph form), linearised at the last iterate.
