@@ -430,7 +430,8 @@ class _SlipSteps:
 
     Updates at every row with a measured yaw, from the previous such row of
     the same segment. The recorded pose (``x, y, yaw``) is dead reckoning
-    with the current parameters, reset to every measured pose component.
+    with the current parameters from the origin at each segment start, reset
+    to every measured pose component.
     """
 
     def __init__(self, ekf: SlipEkf, log: WheelLog) -> None:
@@ -438,12 +439,12 @@ class _SlipSteps:
         self.names = OUTPUT_NAMES + ekf.names
         self._log = log
         self._anchor: int | None = None
-        self._pose = np.full(3, np.nan)
+        self._pose = np.zeros(3)
 
     def advance(self, k: int, new_segment: bool) -> None:
         log = self._log
         if new_segment:
-            self._anchor, self._pose = None, np.full(3, np.nan)
+            self._anchor, self._pose = None, np.zeros(3)
             self.filter.t = float(log.t[k])
         elif k > 0:
             dt = float(log.t[k] - log.t[k - 1])
@@ -503,8 +504,8 @@ def run_slip_ekf(
     Returns
     -------
     OdometryResult
-        ``names`` are ``x, y, yaw`` (dead reckoning reset to every measured
-        component), ``y_l, y_r, x_icr`` (at the row's track speeds), then the
+        ``names`` are ``x, y, yaw`` (dead reckoning from the origin at each
+        segment start, reset to every measured component), ``y_l, y_r, x_icr`` (at the row's track speeds), then the
         parameters; ``stds`` hold NaN for the pose.
 
     Raises

@@ -167,12 +167,12 @@ def feature_slip_scenario(
     t = np.arange(0.0, duration, 1.0 / wheel_rate)
     v = np.empty(t.size)
     diff = np.empty(t.size)
-    start = 0.0
-    while start < duration:
-        piece = (t >= start) & (t < start + rng.uniform(2.0, 6.0))
-        v[piece] = rng.uniform(0.5, 2.0)
-        diff[piece] = 0.0 if rng.random() < 1 / 3 else rng.uniform(-2.0, 2.0)
-        start = t[piece][-1] + 1.0 / wheel_rate if piece.any() else duration
+    first = 0
+    while first < t.size:
+        last = first + int(rng.uniform(2.0, 6.0) * wheel_rate)
+        v[first:last] = rng.uniform(0.5, 2.0)
+        diff[first:last] = 0.0 if rng.random() < 1 / 3 else rng.uniform(-2.0, 2.0)
+        first = last
     v_l, v_r = v - 0.5 * diff, v + 0.5 * diff
     model = SlipModel(TRACK_WIDTH, 1e-3, True, True, IcrLimits())
     icr = np.stack(model.icrs(np.asarray(params, dtype=float), *model.features(v_l, v_r)), axis=1)
