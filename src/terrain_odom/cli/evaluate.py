@@ -47,6 +47,7 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
     for name, entry in result["models"].items():
         print(f"{name:<32} {_format_stats(entry)}")
     ahead = result["prediction_2s"]
+    print()
     print(
         f"2-s prediction from {ahead['windows']} measured poses: mean position (m), heading (deg)"
     )
