@@ -35,6 +35,10 @@ __all__ = [
     "EkfConfig",
     "TerrainConfig",
     "EvaluationConfig",
+    "SlipParams",
+    "SlipSigmas",
+    "PoseChangeSigmas",
+    "SlipEkfConfig",
     "Config",
     "load_config",
     "config_to_dict",
@@ -192,6 +196,93 @@ class TerrainConfig:
 
 
 @dataclass(frozen=True)
+class SlipParams:
+    """Slip parameters ``l1 .. l6`` and slip factor ``alpha`` (2016 slip model).
+
+    ``l1, l3, l5`` multiply the lateral-acceleration feature (m per m/s^2,
+    i.e. s^2), ``l2, l4, l6`` the curvature feature (m); all 0 is the
+    no-slip model. See :mod:`terrain_odom.estimation.slip_ekf`.
+    """
+
+    l1: float = field(default=0.0, metadata=SIGNED)
+    l2: float = field(default=0.0, metadata=SIGNED)
+    l3: float = field(default=0.0, metadata=SIGNED)
+    l4: float = field(default=0.0, metadata=SIGNED)
+    l5: float = field(default=0.0, metadata=SIGNED)
+    l6: float = field(default=0.0, metadata=SIGNED)
+    alpha: float = 1.0
+
+
+@dataclass(frozen=True)
+class SlipSigmas:
+    """Standard deviations of the slip parameters (units of :class:`SlipParams`)."""
+
+    l1: float = 1.0
+    l2: float = 1.0
+    l3: float = 1.0
+    l4: float = 1.0
+    l5: float = 1.0
+    l6: float = 1.0
+    alpha: float = 0.1
+
+
+@dataclass(frozen=True)
+class PoseChangeSigmas:
+    """Noise of a measured pose change, in the frame of the earlier pose: m, m, rad."""
+
+    dx: float = 0.05
+    dy: float = 0.05
+    dyaw: float = 0.02
+
+
+@dataclass(frozen=True)
+class SlipEkfConfig:
+    """Tuning of the slip-parameter EKF for low-rate pose sensors (2016 paper).
+
+    Attributes
+    ----------
+    estimate_alpha : bool
+        Add the longitudinal slip factor ``alpha`` to the parameters.
+    lateral_acceleration, curvature : bool
+        Use the lateral-acceleration feature ``a`` / the curvature feature
+        ``k``; a feature switched off is taken as 0 (its parameters stay put).
+    eps : float
+        Regulariser of the curvature feature's denominator, m/s.
+    iterations : int
+        Gauss-Newton iterations of each measurement update (1: plain EKF,
+        more: iterated EKF, which copes with large initial uncertainty).
+    initial : SlipParams
+        Initial parameters (all 0: the no-slip model).
+    sigma_p0 : SlipSigmas
+        Initial standard deviations (``P0``).
+    sigma_q : SlipSigmas
+        Random-walk densities of the parameters, unit / sqrt(s).
+    sigma_r : PoseChangeSigmas
+        Noise of the measured pose change between two pose measurements.
+    sigma_pb : SlipSigmas
+        Standard deviations ``P`` is reset to on a confirmed terrain change.
+    limits : IcrLimits
+        Bounds the ICRs computed from the parameters are clipped into.
+    """
+
+    estimate_alpha: bool = True
+    lateral_acceleration: bool = True
+    curvature: bool = True
+    eps: float = 1e-3
+    iterations: int = 3
+    initial: SlipParams = field(default_factory=SlipParams)
+    sigma_p0: SlipSigmas = field(default_factory=SlipSigmas)
+    sigma_q: SlipSigmas = field(
+        default_factory=lambda: SlipSigmas(
+            l1=0.01, l2=0.01, l3=0.01, l4=0.01, l5=0.01, l6=0.01, alpha=0.001
+        )
+    )
+    sigma_r: PoseChangeSigmas = field(default_factory=PoseChangeSigmas)
+    sigma_pb: SlipSigmas = field(default_factory=SlipSigmas)
+    limits: IcrLimits = field(default_factory=IcrLimits)
+
+
+@dataclass(frozen=True)
 class EvaluationConfig:
     """Evaluation settings.
 
@@ -218,6 +309,7 @@ class Config:
     ekf: EkfConfig = field(default_factory=EkfConfig)
     terrain: TerrainConfig = field(default_factory=TerrainConfig)
     evaluation: EvaluationConfig = field(default_factory=EvaluationConfig)
+    slip_ekf: SlipEkfConfig = field(default_factory=SlipEkfConfig)
     camera: CameraConfig = field(default_factory=CameraConfig)
     roi: RoiConfig = field(default_factory=RoiConfig)
 
@@ -233,6 +325,16 @@ def _check_consistency(cfg: Config) -> None:
         raise ConfigError("ekf.limits.half_width_min must be < half_width_max")
     if not lim.alpha_min <= ini.alpha <= lim.alpha_max:
         raise ConfigError("ekf.initial.alpha must lie in [alpha_min, alpha_max]")
+    slip = cfg.slip_ekf
+    if not (slip.lateral_acceleration or slip.curvature):
+        raise ConfigError(
+            "slip_ekf: lateral_acceleration and curvature are both false; "
+            "the ICRs need at least one feature"
+        )
+    if not slip.limits.half_width_min < slip.limits.half_width_max:
+        raise ConfigError("slip_ekf.limits.half_width_min must be < half_width_max")
+    if not slip.limits.alpha_min <= slip.initial.alpha <= slip.limits.alpha_max:
+        raise ConfigError("slip_ekf.initial.alpha must lie in [limits.alpha_min, alpha_max]")
     if cfg.format_version != FORMAT_VERSION:
         raise ConfigError(
             f"format_version {cfg.format_version} is not supported "

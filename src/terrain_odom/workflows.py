@@ -19,10 +19,11 @@ from tqdm import tqdm
 
 from terrain_odom import __version__
 from terrain_odom.config import Config, config_to_dict, load_config
-from terrain_odom.errors import InputFileError
+from terrain_odom.errors import ConfigError, InputFileError
 from terrain_odom.estimation.frames import FRAME_COLUMNS, FramePipeline, FrameRecord
 from terrain_odom.estimation.icr_ekf import state_names
 from terrain_odom.estimation.odometry import OdometryRow, run_icr_ekf
+from terrain_odom.estimation.slip_ekf import OUTPUT_NAMES, SlipModel, param_names, run_slip_ekf
 from terrain_odom.evaluation import (
     absolute_trajectory_error,
     dead_reckon,
@@ -31,6 +32,11 @@ from terrain_odom.evaluation import (
     spatial_windows,
     summarize,
     window_errors,
+)
+from terrain_odom.evaluation.prediction import (
+    prediction_errors,
+    prediction_windows,
+    slip_twist_from_rows,
 )
 from terrain_odom.io import TrajectoryWriter, read_trajectory_csv, read_wheel_log, write_tum
 from terrain_odom.io.atomic import write_atomic
@@ -56,6 +62,7 @@ __all__ = [
 ]
 
 REPORT_FORMAT_VERSION = 1
+ESTIMATORS = ("icr-ekf", "slip-ekf")
 
 
 def default_model_path() -> Path:
@@ -146,8 +153,9 @@ def run(
     model: str | Path | None = None,
     use_roi: bool = True,
     groundtruth: str | Path | None = None,
+    estimator: str = "icr-ekf",
 ) -> RunSummary:
-    """Run the terrain-adaptive ICR EKF over a wheel log and write the results.
+    """Run the terrain-adaptive ICR EKF (or slip EKF) over a wheel log; write the results.
 
     Parameters
     ----------
@@ -181,12 +189,20 @@ def run(
         scores the run and its filter variants against it in ``report.json``
         (section ``groundtruth``), ``report.md`` and PNG plots in
         ``out/plots/``; also times classification on whole frames.
+    estimator : {"icr-ekf", "slip-ekf"}
+        The ICR EKF over pose and ICRs, or the slip-parameter EKF
+        (:mod:`terrain_odom.estimation.slip_ekf`), whose ``x, y, yaw`` columns
+        are dead reckoning reset to every measured pose component and whose
+        ``y_l, y_r, x_icr`` are the ICRs at the row's track speeds, followed
+        by the parameters ``l1 .. l6(, alpha)``.
 
     Returns
     -------
     RunSummary
     """
     started = time.perf_counter()
+    if estimator not in ESTIMATORS:
+        raise ConfigError(f"unknown estimator {estimator!r}; choose one of {list(ESTIMATORS)}")
     if config is None and config_path is None and images is not None:
         config_path = images_config(images)
     cfg = config if config is not None else load_config(config_path)
@@ -204,7 +220,14 @@ def run(
     if out.exists() and not out.is_dir():
         raise InputFileError(f"{out}: --out must be a directory, but a file of that name exists")
     out.mkdir(parents=True, exist_ok=True)
-    names = state_names(cfg.ekf.estimate_alpha)
+    slip = estimator == "slip-ekf"
+    if slip and not np.any(log.has_yaw):
+        raise InputFileError(f"{log.source}: --estimator slip-ekf needs a 'yaw' column with values")
+    names = (
+        OUTPUT_NAMES + param_names(cfg.slip_ekf.estimate_alpha)
+        if slip
+        else state_names(cfg.ekf.estimate_alpha)
+    )
     columns = trajectory_columns(names)
     csv_path = out / "trajectory.csv"
     bar = tqdm(total=len(log), unit="row", disable=None if progress is None else not progress)
@@ -240,7 +263,8 @@ def run(
             writer.write(values)
             bar.update(1)
 
-        result = run_icr_ekf(log, cfg, labels=labels, on_row=on_row, frames=pipeline)
+        runner = run_slip_ekf if slip else run_icr_ekf
+        result = runner(log, cfg, labels=labels, on_row=on_row, frames=pipeline)
     states = result.states
     tum_path = out / "trajectory.tum"
     write_tum(tum_path, log.t, states[:, 0], states[:, 1], states[:, 2])
@@ -249,6 +273,7 @@ def run(
         "format_version": REPORT_FORMAT_VERSION,
         "terrain_odom_version": __version__,
         "command": "run",
+        "estimator": estimator,
         "inputs": {"wheels": str(Path(wheels).resolve()), "config": _path_or_none(config_path)},
         "terrain_source": (
             "camera" if use_frames else terrain.value if labels is not None else "none"
@@ -447,13 +472,29 @@ def evaluate(
             idd.twist(log.v_l, log.v_r, [], b_nominal),
         )
     }
+    ahead = prediction_windows(log)
+    idd_errors = prediction_errors(log, ahead, model_twist(idd, [], b_nominal))
+    prediction = {next(iter(models)): idd_errors.to_dict()}
     if run_dir is not None:
         traj = _read_run(Path(run_dir), log)
         alpha = traj.get("alpha", np.ones(len(log)))
         icr = (traj["y_l"], traj["y_r"], traj["x_icr"], alpha)
-        models["ekf (online)"] = _model_entry(
-            log, windows, icr_twist_from_rows(windows, *icr), twist_icr(log.v_l, log.v_r, *icr)
-        )
+        if "l1" in traj:  # a slip-ekf run: the slip model with the parameters of each row
+            slip_model = SlipModel.from_config(cfg.slip_ekf, b_nominal)
+            rows_l = np.stack([traj[n] for n in param_names("alpha" in traj)], axis=1)
+            models["slip-ekf (online)"] = _model_entry(
+                log,
+                windows,
+                slip_twist_from_rows(windows, rows_l, slip_model),
+                slip_model.twist(log.v_l, log.v_r, rows_l),
+            )
+            run_twist = slip_twist_from_rows(ahead, rows_l, slip_model)
+        else:
+            models["ekf (online)"] = _model_entry(
+                log, windows, icr_twist_from_rows(windows, *icr), twist_icr(log.v_l, log.v_r, *icr)
+            )
+            run_twist = icr_twist_from_rows(ahead, *icr)
+        prediction[list(models)[-1]] = prediction_errors(log, ahead, run_twist).to_dict()
     for path in params or []:
         mp: ModelParams = read_params(path)
         model = get_model(mp.model)
@@ -471,6 +512,7 @@ def evaluate(
         "horizon_m": h_e,
         "windows": len(windows),
         "models": models,
+        "prediction_2s": {"windows": len(ahead), "models": prediction},
     }
     target = (
         Path(out) if out is not None else (Path(run_dir) / "evaluation.json" if run_dir else None)

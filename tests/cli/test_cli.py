@@ -489,6 +489,8 @@ def _table(out: str) -> dict[str, str]:
     """Model name -> its line of the evaluate table."""
     rows = {}
     for line in out.splitlines()[2:]:
+        if not line:  # the 2-s prediction table follows
+            break
         name = line[:32].rstrip()
         rows[name] = line
     return rows

@@ -46,4 +46,13 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
     print(f"{'model':<32} {'m/m median [q25-q75]':>24}  {'deg/m median [q25-q75]':>22}  ATE DR (m)")
     for name, entry in result["models"].items():
         print(f"{name:<32} {_format_stats(entry)}")
+    ahead = result["prediction_2s"]
+    print()
+    print(
+        f"2-s prediction from {ahead['windows']} measured poses: mean position (m), heading (deg)"
+    )
+    for name, entry in ahead["models"].items():
+        pos, head = entry["position_m"], entry["heading_deg"]
+        shown = "n/a" if pos is None else f"{pos:8.3f}  {head:8.2f}"
+        print(f"{name:<32} {shown}")
     return 0

@@ -39,6 +39,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help="when a camera-confirmed terrain change resets the filter (default: the "
         "configuration's terrain.reset_at, 'arrival')",
     )
+    p.add_argument(
+        "--estimator",
+        choices=("icr-ekf", "slip-ekf"),
+        default="icr-ekf",
+        help="icr-ekf: EKF over pose and ICRs (default); slip-ekf: EKF over the slip "
+        "parameters of the ICR functions, for low-rate or heading-only pose",
+    )
     terrain = p.add_mutually_exclusive_group()
     terrain.add_argument(
         "--terrain-from-log",
@@ -89,6 +96,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
         model=model,
         use_roi=not args.no_roi,
         groundtruth=args.groundtruth,
+        estimator=args.estimator,
     )
     print(f"{summary.rows} rows in {summary.seconds:.2f} s")
     print(f"trajectory: {summary.trajectory_csv}")

@@ -10,7 +10,7 @@ the ICR covariance to ``P_B`` (and restores a remembered estimate).
 
 A camera sees ground ahead of the robot. With ``terrain.reset_at:
 arrival`` a change confirmed from frames is applied once the robot has
-travelled (odometer of the filter's own predictions) to where the first
+travelled (speed of the current kinematic model, integrated) to where the first
 frame of the new terrain looked; pending changes are applied in order.
 """
 
@@ -26,9 +26,19 @@ import numpy as np
 from terrain_odom.config import Config
 from terrain_odom.estimation.icr_ekf import IcrEkf, TerrainChange
 from terrain_odom.estimation.terrain import TerrainTracker
+from terrain_odom.kinematics import twist_icr
 from terrain_odom.types import WheelLog
 
-__all__ = ["FrameObserver", "Sighting", "OdometryRow", "OdometryResult", "run_icr_ekf"]
+__all__ = [
+    "FrameObserver",
+    "Sighting",
+    "OdometryRow",
+    "OdometryResult",
+    "RowFilter",
+    "RowStepper",
+    "run_icr_ekf",
+    "run_rows",
+]
 
 
 @dataclass(frozen=True)
@@ -126,6 +136,85 @@ class OdometryResult:
     frames_after: int = 0
 
 
+class RowFilter(Protocol):
+    """The part of a filter the shared row loop uses for terrain adaptation."""
+
+    t: float
+    terrain: str | None
+
+    def set_terrain(self, label: str) -> None:
+        """Name the terrain the filter starts on, without any reset."""
+        ...  # pragma: no cover
+
+    def reset_on_terrain_change(self, label: str) -> TerrainChange:
+        """Apply a confirmed change to terrain ``label``."""
+        ...  # pragma: no cover
+
+
+class RowStepper(Protocol):
+    """One estimator driven by :func:`run_rows` over the rows of a log.
+
+    For every row ``k`` the loop calls :meth:`advance` (propagate to
+    ``t[k]``; ``new_segment`` when row ``k`` starts a new log segment), then
+    feeds the row's terrain label, then calls :meth:`measure` (fuse the row's
+    measurement; True if one was fused), then observes camera frames with
+    :meth:`icr_params` and records :meth:`row`.
+    """
+
+    filter: RowFilter
+    names: tuple[str, ...]
+
+    def advance(self, k: int, new_segment: bool) -> None:
+        """Propagate from row ``k - 1`` to row ``k``."""
+        ...  # pragma: no cover
+
+    def measure(self, k: int) -> bool:
+        """Fuse the measurement of row ``k``; True if an update was made."""
+        ...  # pragma: no cover
+
+    def icr_params(self, k: int) -> np.ndarray:
+        """Return the current ``y_l, y_r, x_icr(, alpha)`` at row ``k`` (camera ROI)."""
+        ...  # pragma: no cover
+
+    def row(self, k: int) -> tuple[np.ndarray, np.ndarray]:
+        """Estimate and standard deviation after row ``k``, in ``names`` order."""
+        ...  # pragma: no cover
+
+
+class _IcrSteps:
+    """:class:`RowStepper` of the ICR EKF: predict every row, update at pose rows."""
+
+    def __init__(self, ekf: IcrEkf, log: WheelLog) -> None:
+        self.filter = ekf
+        self.names = ekf.names
+        self._log = log
+        self._anchored = False
+
+    def advance(self, k: int, new_segment: bool) -> None:
+        log = self._log
+        if new_segment:
+            self._anchored = False  # a break: nothing is integrated across it
+            self.filter.t = float(log.t[k])
+        elif k > 0:
+            self.filter.predict(log.v_l[k - 1], log.v_r[k - 1], float(log.t[k] - log.t[k - 1]))
+
+    def measure(self, k: int) -> bool:
+        z = self._log.pose[k]
+        if np.all(np.isfinite(z)) and not self._anchored:
+            self.filter.reset_pose(z)
+            self._anchored = True
+        elif np.any(np.isfinite(z)) and self._anchored:
+            self.filter.update(z)
+            return True
+        return False
+
+    def icr_params(self, k: int) -> np.ndarray:
+        return self.filter.params
+
+    def row(self, k: int) -> tuple[np.ndarray, np.ndarray]:
+        return self.filter.x, self.filter.std
+
+
 def run_icr_ekf(
     log: WheelLog,
     config: Config,
@@ -158,18 +247,36 @@ def run_icr_ekf(
     -------
     OdometryResult
     """
+    ekf = IcrEkf(config.ekf, config.terrain)
+    return run_rows(log, config, _IcrSteps(ekf, log), labels=labels, on_row=on_row, frames=frames)
+
+
+def run_rows(
+    log: WheelLog,
+    config: Config,
+    stepper: RowStepper,
+    *,
+    labels: Sequence[str] | None = None,
+    on_row: Callable[[OdometryRow], None] | None = None,
+    frames: FrameObserver | None = None,
+) -> OdometryResult:
+    """Drive an estimator over every row of a log (see :class:`RowStepper`).
+
+    Segment breaks, terrain tracking (labels or camera frames, the ``P``
+    reset on a confirmed change) and the per-row output are shared by every
+    estimator; the arguments are those of :func:`run_icr_ekf`.
+    """
     if labels is not None and len(labels) != len(log):
         raise ValueError(f"labels has {len(labels)} entries for a log of {len(log)} rows")
     if labels is not None and frames is not None:
         raise ValueError("give terrain labels or frames, not both")
-    ekf = IcrEkf(config.ekf, config.terrain)
+    ekf = stepper.filter
     ekf.t = float(log.t[0]) if len(log) else 0.0
-    terrain_flow = _TerrainFlow(ekf, config)
-    n_rows, n_state = len(log), len(ekf.names)
+    flow = _TerrainFlow(ekf, config)
+    n_rows, n_state = len(log), len(stepper.names)
     states = np.empty((n_rows, n_state))
     stds = np.empty((n_rows, n_state))
     terrain = np.full(n_rows, "", dtype=object)
-    anchored = False
     n_updates = 0
     frame_t = np.empty(0) if frames is None else np.asarray(frames.times, dtype=float)
     # frames observed after row k: those with t[k] <= t_f < t[k + 1] (t_f <= t[-1] for the last)
@@ -177,39 +284,38 @@ def run_icr_ekf(
     n_after = int(frame_t.size - np.searchsorted(frame_t, log.t[-1], side="right")) if n_rows else 0
     frames_before = int(bounds[0]) if n_rows else int(frame_t.size)
     for k in range(n_rows):
-        if k > 0 and log.segment[k] != log.segment[k - 1]:
-            anchored = False  # a break: nothing is integrated across it
-            ekf.t = float(log.t[k])
-        elif k > 0:
-            terrain_flow.predict(log.v_l[k - 1], log.v_r[k - 1], float(log.t[k] - log.t[k - 1]))
+        new_segment = k > 0 and log.segment[k] != log.segment[k - 1]
+        if k > 0 and not new_segment:  # odometer over the step about to be predicted
+            v_x, v_y, _ = twist_icr(log.v_l[k - 1], log.v_r[k - 1], *stepper.icr_params(k - 1))
+            flow.travel(float(np.hypot(v_x, v_y)) * float(log.t[k] - log.t[k - 1]))
+        stepper.advance(k, new_segment)
+        flow.apply_reached()
         if labels is not None:
-            terrain_flow.observe(Sighting(str(labels[k])))
-        z = log.pose[k]
-        if np.all(np.isfinite(z)) and not anchored:
-            ekf.reset_pose(z)
-            anchored = True
-        elif np.any(np.isfinite(z)) and anchored:
-            ekf.update(z)
-            n_updates += 1
+            flow.observe(Sighting(str(labels[k])))
+        n_updates += stepper.measure(k)
         if frames is not None:
             stop = int(bounds[k + 1]) if k + 1 < n_rows else frame_t.size - n_after
             for i in range(int(bounds[k]), stop):
                 sighting = frames.observe(
-                    i, float(frame_t[i]), float(log.v_l[k]), float(log.v_r[k]), ekf.params
+                    i,
+                    float(frame_t[i]),
+                    float(log.v_l[k]),
+                    float(log.v_r[k]),
+                    stepper.icr_params(k),
                 )
                 if sighting is not None:
-                    terrain_flow.observe(sighting)
-                frames.confirmed(i, terrain_flow.seen or "")
-        states[k], stds[k] = ekf.x, ekf.std
+                    flow.observe(sighting)
+                frames.confirmed(i, flow.seen or "")
+        states[k], stds[k] = stepper.row(k)
         terrain[k] = ekf.terrain or ""
         if on_row is not None:
             on_row(OdometryRow(k, float(log.t[k]), states[k], stds[k], terrain[k]))
     return OdometryResult(
-        ekf.names,
+        stepper.names,
         states,
         stds,
         terrain.astype(str),
-        terrain_flow.changes,
+        flow.changes,
         n_updates,
         frames_before=frames_before,
         frames_after=n_after,
@@ -223,12 +329,12 @@ class _TerrainFlow:
     robot for a camera); ``ekf.terrain`` the one applied to the filter.
     """
 
-    def __init__(self, ekf: IcrEkf, config: Config) -> None:
+    def __init__(self, ekf: RowFilter, config: Config) -> None:
         self.ekf = ekf
         self.adapt = config.terrain.adapt
         self.on_arrival = config.terrain.reset_at == "arrival"
         self.tracker = TerrainTracker(config.terrain.confirm)
-        self.travelled = 0.0  # m, odometer of the filter's predictions
+        self.travelled = 0.0  # m, odometer of the model's predicted motion
         self.pending: deque[tuple[float, str, float]] = deque()  # (odometer target, label, t)
         self.changes: list[TerrainChange] = []
 
@@ -237,11 +343,12 @@ class _TerrainFlow:
         """Terrain confirmed by the observations so far."""
         return self.tracker.current
 
-    def predict(self, v_l: float, v_r: float, dt: float) -> None:
-        """Predict the filter, advance the odometer and apply changes now reached."""
-        before = self.ekf.pose[:2]
-        self.ekf.predict(v_l, v_r, dt)
-        self.travelled += float(np.hypot(*(self.ekf.pose[:2] - before)))
+    def travel(self, distance: float) -> None:
+        """Advance the odometer by ``distance`` m."""
+        self.travelled += distance
+
+    def apply_reached(self) -> None:
+        """Apply the pending changes whose ground the robot has reached."""
         while self.pending and self.travelled >= self.pending[0][0]:
             _, label, t_confirmed = self.pending.popleft()
             self._apply(label, t_confirmed)

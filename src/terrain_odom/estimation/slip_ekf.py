@@ -1,0 +1,521 @@
+"""Slip-parameter EKF for low-rate pose sensors (the 2016 tracked-vehicle slip model).
+
+The track ICRs are functions of two features of the track surface speeds
+``v_l, v_r`` (m/s) and the nominal track width ``B`` (m):
+
+- lateral acceleration ``a = |v * omega_0|`` (m/s^2) with ``v = (v_l + v_r) / 2``
+  and ``omega_0 = (v_r - v_l) / B`` (the no-slip yaw rate);
+- curvature ``k = |v_r - v_l| / (|v_l| + |v_r| + eps)``, bounded to [0, 1]
+  (0 straight, 1 turning on the spot);
+
+.. math::
+
+    y_l = B/2 + l_1 a + l_2 k,\\quad
+    y_r = -(B/2 + l_3 a + l_4 k),\\quad
+    x_{icr} = l_5 a + l_6 k,
+
+optionally with the longitudinal slip factor ``alpha`` multiplying both track
+speeds. ``l = 0`` (and ``alpha = 1``) is the ideal differential drive. The
+ICRs are clipped into configured bounds, so ``y_l - y_r`` never reaches 0.
+The body twist is :func:`~terrain_odom.kinematics.twist_icr` of these ICRs.
+
+The filter state is the parameter vector ``l1 .. l6(, alpha)`` only: the
+pose is not a state, the parameters follow a random walk. At each pose
+measurement the measurement is the pose change since the previous
+measurement, expressed in the frame of the previous measured pose
+(``relative_pose``); the prediction integrates the recorded wheel speeds over
+that interval (exact arcs, zero-order hold) with the current parameters; the
+Jacobian is analytic (chain rule through arcs and composition; tested against
+finite differences). When either pose lacks a position (a GPS outage), only
+the heading change is fused, and it leaves ``alpha`` alone (a heading change
+cannot tell a slip factor from a wider ICR spacing).
+
+References
+----------
+.. [1] "Slip model of tracked vehicles based on ICRs", Mathematical Problems
+   in Engineering 2016, article 6375652 (equations reconstructed, see the README).
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from filterpy.kalman import ExtendedKalmanFilter
+from numpy.typing import ArrayLike
+
+from terrain_odom.config import (
+    Config,
+    IcrLimits,
+    SlipEkfConfig,
+    SlipSigmas,
+    TerrainConfig,
+)
+from terrain_odom.errors import EstimationError
+from terrain_odom.estimation.icr_ekf import TerrainChange
+from terrain_odom.estimation.odometry import FrameObserver, OdometryResult, OdometryRow, run_rows
+from terrain_odom.kinematics import (
+    arc_increment_with_jacobian,
+    compose,
+    integrate,
+    relative_pose,
+    twist_icr,
+    twist_icr_jacobian,
+    wrap_angle,
+)
+from terrain_odom.types import WheelLog
+
+__all__ = [
+    "PARAM_NAMES",
+    "OUTPUT_NAMES",
+    "param_names",
+    "SlipModel",
+    "SlipEkf",
+    "run_slip_ekf",
+]
+
+logger = logging.getLogger(__name__)
+
+PARAM_NAMES = ("l1", "l2", "l3", "l4", "l5", "l6", "alpha")
+OUTPUT_NAMES = ("x", "y", "yaw", "y_l", "y_r", "x_icr")
+"""Per-row outputs before the parameters: dead-reckoned pose and current ICRs."""
+
+
+def param_names(estimate_alpha: bool) -> tuple[str, ...]:
+    """Names of the filter's parameters, in order; ``alpha`` last when estimated."""
+    return PARAM_NAMES if estimate_alpha else PARAM_NAMES[:6]
+
+
+@dataclass(frozen=True)
+class SlipModel:
+    """The parameterised ICR slip model: features, ICRs, twist, pose change.
+
+    Attributes
+    ----------
+    track_width : float
+        Nominal track width ``B``, m.
+    eps : float
+        Regulariser of the curvature denominator, m/s.
+    lateral_acceleration, curvature : bool
+        Which features are used (a feature switched off is 0).
+    limits : IcrLimits
+        Bounds the ICRs are clipped into.
+
+    Examples
+    --------
+    >>> from terrain_odom.config import IcrLimits
+    >>> m = SlipModel(2.0, 1e-3, True, True, IcrLimits())
+    >>> [round(float(f), 4) for f in m.features(1.0, 3.0)]  # v = 2, omega_0 = 1
+    [2.0, 0.4999]
+    >>> [float(c) for c in m.icrs(np.zeros(6), *m.features(1.0, 3.0))]  # l = 0: no slip
+    [1.0, -1.0, 0.0]
+    """
+
+    track_width: float
+    eps: float
+    lateral_acceleration: bool
+    curvature: bool
+    limits: IcrLimits
+
+    @classmethod
+    def from_config(cls, config: SlipEkfConfig, track_width: float) -> SlipModel:
+        """Build the model of a ``slip_ekf`` config section and a nominal ``B`` (m)."""
+        c = config
+        return cls(float(track_width), c.eps, c.lateral_acceleration, c.curvature, c.limits)
+
+    def features(self, v_l: ArrayLike, v_r: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+        """Lateral acceleration ``a`` (m/s^2) and curvature ``k`` (in [0, 1]).
+
+        Parameters
+        ----------
+        v_l, v_r : array_like
+            Track surface speeds, m/s (broadcast).
+
+        Returns
+        -------
+        a, k : ndarray
+            ``|v * omega_0|`` and ``|v_r - v_l| / (|v_l| + |v_r| + eps)``; 0
+            for a feature switched off.
+        """
+        v_l, v_r = np.broadcast_arrays(np.asarray(v_l, float), np.asarray(v_r, float))
+        diff = v_r - v_l
+        a = np.abs(0.5 * (v_l + v_r) * diff / self.track_width)
+        k = np.abs(diff) / (np.abs(v_l) + np.abs(v_r) + self.eps)
+        return a * self.lateral_acceleration, k * self.curvature
+
+    def icrs_with_jacobian(
+        self, params: ArrayLike, a: ArrayLike, k: ArrayLike
+    ) -> tuple[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray], np.ndarray]:
+        """ICRs and slip factor from the parameters, and their Jacobian.
+
+        Parameters
+        ----------
+        params : array_like, shape (..., n)
+            ``l1 .. l6(, alpha)``, n = 6 or 7; broadcast against ``a, k``.
+        a, k : array_like
+            Features from :meth:`features`.
+
+        Returns
+        -------
+        (y_l, y_r, x_icr, alpha) : tuple of ndarray
+            Clipped ICRs (m) and slip factor (1 when not estimated).
+        jacobian : ndarray, shape (..., 4, n)
+            ``d(y_l, y_r, x_icr, alpha) / d params`` of the unclipped
+            functions, so that a filter pushed past a bound is still pulled
+            back by later measurements (a clipped zero slope would trap it).
+        """
+        p = np.asarray(params, dtype=float)
+        n = p.shape[-1]
+        a, k = np.asarray(a, dtype=float), np.asarray(k, dtype=float)
+        half, lim = 0.5 * self.track_width, self.limits
+        raw = (
+            half + p[..., 0] * a + p[..., 1] * k,
+            -(half + p[..., 2] * a + p[..., 3] * k),
+            p[..., 4] * a + p[..., 5] * k,
+            p[..., 6] if n > 6 else np.ones_like(a),
+        )
+        lo = (lim.half_width_min, -lim.half_width_max, -lim.x_icr_max, lim.alpha_min)
+        hi = (lim.half_width_max, -lim.half_width_min, lim.x_icr_max, lim.alpha_max)
+        values = tuple(np.clip(r, lo[i], hi[i]) for i, r in enumerate(raw))
+        shape = np.broadcast_shapes(p.shape[:-1], a.shape, k.shape)
+        a, k = np.broadcast_to(a, shape), np.broadcast_to(k, shape)
+        jac = np.zeros(shape + (4, n))
+        jac[..., 0, 0], jac[..., 0, 1] = a, k
+        jac[..., 1, 2], jac[..., 1, 3] = -a, -k
+        jac[..., 2, 4], jac[..., 2, 5] = a, k
+        if n > 6:
+            jac[..., 3, 6] = 1.0
+        return values, jac
+
+    def icrs(self, params: ArrayLike, a: ArrayLike, k: ArrayLike) -> tuple[np.ndarray, ...]:
+        """Clipped ICRs ``y_l, y_r, x_icr`` (m) of :meth:`icrs_with_jacobian`."""
+        return self.icrs_with_jacobian(params, a, k)[0][:3]
+
+    def twist(
+        self, v_l: ArrayLike, v_r: ArrayLike, params: ArrayLike
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Body twist ``v_x, v_y, omega`` (m/s, m/s, rad/s) of the slip model.
+
+        ``params`` has shape ``(..., n)`` and broadcasts against the speeds.
+        """
+        values, _ = self.icrs_with_jacobian(params, *self.features(v_l, v_r))
+        return twist_icr(v_l, v_r, *values)
+
+    def pose_change_with_jacobian(
+        self, params: ArrayLike, v_l: ArrayLike, v_r: ArrayLike, dt: ArrayLike
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Pose change over a run of wheel samples, and its parameter Jacobian.
+
+        Each sample's twist is held for its ``dt`` (exact arc); the arcs are
+        composed. ``d pose_N / d inc_i = [[R(yaw_i), perp(p_N - p_(i+1))], [0, 0, 1]]``
+        chains with the arc, twist and ICR Jacobians.
+
+        Parameters
+        ----------
+        params : array_like, shape (n,)
+            ``l1 .. l6(, alpha)``.
+        v_l, v_r, dt : array_like, shape (K,)
+            Track speeds (m/s) and hold durations (s) of the samples.
+
+        Returns
+        -------
+        change : ndarray, shape (3,)
+            ``dx, dy, dyaw`` in the start frame (m, m, rad; yaw wrapped).
+        jacobian : ndarray, shape (3, n)
+            ``d change / d params``.
+        """
+        v_l, v_r, dt = (np.atleast_1d(np.asarray(x, dtype=float)) for x in (v_l, v_r, dt))
+        values, j_icr = self.icrs_with_jacobian(params, *self.features(v_l, v_r))
+        twist = twist_icr(v_l, v_r, *values)
+        j_twist = twist_icr_jacobian(v_l, v_r, *values)
+        _, j_arc = arc_increment_with_jacobian(*twist, dt)
+        poses = integrate(*twist, dt)
+        end = poses[-1]
+        c, s = np.cos(poses[:-1, 2]), np.sin(poses[:-1, 2])
+        j_comp = np.zeros((dt.size, 3, 3))
+        j_comp[:, 0, 0], j_comp[:, 0, 1], j_comp[:, 1, 0], j_comp[:, 1, 1] = c, -s, s, c
+        j_comp[:, 0, 2] = -(end[1] - poses[1:, 1])
+        j_comp[:, 1, 2] = end[0] - poses[1:, 0]
+        j_comp[:, 2, 2] = 1.0
+        jac = np.einsum("kab,kbc,kcd,kde->ae", j_comp, j_arc, j_twist, j_icr)
+        return end, jac
+
+    def pose_change(
+        self, params: ArrayLike, v_l: ArrayLike, v_r: ArrayLike, dt: ArrayLike
+    ) -> np.ndarray:
+        """Return the pose change of :meth:`pose_change_with_jacobian`."""
+        v_l, v_r, dt = (np.atleast_1d(np.asarray(x, dtype=float)) for x in (v_l, v_r, dt))
+        return integrate(*self.twist(v_l, v_r, params), dt)[-1]
+
+
+class SlipEkf:
+    """Online estimator of the slip parameters from low-rate pose changes.
+
+    Parameters
+    ----------
+    config : SlipEkfConfig
+        Initial parameters, noise, features and ICR limits.
+    track_width : float
+        Nominal track width ``B``, m.
+    terrain : TerrainConfig, optional
+        Terrain adaptation (reset of ``P`` to ``P_B``, terrain memory).
+
+    Examples
+    --------
+    >>> from terrain_odom.config import SlipEkfConfig
+    >>> ekf = SlipEkf(SlipEkfConfig(), 1.0)
+    >>> nis = ekf.update([0.5, 0.0, 0.0], [1.0] * 5, [1.0] * 5, [0.1] * 5)  # straight
+    >>> ekf.params.round(6).tolist()
+    [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0]
+    """
+
+    def __init__(
+        self,
+        config: SlipEkfConfig,
+        track_width: float,
+        terrain: TerrainConfig | None = None,
+    ) -> None:
+        if not track_width > 0.0:
+            raise EstimationError(f"slip EKF needs a track width > 0 m, got {track_width}")
+        self.config = config
+        self.model = SlipModel.from_config(config, track_width)
+        self.terrain_config = terrain if terrain is not None else TerrainConfig()
+        self.names = param_names(config.estimate_alpha)
+        n = len(self.names)
+        self._filter = ExtendedKalmanFilter(dim_x=n, dim_z=3)
+        self._filter.x = self._sigmas(config.initial)[:, None]
+        self._filter.P = np.diag(self._sigmas(config.sigma_p0) ** 2)
+        self._q_density = self._sigmas(config.sigma_q) ** 2
+        r = config.sigma_r
+        self._r_diag = np.array([r.dx, r.dy, r.dyaw]) ** 2
+        self.t = 0.0
+        self.terrain: str | None = None
+        self._terrain_since = 0.0
+        self._memory: dict[str, np.ndarray] = {}
+        self.last_nis = float("nan")
+
+    def _sigmas(self, values: object) -> np.ndarray:
+        return np.array([getattr(values, name) for name in self.names], dtype=float)
+
+    @property
+    def x(self) -> np.ndarray:
+        """Parameter vector ``l1 .. l6(, alpha)``, shape (n,)."""
+        return self._filter.x[:, 0].copy()
+
+    params = x
+
+    @property
+    def P(self) -> np.ndarray:  # noqa: N802 - the usual symbol
+        """Parameter covariance, shape (n, n)."""
+        return self._filter.P.copy()
+
+    @property
+    def std(self) -> np.ndarray:
+        """Standard deviation of every parameter, shape (n,)."""
+        return np.sqrt(np.clip(np.diag(self._filter.P), 0.0, None))
+
+    def icrs(self, v_l: ArrayLike, v_r: ArrayLike) -> tuple[np.ndarray, ...]:
+        """Return the current ICRs ``y_l, y_r, x_icr`` (m) at these track speeds (m/s)."""
+        return self.model.icrs(self.x, *self.model.features(v_l, v_r))
+
+    def icr_std(self, v_l: float, v_r: float) -> np.ndarray:
+        """Return the std of ``y_l, y_r, x_icr`` at these speeds (linearised), m."""
+        _, jac = self.model.icrs_with_jacobian(self.x, *self.model.features(v_l, v_r))
+        cov = jac[:3] @ self._filter.P @ jac[:3].T
+        return np.sqrt(np.clip(np.diag(cov), 0.0, None))
+
+    # ------------------------------------------------------------ filtering
+    def predict(self, dt: float) -> None:
+        """Random walk of the parameters over ``dt`` seconds (>= 0): ``P += Q dt``."""
+        if not dt >= 0.0:
+            raise EstimationError(f"predict needs dt >= 0 s, got {dt}")
+        self._filter.P = self._filter.P + np.diag(self._q_density * dt)
+        self.t += dt
+
+    def update(
+        self,
+        z: ArrayLike,
+        v_l: ArrayLike,
+        v_r: ArrayLike,
+        dt: ArrayLike,
+        *,
+        R: ArrayLike | None = None,  # noqa: N803
+    ) -> float:
+        """Fuse a measured pose change; NaN components are left out.
+
+        Parameters
+        ----------
+        z : array_like, shape (3,)
+            Measured ``dx, dy, dyaw`` since the previous pose measurement, in
+            the frame of that pose (m, m, rad); ``dx, dy`` NaN for heading only.
+        v_l, v_r, dt : array_like, shape (K,)
+            The recorded track speeds (m/s) over the interval and how long
+            each was held (s).
+        R : array_like, shape (3,), optional
+            Measurement variances overriding the configured ones.
+
+        Returns
+        -------
+        float
+            Normalised innovation squared (NaN if nothing was measured).
+        """
+        z = np.asarray(z, dtype=float)
+        rows = np.flatnonzero(np.isfinite(z))
+        if rows.size == 0:
+            return float("nan")
+        x0, p0 = self.x, self._filter.P
+        r = np.diag((self._r_diag if R is None else np.asarray(R, dtype=float))[rows])
+        yaw_row = np.flatnonzero(rows == 2)
+
+        def residual(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+            res = a - b
+            res[yaw_row] = wrap_angle(res[yaw_row])
+            return res
+
+        x_i = x0
+        for _ in range(self.config.iterations):  # Gauss-Newton on the measurement (IEKF)
+            change, jac = self.model.pose_change_with_jacobian(x_i, v_l, v_r, dt)
+            h, H = change[rows], jac[rows]  # noqa: N806
+            if rows.size == 1:  # heading only: alpha is not observable from it, keep it
+                H = H * (np.arange(H.shape[1]) < 6)  # noqa: N806
+            gain = p0 @ H.T @ np.linalg.inv(H @ p0 @ H.T + r)
+            x_last, x_i = x_i, x0 + gain @ (residual(z[rows], h) - H @ (x0 - x_i))
+        # The final step through filterpy (Joseph form), linearised at the last iterate.
+        self._filter.update(
+            z[rows][:, None],
+            HJacobian=lambda _x: H,
+            Hx=lambda x: (h + H @ (x[:, 0] - x_last))[:, None],
+            R=r,
+            residual=lambda a, b: residual(a[:, 0], b[:, 0])[:, None],
+        )
+        y = self._filter.y
+        self.last_nis = float((y.T @ self._filter.SI @ y).item())
+        self._filter.P = 0.5 * (self._filter.P + self._filter.P.T)
+        if not (np.all(np.isfinite(self._filter.x)) and np.all(np.isfinite(self._filter.P))):
+            raise EstimationError("slip EKF state became non-finite; check the noise configuration")
+        return self.last_nis
+
+    # ---------------------------------------------------- terrain adaptation
+    def set_terrain(self, label: str) -> None:
+        """Name the terrain the filter starts on, without any reset."""
+        self.terrain = str(label)
+        self._terrain_since = self.t
+
+    def reset_on_terrain_change(self, label: str) -> TerrainChange:
+        """Reset ``P`` to ``P_B`` on a confirmed change to terrain ``label``.
+
+        With terrain memory the parameters of the terrain being left are kept
+        (after ``memory_min_dwell`` s there) and those remembered for
+        ``label`` are restored.
+        """
+        label, tc = str(label), self.terrain_config
+        dwelt = self.t - self._terrain_since >= tc.memory_min_dwell
+        if tc.memory and self.terrain is not None and dwelt:
+            self._memory[self.terrain] = self.x
+        restored = tc.memory and label in self._memory
+        if restored:
+            self._filter.x = self._memory[label][:, None].copy()
+        pb: SlipSigmas = self.config.sigma_pb
+        self._filter.P = np.diag(self._sigmas(pb) ** 2)
+        change = TerrainChange(self.t, self.terrain, label, bool(restored))
+        logger.info("slip EKF: terrain %s -> %s at t=%.2f s", self.terrain, label, self.t)
+        self.set_terrain(label)
+        return change
+
+
+class _SlipSteps:
+    """:class:`~terrain_odom.estimation.odometry.RowStepper` of the slip EKF.
+
+    Updates at every row with a measured yaw, from the previous such row of
+    the same segment. The recorded pose (``x, y, yaw``) is dead reckoning
+    with the current parameters from the origin at each segment start, reset
+    to every measured pose component.
+    """
+
+    def __init__(self, ekf: SlipEkf, log: WheelLog) -> None:
+        self.filter = ekf
+        self.names = OUTPUT_NAMES + ekf.names
+        self._log = log
+        self._anchor: int | None = None
+        self._pose = np.zeros(3)
+
+    def advance(self, k: int, new_segment: bool) -> None:
+        log = self._log
+        if new_segment:
+            self._anchor, self._pose = None, np.zeros(3)
+            self.filter.t = float(log.t[k])
+        elif k > 0:
+            dt = float(log.t[k] - log.t[k - 1])
+            self.filter.predict(dt)
+            params = self.filter.x
+            inc = self.filter.model.pose_change(params, log.v_l[k - 1], log.v_r[k - 1], dt)
+            self._pose = compose(self._pose, inc)
+
+    def measure(self, k: int) -> bool:
+        log = self._log
+        z = log.pose[k]
+        self._pose = np.where(np.isfinite(z), z, self._pose)
+        if not np.isfinite(z[2]):
+            return False
+        j, self._anchor = self._anchor, k
+        if j is None:
+            return False
+        change = relative_pose(log.pose[j], z)  # NaN position if either lacks one
+        dt = np.diff(log.t[j : k + 1])
+        self.filter.update(change, log.v_l[j:k], log.v_r[j:k], dt)
+        return True
+
+    def icr_params(self, k: int) -> np.ndarray:
+        log = self._log
+        icr = self.filter.icrs(log.v_l[k], log.v_r[k])
+        alpha = self.filter.x[6] if len(self.filter.names) > 6 else 1.0
+        return np.array([*map(float, icr), alpha])
+
+    def row(self, k: int) -> tuple[np.ndarray, np.ndarray]:
+        v_l, v_r = self._log.v_l[k], self._log.v_r[k]
+        icr = np.array([float(c) for c in self.filter.icrs(v_l, v_r)])
+        state = np.concatenate([self._pose, icr, self.filter.x])
+        std = np.concatenate([np.full(3, np.nan), self.filter.icr_std(v_l, v_r), self.filter.std])
+        return state, std
+
+
+def run_slip_ekf(
+    log: WheelLog,
+    config: Config,
+    *,
+    labels: Sequence[str] | None = None,
+    on_row: Callable[[OdometryRow], None] | None = None,
+    frames: FrameObserver | None = None,
+) -> OdometryResult:
+    """Estimate the slip parameters over a whole log.
+
+    Parameters
+    ----------
+    log : WheelLog
+        Wheel speeds and pose measurements; rows with a yaw are used (with or
+        without a position).
+    config : Config
+        ``config.slip_ekf``, ``config.robot.track_width`` and ``config.terrain``.
+    labels, on_row, frames
+        As for :func:`~terrain_odom.estimation.odometry.run_icr_ekf`.
+
+    Returns
+    -------
+    OdometryResult
+        ``names`` are ``x, y, yaw`` (dead reckoning from the origin at each
+        segment start, reset to every measured component), ``y_l, y_r, x_icr`` (at the row's track speeds), then the
+        parameters; ``stds`` hold NaN for the pose.
+
+    Raises
+    ------
+    EstimationError
+        If the log has no yaw measurement at all.
+    """
+    if len(log) and not np.any(log.has_yaw):
+        raise EstimationError(
+            f"{log.source}: the slip EKF needs yaw measurements (column 'yaw'), the log has none"
+        )
+    ekf = SlipEkf(config.slip_ekf, config.robot.track_width, config.terrain)
+    return run_rows(log, config, _SlipSteps(ekf, log), labels=labels, on_row=on_row, frames=frames)

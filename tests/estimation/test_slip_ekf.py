@@ -1,0 +1,206 @@
+"""Tests of the slip-parameter EKF: features, ICR functions, Jacobian, updates, recovery."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from terrain_odom.config import (
+    Config,
+    IcrLimits,
+    PoseChangeSigmas,
+    RobotConfig,
+    SlipEkfConfig,
+    SlipSigmas,
+    TerrainConfig,
+)
+from terrain_odom.errors import EstimationError
+from terrain_odom.estimation.slip_ekf import SlipEkf, SlipModel, run_slip_ekf
+from terrain_odom.evaluation import settling_time
+from terrain_odom.kinematics import integrate, twist_idd, wrap_angle
+from terrain_odom.sim.slip_scenario import (
+    TRACK_WIDTH,
+    feature_slip_scenario,
+    icr_switch_scenario,
+)
+
+MODEL = SlipModel(TRACK_WIDTH, 1e-3, True, True, IcrLimits())
+# Sec. 4.1 tuning: pose changes at 10 Hz, RTK-GPS noise; the paper's model has no alpha.
+SIM_SLIP = SlipEkfConfig(
+    estimate_alpha=False,
+    sigma_p0=SlipSigmas(*(3.0,) * 6, 0.1),
+    sigma_pb=SlipSigmas(*(3.0,) * 6, 0.1),
+    sigma_q=SlipSigmas(*(0.1,) * 6, 0.001),
+    sigma_r=PoseChangeSigmas(0.03, 0.03, 0.012),
+)
+
+
+def _sim_config(adapt: bool = True) -> Config:
+    return Config(
+        robot=RobotConfig(track_width=TRACK_WIDTH),
+        slip_ekf=SIM_SLIP,
+        terrain=TerrainConfig(adapt=adapt, memory=False),
+    )
+
+
+@pytest.mark.parametrize(
+    ("v_l", "v_r", "a", "k"),
+    [
+        (1.0, 1.0, 0.0, 0.0),  # straight: no feature
+        (-1.0, 1.0, 0.0, 1.0),  # counter-rotation: v = 0, k = 1 (up to eps)
+        (1.0, 3.0, 2.0 * 2.0 / TRACK_WIDTH, 2.0 / 4.0),  # v = 2, omega_0 = 2 / B
+        (0.0, 0.0, 0.0, 0.0),  # standstill: eps keeps k finite
+    ],
+)
+def test_features_on_hand_cases(v_l, v_r, a, k):
+    got_a, got_k = MODEL.features(v_l, v_r)
+    assert got_a == pytest.approx(a, abs=1e-12)
+    assert got_k == pytest.approx(k, abs=1e-3)
+
+
+def test_curvature_feature_is_bounded_and_lateral_acceleration_matches_an_arc():
+    rng = np.random.default_rng(0)
+    v_l, v_r = rng.uniform(-3, 3, (2, 1000))
+    a, k = MODEL.features(v_l, v_r)
+    assert np.all((k >= 0) & (k <= 1)) and np.all(a >= 0)
+    # An arc of radius R at speed v has lateral acceleration v^2 / R.
+    v, radius = 1.5, 4.0
+    omega = v / radius
+    a, _ = MODEL.features(v - omega * TRACK_WIDTH / 2, v + omega * TRACK_WIDTH / 2)
+    assert a == pytest.approx(v**2 / radius)
+
+
+def test_zero_parameters_are_the_ideal_differential_drive():
+    rng = np.random.default_rng(1)
+    v_l, v_r = rng.uniform(-2, 2, (2, 50))
+    y_l, y_r, x_icr = MODEL.icrs(np.zeros(6), *MODEL.features(v_l, v_r))
+    np.testing.assert_allclose(y_l, TRACK_WIDTH / 2)
+    np.testing.assert_allclose(y_r, -TRACK_WIDTH / 2)
+    np.testing.assert_allclose(x_icr, 0.0)
+    twist = MODEL.twist(v_l, v_r, np.r_[np.zeros(6), 1.0])
+    np.testing.assert_allclose(np.stack(twist), np.stack(twist_idd(v_l, v_r, TRACK_WIDTH)))
+
+
+def test_icr_functions_and_clipping():
+    p = np.array([1.0, 2.0, 3.0, 4.0, 5.0, 6.0])
+    y_l, y_r, x_icr = MODEL.icrs(p, 0.5, 0.25)
+    assert (y_l, y_r, x_icr) == pytest.approx((1.23 + 0.5 + 0.5, -(1.23 + 1.5 + 1.0), 2.5 + 1.5))
+    y_l, y_r, _ = MODEL.icrs(np.array([-100.0, 0, -100.0, 0, 0, 0]), 1.0, 0.0)
+    assert y_l == IcrLimits().half_width_min and y_r == -IcrLimits().half_width_min
+
+
+@pytest.mark.parametrize("params", [[0.3, 0.5, -0.2, 0.4, 0.1, -0.3, 0.95], [0.0] * 6])
+def test_pose_change_jacobian_matches_finite_differences(params):
+    rng = np.random.default_rng(2)
+    v_l, v_r = rng.uniform(-1, 2, (2, 15))
+    v_l[:3] = v_r[:3] = 1.0  # straight samples (series branch of the arcs)
+    dt = rng.uniform(0.05, 0.15, 15)
+    p = np.array(params)
+    change, jac = MODEL.pose_change_with_jacobian(p, v_l, v_r, dt)
+    np.testing.assert_allclose(change, MODEL.pose_change(p, v_l, v_r, dt), atol=1e-12)
+    numeric = np.empty_like(jac)
+    for i in range(p.size):
+        d = np.zeros(p.size)
+        d[i] = 1e-6
+        diff = MODEL.pose_change(p + d, v_l, v_r, dt) - MODEL.pose_change(p - d, v_l, v_r, dt)
+        diff[2] = wrap_angle(diff[2])
+        numeric[:, i] = diff / 2e-6
+    np.testing.assert_allclose(jac, numeric, rtol=1e-6, atol=1e-8)
+
+
+def test_pose_change_is_the_integrated_twist():
+    v_l, v_r, dt = np.array([1.0, 0.5, 2.0]), np.array([1.5, 1.5, 1.0]), np.full(3, 0.1)
+    p = np.array([0.4, 0.2, 0.3, 0.1, 0.2, 0.1, 0.9])
+    expected = integrate(*MODEL.twist(v_l, v_r, p), dt)[-1]
+    np.testing.assert_allclose(MODEL.pose_change(p, v_l, v_r, dt), expected)
+
+
+def _turn_update(ekf: SlipEkf, z: np.ndarray) -> None:
+    ekf.update(z, np.full(10, 2.0), np.full(10, 1.0), np.full(10, 0.1))
+
+
+def test_heading_only_update_moves_the_icr_parameters_but_not_alpha():
+    ekf = SlipEkf(SlipEkfConfig(), TRACK_WIDTH)
+    full = ekf.model.pose_change(ekf.x, np.full(10, 2.0), np.full(10, 1.0), np.full(10, 0.1))
+    _turn_update(ekf, np.array([np.nan, np.nan, full[2] + 0.1]))  # turned less than predicted
+    assert ekf.x[6] == 1.0 and ekf.std[6] == pytest.approx(0.1)
+    assert np.any(np.abs(ekf.x[:6]) > 1e-3)
+    y_l, y_r, _ = ekf.icrs(2.0, 1.0)
+    assert y_l - y_r > TRACK_WIDTH  # less turning: wider ICR spacing
+    before = ekf.x
+    _turn_update(ekf, np.full(3, np.nan))  # nothing measured: nothing changes
+    np.testing.assert_array_equal(ekf.x, before)
+
+
+def test_full_update_is_consistent_and_reduces_uncertainty():
+    ekf = SlipEkf(SlipEkfConfig(estimate_alpha=False), TRACK_WIDTH)
+    p0 = ekf.P
+    truth = np.array([1.0, 0.5, 1.2, 0.3, 0.4, 0.2])
+    z = MODEL.pose_change(truth, np.full(10, 2.0), np.full(10, 1.0), np.full(10, 0.1))
+    nis = ekf.update(z, np.full(10, 2.0), np.full(10, 1.0), np.full(10, 0.1))
+    assert np.isfinite(nis) and np.all(np.linalg.eigvalsh(ekf.P) > 0)
+    assert np.trace(ekf.P) < np.trace(p0)
+    np.testing.assert_allclose(ekf.P, ekf.P.T)
+
+
+def test_recovers_known_parameters_on_a_simulated_log():
+    truth = np.array([1.0, 0.5, 1.2, 0.3, 0.4, 0.2])
+    scenario = feature_slip_scenario(truth, duration=120.0, seed=3)
+    cfg = Config(
+        robot=RobotConfig(track_width=TRACK_WIDTH), slip_ekf=SlipEkfConfig(estimate_alpha=False)
+    )
+    res = run_slip_ekf(scenario.log, cfg)
+    np.testing.assert_allclose(res.states[-1, 6:], truth, atol=0.1)
+    # the ICRs it reports follow the true ones (never seen by the filter) at the end
+    late = scenario.log.t > 60.0
+    err = np.abs(res.states[late, 3:6] - scenario.icr[late])
+    assert np.median(err) < 0.05
+    # NEES of the final parameters: a loose consistency check (chi2, 6 dof, 99.9 %: 22.5)
+    e = res.states[-1, 6:] - truth
+    cov = np.diag(res.stds[-1, 6:] ** 2)
+    assert e @ np.linalg.solve(cov, e) < 22.5
+
+
+def _settling(res, scenario, tolerance: float = 0.2) -> list[float]:
+    t, icr = scenario.log.t, res.states[:, 3:6]
+    out = []
+    for t_change in scenario.changes:
+        piece = (t >= t_change) & (t < t_change + 10.0)
+        final = scenario.icr[piece][-1]
+        out.append(settling_time(t[piece], icr[piece], final, [tolerance] * 3, t_from=t_change))
+    return out
+
+
+def test_terrain_reset_speeds_up_reconvergence_after_an_abrupt_icr_change():
+    scenario = icr_switch_scenario(seed=1)
+    with_reset = run_slip_ekf(scenario.log, _sim_config(True), labels=scenario.log.terrain)
+    without = run_slip_ekf(scenario.log, _sim_config(False), labels=scenario.log.terrain)
+    assert [c.label for c in with_reset.changes] == ["B", "C"]
+    assert all(c.reset for c in with_reset.changes)
+    fast, slow = _settling(with_reset, scenario)[1], _settling(without, scenario)[1]
+    assert fast <= 1.0 < slow  # Sec. 4.1 second change: within 1 s only with the P reset
+
+
+def test_slip_ekf_needs_yaw():
+    scenario = feature_slip_scenario(np.zeros(6), duration=5.0)
+    log = dataclasses.replace(scenario.log, pose=np.full_like(scenario.log.pose, np.nan))
+    with pytest.raises(EstimationError, match="needs yaw"):
+        run_slip_ekf(log, Config())
+
+
+def test_heading_only_log_recovers_the_icr_spacing():
+    truth = np.array([1.0, 0.5, 1.2, 0.3, 0.4, 0.2])
+    scenario = feature_slip_scenario(truth, duration=60.0, seed=5)
+    pose = scenario.log.pose.copy()
+    pose[:, :2] = np.nan
+    log = dataclasses.replace(scenario.log, pose=pose)
+    cfg = Config(robot=RobotConfig(track_width=TRACK_WIDTH))
+    res = run_slip_ekf(log, cfg)
+    assert res.n_updates == np.count_nonzero(log.has_yaw) - 1
+    assert res.states[-1, -1] == 1.0  # alpha untouched by heading-only updates
+    late = scenario.log.t > 30.0
+    width = res.states[late, 3] - res.states[late, 4]
+    true_width = scenario.icr[late, 0] - scenario.icr[late, 1]
+    assert np.median(np.abs(width - true_width)) < 0.2

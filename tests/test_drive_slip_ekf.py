@@ -1,0 +1,45 @@
+"""Slip EKF on a real Warthog log at 1-Hz pose (skipped if ../shared is absent)."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from terrain_odom.config import load_config
+from terrain_odom.estimation.slip_ekf import SlipModel, run_slip_ekf
+from terrain_odom.evaluation import model_twist
+from terrain_odom.evaluation.prediction import (
+    prediction_errors,
+    prediction_windows,
+    slip_twist_from_rows,
+)
+from terrain_odom.io import read_wheel_log
+from terrain_odom.kinematics import get_model
+
+REPO = Path(__file__).resolve().parents[1]
+ASPHALT = REPO.parent / "shared" / "data" / "drive" / "warthog_wheels_asphalt_2024_9_25_12h8s57.csv"
+
+pytestmark = pytest.mark.skipif(not ASPHALT.is_file(), reason="../shared/data/drive not present")
+
+
+def test_asphalt_one_hz_beats_ideal_differential_drive_full_and_heading_only():
+    cfg = load_config(REPO / "config" / "warthog.yaml")
+    log = read_wheel_log(ASPHALT, wheel_radius=cfg.robot.wheel_radius)
+    rows = np.flatnonzero(log.has_pose)
+    sec = np.floor(log.t[rows])
+    keep = rows[np.r_[True, sec[1:] != sec[:-1]]]  # first pose of every second: 1 Hz
+    pose = np.full_like(log.pose, np.nan)
+    pose[keep] = log.pose[keep]
+    w = prediction_windows(log, starts=keep)
+    idd = prediction_errors(log, w, model_twist(get_model("idd"), [], cfg.robot.track_width))
+    model = SlipModel.from_config(cfg.slip_ekf, cfg.robot.track_width)
+    heading = pose.copy()
+    heading[:, :2] = np.nan
+    for p, factor in ((pose, 0.5), (heading, 1.0)):
+        res = run_slip_ekf(dataclasses.replace(log, pose=p), cfg, labels=log.terrain)
+        e = prediction_errors(log, w, slip_twist_from_rows(w, res.states[:, 6:], model))
+        assert e.position < factor * idd.position
+        assert e.heading < 0.5 * idd.heading
