@@ -296,7 +296,7 @@ def residuals(
     out = []
     for block in segments.blocks:
         v_x, v_y, omega = model.twist(block.v_l, block.v_r, p, track_width)
-        shape = np.broadcast_shapes(v_x.shape, block.dt.shape)
+        shape = (p.shape[0], *block.dt.shape)  # (S, W, K), also for idd (no parameter)
         end = integrate(
             *(np.broadcast_to(c, shape) for c in (v_x, v_y, omega)),
             np.broadcast_to(block.dt, shape),

@@ -143,7 +143,7 @@ class ModelParams:
             )
         labels, inverse = np.unique(log.terrain, return_inverse=True)
         try:
-            table = np.array([self.vector(str(label)) for label in labels]).reshape(-1, k)
+            table = np.array([self.vector(str(label)) for label in labels]).reshape(labels.size, k)
         except KeyError as exc:
             raise InputFileError(f"{log.source}: {exc.args[0]}") from None
         return table[inverse.ravel()]
