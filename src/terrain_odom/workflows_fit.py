@@ -453,7 +453,7 @@ def _box_plot(
 
     groups = sorted({g for e in raw_errors.values() for g in e})
     width = 0.8 / max(1, len(groups))
-    fig, axes = plt.subplots(2, 1, figsize=(max(6.0, 1.2 * len(names) * len(groups)), 7))
+    fig, axes = plt.subplots(2, 1, figsize=(min(14.0, 2.0 + 0.5 * len(names) * len(groups)), 7))
     for ax, attr, unit in (
         (axes[0], "translation_per_m", "translational error (m/m)"),
         (axes[1], "rotation_per_m", "angular error (deg/m)"),
