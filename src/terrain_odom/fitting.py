@@ -433,7 +433,7 @@ def fit_model(
         popsize=opt.popsize,
         maxiter=opt.maxiter,
         tol=opt.tol,
-        rng=np.random.default_rng(opt.seed),
+        seed=opt.seed,  # scipy >= 1.10 (rng= only exists from 1.15)
         polish=False,
         vectorized=True,
         updating="deferred",

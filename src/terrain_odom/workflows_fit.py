@@ -22,6 +22,7 @@ from terrain_odom.errors import ConfigError, InputFileError
 from terrain_odom.evaluation import (
     ErrorSummary,
     WindowErrors,
+    Windows,
     model_twist,
     spatial_windows,
     summarize,
@@ -170,12 +171,8 @@ def _group_errors(
         windows = spatial_windows(log, h_e)
         if len(windows) == 0:
             continue
-        labels = (
-            np.full(len(log), ALL)
-            if not mp.per_terrain
-            else np.asarray(log.terrain if log.terrain is not None else np.full(len(log), ""))
-        )
-        values = mp.rows(log)
+        values = mp.rows(log)  # per-terrain sets need (and check) the terrain column
+        labels = np.asarray(log.terrain) if mp.per_terrain else np.full(len(log), ALL)
         b = mp.track_width or track_width
         errors = window_errors(log, windows, model_twist(model, values[windows.start], b))
         start_labels = labels[windows.start]
@@ -188,7 +185,7 @@ def _group_errors(
 def _subset(errors: WindowErrors, keep: np.ndarray) -> WindowErrors:
     w = errors.windows
     return WindowErrors(
-        windows=type(w)(start=w.start[keep], end=w.end[keep], length=w.length[keep]),
+        windows=Windows(start=w.start[keep], end=w.end[keep], length=w.length[keep]),
         predicted=errors.predicted[keep],
         translation=errors.translation[keep],
         rotation=errors.rotation[keep],
