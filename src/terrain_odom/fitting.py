@@ -56,6 +56,7 @@ from terrain_odom.kinematics.models import KinematicModel, get_model
 from terrain_odom.types import WheelLog
 
 __all__ = [
+    "DEFAULT_TRAINING_HORIZON",
     "Horizon",
     "FitOptions",
     "FitResult",
@@ -91,6 +92,9 @@ class Horizon:
         if self.unit == "m":
             return spatial_windows(log, self.value)
         return time_windows(log, self.value)
+
+
+DEFAULT_TRAINING_HORIZON = Horizon(2.0, "m")  # Baril et al.'s h_t
 
 
 def parse_horizon(text: str | float) -> Horizon:
@@ -335,7 +339,7 @@ class FitOptions:
         Polish the best member with bounded least squares.
     """
 
-    sigma: tuple[float, ...] | None = None
+    sigma: tuple[float, float, float] | np.ndarray | None = None
     popsize: int = 15
     maxiter: int = 300
     tol: float = 1e-3

@@ -29,6 +29,7 @@ from terrain_odom.evaluation import (
     window_errors,
 )
 from terrain_odom.fitting import (
+    DEFAULT_TRAINING_HORIZON,
     FitOptions,
     Horizon,
     fit_model,
@@ -227,7 +228,7 @@ def fit(
     model: str,
     *,
     out: str | Path | None = None,
-    horizon: str | float | Horizon = "2m",
+    horizon: str | float | Horizon = DEFAULT_TRAINING_HORIZON,
     eval_logs: Sequence[LogSource] = (),
     by_terrain: bool = False,
     options: FitOptions | None = None,
@@ -246,7 +247,8 @@ def fit(
     out : str or Path, optional
         Parameter file to write (YAML, see :mod:`terrain_odom.io.params`).
     horizon : str, float or Horizon, optional
-        Training horizon ``h_t``: ``"2m"`` (default) or a duration like ``"2s"``.
+        Training horizon ``h_t``: a distance like ``"2m"`` (default 2 m) or a
+        duration like ``"2s"``.
     eval_logs : sequence, optional
         Held-out logs: their errors per metre (and the ideal differential
         drive's) go into the report and the file.
@@ -274,7 +276,7 @@ def fit(
     sets, seconds, skipped = _fit_sets(m.name, train, h_t, by_terrain, opt, b)
     info: dict[str, Any] = {
         "horizon": str(h_t),
-        "sigma": None if opt.sigma is None else [float(s) for s in opt.sigma],
+        "sigma": None if opt.sigma is None else np.asarray(opt.sigma, dtype=float).tolist(),
         "bounds": {
             n: [float(lo), float(hi)] for n, (lo, hi) in zip(m.param_names, m.bounds, strict=True)
         },
@@ -321,7 +323,7 @@ def compare(
     *,
     out_dir: str | Path | None = None,
     models: Sequence[str] | None = None,
-    horizon: str | float | Horizon = "2m",
+    horizon: str | float | Horizon = DEFAULT_TRAINING_HORIZON,
     by_terrain: bool = False,
     options: FitOptions | None = None,
     config: Config | None = None,

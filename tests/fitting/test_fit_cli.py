@@ -61,6 +61,24 @@ def test_fit_writes_parameters_and_held_out_errors(logs, tmp_path, capsys):
     assert fitted["translation_m_per_m"]["median"] < 0.01 < ideal["translation_m_per_m"]["median"]
 
 
+def test_fit_sigma_and_time_horizon_are_recorded(logs, tmp_path, capsys):
+    out = tmp_path / "p.yaml"
+    code, _, err = run_main(
+        capsys, "fit", "--model", "edd-sym", "--log", logs["grass", "train"], "--out", out,
+        "--horizon", "3s", "--sigma", "0.1", "0.1", "0.05", "--seed", "3", *FAST,
+    )  # fmt: skip
+    assert code == 0, err
+    data = yaml.safe_load(out.read_text())
+    assert data["horizon"] == "3s" and data["sigma"] == [0.1, 0.1, 0.05]
+    assert data["fit"]["duration_s"] >= 3.0 * data["fit"]["segments"]
+    np.testing.assert_allclose(read_params(out).vector(), [0.9, 1.8], atol=0.02)
+    code, text, err = run_main(
+        capsys, "fit", "--model", "edd-sym", "--log", logs["grass", "train"], "--out", out,
+        "--sigma", "0.1", "0", "0.1",
+    )  # fmt: skip
+    assert_one_line_error(code, text, err, "--sigma", "> 0")
+
+
 def test_fit_by_terrain_and_evaluate_with_the_matching_set(logs, tmp_path, capsys):
     out = tmp_path / "terrains.yaml"
     train = [logs["grass", "train"], logs["asphalt", "train"]]

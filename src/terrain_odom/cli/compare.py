@@ -23,6 +23,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def _cmd_compare(args: argparse.Namespace) -> int:
+    from terrain_odom.fitting import DEFAULT_TRAINING_HORIZON
     from terrain_odom.workflows_fit import compare
 
     report = compare(
@@ -30,7 +31,7 @@ def _cmd_compare(args: argparse.Namespace) -> int:
         args.eval,
         out_dir=args.out,
         models=args.models,
-        horizon=args.horizon,
+        horizon=args.horizon or DEFAULT_TRAINING_HORIZON,
         by_terrain=args.by_terrain,
         options=fit_options(args),
         config_path=args.config,

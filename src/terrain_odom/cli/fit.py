@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
@@ -18,7 +19,6 @@ def add_fit_options(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument(
         "--horizon",
-        default="2m",
         help="training segment length h_t: a distance like 2m (default) or a duration like 2s",
     )
     p.add_argument(
@@ -34,30 +34,31 @@ def add_fit_options(p: argparse.ArgumentParser) -> None:
         help="loss Sigma as standard deviations in m, m, rad (default: identity)",
     )
     p.add_argument(
-        "--popsize", type=int, default=15, help="differential-evolution population per parameter"
+        "--popsize", type=int, help="differential-evolution population per parameter (15)"
     )
-    p.add_argument("--maxiter", type=int, default=300, help="most generations")
-    p.add_argument("--seed", type=int, default=0, help="seed of the optimiser (reproducible fits)")
+    p.add_argument("--maxiter", type=int, help="most generations (300)")
+    p.add_argument("--seed", type=int, help="seed of the optimiser, for reproducible fits (0)")
     p.add_argument("--config", help="YAML configuration (wheel radius, track width, h_e)")
 
 
 def fit_options(args: argparse.Namespace) -> FitOptions:
-    """Build the :class:`FitOptions` of the command-line arguments."""
+    """Build the :class:`FitOptions` of the command-line arguments (defaults for the rest)."""
     from terrain_odom.errors import ConfigError
     from terrain_odom.fitting import FitOptions
 
-    if args.popsize < 5 or args.maxiter < 1:
+    given = {
+        k: getattr(args, k) for k in ("popsize", "maxiter", "seed") if getattr(args, k) is not None
+    }
+    if args.sigma is not None:
+        given["sigma"] = tuple(args.sigma)
+    opt = dataclasses.replace(FitOptions(), **given)
+    if opt.popsize < 5 or opt.maxiter < 1:
         raise ConfigError(
-            f"--popsize must be >= 5 and --maxiter >= 1, got {args.popsize} and {args.maxiter}"
+            f"--popsize must be >= 5 and --maxiter >= 1, got {opt.popsize} and {opt.maxiter}"
         )
-    if args.sigma is not None and not all(s > 0 for s in args.sigma):
-        raise ConfigError(f"--sigma standard deviations must be > 0, got {args.sigma}")
-    return FitOptions(
-        sigma=None if args.sigma is None else tuple(args.sigma),
-        popsize=args.popsize,
-        maxiter=args.maxiter,
-        seed=args.seed,
-    )
+    if opt.sigma is not None and not all(s > 0 for s in opt.sigma):
+        raise ConfigError(f"--sigma standard deviations must be > 0, got {list(opt.sigma)}")
+    return opt
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -71,13 +72,14 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def _cmd_fit(args: argparse.Namespace) -> int:
+    from terrain_odom.fitting import DEFAULT_TRAINING_HORIZON
     from terrain_odom.workflows_fit import fit
 
     report = fit(
         args.log,
         args.model,
         out=args.out,
-        horizon=args.horizon,
+        horizon=args.horizon or DEFAULT_TRAINING_HORIZON,
         eval_logs=args.eval,
         by_terrain=args.by_terrain,
         options=fit_options(args),
