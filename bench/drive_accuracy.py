@@ -11,8 +11,9 @@ Prints every figure of the README's "Accuracy on real logs" section:
 2. re-convergence of the ICR estimates after the grass -> asphalt switch of
    the stitched log, with and without the P_B reset.
 
-Constant models are fitted with scipy.optimize.least_squares on the end-of-window
-pose errors (Baril eq. 13 with Sigma = I) of the same 2 m windows.
+Constant models are fitted with the offline identification of ``terrain-odom fit``
+(terrain_odom.workflows_fit.fit: differential evolution + least-squares polish of
+Baril eq. 13 with Sigma = I on distinct 2 m segments).
 
 Usage::
 
@@ -29,20 +30,19 @@ import time
 from pathlib import Path
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from terrain_odom.config import IcrState, load_config
 from terrain_odom.estimation.odometry import run_icr_ekf
 from terrain_odom.evaluation import (
     icr_twist_from_rows,
     model_twist,
-    predict_window_ends,
     settling_time,
     spatial_windows,
     window_errors,
 )
 from terrain_odom.io import read_wheel_log
-from terrain_odom.kinematics import get_model, wrap_angle
+from terrain_odom.kinematics import get_model
+from terrain_odom.workflows_fit import fit
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -60,26 +60,9 @@ def line(name, errors):
     return tm, rm
 
 
-def fit_constant(model_name, logs, windows, x0, track_width):
-    """Least-squares fit of a constant model on end-of-window pose errors."""
-    model = get_model(model_name)
-    lo, hi = np.array(model.bounds).T
-
-    def residuals(p):
-        out = []
-        for log, win in zip(logs, windows, strict=True):
-            pred = predict_window_ends(log, win, model_twist(model, p, track_width))
-            meas = log.pose[win.end]
-            res = pred - meas
-            res[:, 2] = wrap_angle(res[:, 2])
-            out.append(res.ravel())
-        r = np.concatenate(out)
-        return np.where(np.isfinite(r), r, 1e3)
-
-    sol = least_squares(
-        residuals, np.clip(x0, lo + 1e-6, hi - 1e-6), bounds=(lo, hi), x_scale="jac"
-    )
-    return sol.x
+def fit_constant(model_name, logs, cfg):
+    """Parameters of a constant model fitted on the logs (``terrain-odom fit``)."""
+    return fit(logs, model_name, config=cfg).params.vector()
 
 
 def ekf_errors(logs, windows, cfg):
@@ -168,13 +151,12 @@ def main():
         read_wheel_log(data / "warthog_wheels_asphalt_2024_9_25_12h8s57.csv", wheel_radius=r)
     ]
     gw = [spatial_windows(g) for g in grass]
-    aw = [spatial_windows(a) for a in asphalt]
 
-    print("Offline constant fits (least squares on 2 m windows):")
-    p_edd_g = fit_constant("edd-sym", grass, gw, [0.95, 1.8], b)
-    p_icr_a = fit_constant("icr-slip", asphalt, aw, [0.9, -0.9, 0.0, 0.95], b)
-    p_icr3_a = fit_constant("icr", asphalt, aw, [0.9, -0.9, 0.0], b)
-    p_icra_g = fit_constant("edd-asym", grass, gw, [0.95, 0.95, 0.0, 0.9, -0.9], b)
+    print("Offline constant fits (terrain-odom fit, 2 m segments):")
+    p_edd_g = fit_constant("edd-sym", grass, cfg)
+    p_icr_a = fit_constant("icr-slip", asphalt, cfg)
+    p_icr3_a = fit_constant("icr", asphalt, cfg)
+    p_icra_g = fit_constant("edd-asym", grass, cfg)
     print(f"  edd-sym on grass:           alpha={p_edd_g[0]:.3f} b_hat={p_edd_g[1]:.3f} m")
     print(
         f"  edd-asym on grass:          {np.array2string(p_icra_g, precision=3)}"

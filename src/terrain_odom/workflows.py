@@ -498,10 +498,14 @@ def evaluate(
     for path in params or []:
         mp: ModelParams = read_params(path)
         model = get_model(mp.model)
-        values = mp.vector()
+        values = mp.rows(log)  # (N, k): each row's terrain set (per-terrain files)
         b = mp.track_width or b_nominal
+        rows_twist = model.twist(log.v_l[:, None], log.v_r[:, None], values, b)
         models[f"{mp.model} ({Path(path).name})"] = _model_entry(
-            log, windows, model_twist(model, values, b), model.twist(log.v_l, log.v_r, values, b)
+            log,
+            windows,
+            model_twist(model, values[windows.start], b),
+            tuple(c[:, 0] for c in rows_twist),
         )
     result = {
         "format_version": REPORT_FORMAT_VERSION,

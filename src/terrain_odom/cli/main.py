@@ -13,11 +13,11 @@ import sys
 from collections.abc import Sequence
 
 from terrain_odom import __version__
-from terrain_odom.cli import evaluate, report, run, simulate, train
+from terrain_odom.cli import compare, evaluate, fit, report, run, simulate, train
 from terrain_odom.errors import TerrainOdomError
 
 # One module per subcommand, each with ``add_parser(subparsers)``.
-SUBCOMMANDS = (run, evaluate, train, report, simulate)
+SUBCOMMANDS = (run, evaluate, train, report, simulate, fit, compare)
 
 EXIT_USAGE = 2
 EXIT_INTERRUPTED = 130

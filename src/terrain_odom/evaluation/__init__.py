@@ -14,10 +14,13 @@ from terrain_odom.evaluation.metrics import (
     dead_reckon,
     icr_twist_from_rows,
     model_twist,
+    non_overlapping,
+    padded_steps,
     predict_window_ends,
     settling_time,
     spatial_windows,
     summarize,
+    time_windows,
     window_errors,
 )
 
@@ -36,8 +39,11 @@ __all__ = [
     "settling_time",
     "icr_twist_from_rows",
     "model_twist",
+    "non_overlapping",
+    "padded_steps",
     "predict_window_ends",
     "spatial_windows",
     "summarize",
+    "time_windows",
     "window_errors",
 ]

@@ -28,7 +28,7 @@ squared position error (Umeyama without scale) and returns the RMSE.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -48,6 +48,9 @@ __all__ = [
     "SE2Alignment",
     "AteResult",
     "spatial_windows",
+    "time_windows",
+    "non_overlapping",
+    "padded_steps",
     "model_twist",
     "icr_twist_from_rows",
     "predict_window_ends",
@@ -280,14 +283,92 @@ def spatial_windows(log: WheelLog, horizon: float = DEFAULT_HORIZON) -> Windows:
         raise ValueError(f"window horizon must be > 0 m, got {horizon}")
     runs = _segment_runs(log.segment)
     path = _measured_path(log, runs)
+    return _windows_reaching(log, runs, path, path, horizon)
+
+
+def time_windows(log: WheelLog, duration: float) -> Windows:
+    """Find windows of a minimum duration (the time-horizon variant of :func:`spatial_windows`).
+
+    Parameters
+    ----------
+    log : WheelLog
+        Log with pose measurements (``N`` rows).
+    duration : float
+        Minimum time between the start and end pose measurements, s (> 0).
+
+    Returns
+    -------
+    Windows
+        One window per full-pose row that reaches ``duration`` within its
+        segment, in row order; ``length`` is the measured path length (m,
+        possibly 0 when the robot stood still).
+
+    Examples
+    --------
+    >>> n = 6
+    >>> pose = np.c_[0.5 * np.arange(n), np.zeros(n), np.zeros(n)]
+    >>> log = WheelLog(0.5 * np.arange(n), np.ones(n), np.ones(n), pose,
+    ...                None, np.array([0] * 4 + [1] * 2))
+    >>> w = time_windows(log, duration=1.0)
+    >>> w.start.tolist(), w.end.tolist()
+    ([0, 1], [2, 3])
+    """
+    if not duration > 0.0:
+        raise ValueError(f"window duration must be > 0 s, got {duration}")
+    runs = _segment_runs(log.segment)
+    same_run = runs[1:] == runs[:-1]
+    clock = np.concatenate([[0.0], np.cumsum(np.where(same_run, np.diff(log.t), 0.0))])
+    return _windows_reaching(log, runs, clock, _measured_path(log, runs), duration)
+
+
+def _windows_reaching(
+    log: WheelLog, runs: np.ndarray, measure: np.ndarray, path: np.ndarray, horizon: float
+) -> Windows:
+    """Windows from each full-pose row to the first one of its run ``horizon`` further.
+
+    ``measure`` is a per-row quantity that never decreases (path length or
+    time, frozen across segment changes); ``path`` gives the window lengths.
+    """
     rows = np.flatnonzero(log.has_pose)
-    p = path[rows]
-    j = np.searchsorted(p, p + horizon, side="left")
+    m = measure[rows]
+    j = np.searchsorted(m, m + horizon, side="left")
     inside = j < rows.size
     j_in = np.minimum(j, rows.size - 1)
     keep = inside & (runs[rows[j_in]] == runs[rows])
     start, end = rows[keep], rows[j_in[keep]]
     return Windows(start=start, end=end, length=path[end] - path[start])
+
+
+def non_overlapping(windows: Windows) -> Windows:
+    """Chain windows end to start: the distinct segments of Baril et al.'s training.
+
+    Greedily keeps the first window, then the first window starting at or
+    after the end of the last kept one, and so on.
+
+    Parameters
+    ----------
+    windows : Windows
+        Windows in row order (from :func:`spatial_windows` or :func:`time_windows`).
+
+    Returns
+    -------
+    Windows
+        A subset whose row ranges ``start .. end`` do not overlap (they may
+        share an end/start row).
+
+    Examples
+    --------
+    >>> w = Windows(np.array([0, 1, 2, 3, 4]), np.array([2, 3, 4, 6, 6]), np.ones(5))
+    >>> non_overlapping(w).start.tolist()
+    [0, 2, 4]
+    """
+    keep = []
+    i = 0
+    while i < len(windows):
+        keep.append(i)
+        i = int(np.searchsorted(windows.start, windows.end[i], side="left"))
+    idx = np.asarray(keep, dtype=int)
+    return Windows(start=windows.start[idx], end=windows.end[idx], length=windows.length[idx])
 
 
 def _chunks(n_steps: np.ndarray) -> list[np.ndarray]:
@@ -326,20 +407,45 @@ def predict_window_ends(log: WheelLog, windows: Windows, twist_fn: TwistFn) -> n
     ndarray, shape (W, 3)
         Predicted pose ``x, y, yaw`` (m, m, rad) at each window's end row.
     """
-    dt_row = np.append(np.diff(log.t), 0.0)
-    n_steps = windows.end - windows.start
     predicted = np.empty((len(windows), 3))
-    for idx in _chunks(n_steps):
-        k = n_steps[idx, None]
-        step = np.arange(k.max())
-        valid = step < k
-        rows = windows.start[idx, None] + np.minimum(step, k - 1)
+    for idx in _chunks(windows.end - windows.start):
+        rows, valid, dt = padded_steps(log, windows, idx)
         twist = twist_fn(log.v_l[rows], log.v_r[rows], idx)
         v_x, v_y, omega = (np.where(valid, np.broadcast_to(c, rows.shape), 0.0) for c in twist)
-        dt = np.where(valid, dt_row[rows], 0.0)
         poses = integrate(v_x, v_y, omega, dt, start=log.pose[windows.start[idx]])
         predicted[idx] = poses[:, -1]
     return predicted
+
+
+def padded_steps(
+    log: WheelLog, windows: Windows, index: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Wheel rows of some windows as a padded ``(W, K)`` block.
+
+    Parameters
+    ----------
+    log : WheelLog
+        The log the windows belong to.
+    windows : Windows
+        The windows.
+    index : ndarray of int, shape (W,)
+        Which windows to take; ``K`` is the longest one's number of steps.
+
+    Returns
+    -------
+    rows : ndarray of int, shape (W, K)
+        Log row of each step (padding repeats the last real row).
+    valid : ndarray of bool, shape (W, K)
+        False on padding.
+    dt : ndarray, shape (W, K)
+        Duration of each step (``t[k+1] - t[k]``, zero-order hold), s; 0 on padding.
+    """
+    dt_row = np.append(np.diff(log.t), 0.0)
+    k = (windows.end - windows.start)[index, None]
+    step = np.arange(k.max())
+    valid = step < k
+    rows = windows.start[index, None] + np.minimum(step, k - 1)
+    return rows, valid, np.where(valid, dt_row[rows], 0.0)
 
 
 def window_errors(log: WheelLog, windows: Windows, twist_fn: TwistFn) -> WindowErrors:
@@ -392,16 +498,23 @@ def _stats(values: np.ndarray) -> ErrorStats:
     return ErrorStats(float(median), float(q25), float(q75), float(values.mean()), values.size)
 
 
-def summarize(errors: WindowErrors) -> ErrorSummary:
+def summarize(errors: WindowErrors | Sequence[WindowErrors]) -> ErrorSummary:
     """Median, quartiles, mean and count of the per-metre window errors.
+
+    Parameters
+    ----------
+    errors : WindowErrors or sequence of WindowErrors
+        Errors of one log, or of several logs pooled together.
 
     Returns
     -------
     ErrorSummary
         ``translation`` in m/m and ``rotation`` in deg/m.
     """
+    parts = [errors] if isinstance(errors, WindowErrors) else list(errors)
     return ErrorSummary(
-        translation=_stats(errors.translation_per_m), rotation=_stats(errors.rotation_per_m)
+        translation=_stats(np.concatenate([e.translation_per_m for e in parts] or [[]])),
+        rotation=_stats(np.concatenate([e.rotation_per_m for e in parts] or [[]])),
     )
 
 

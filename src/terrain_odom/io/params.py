@@ -1,43 +1,180 @@
 """Parameter files of constant kinematic models (YAML).
 
-Layout (``format_version: 1``)::
+Version 2 (written by ``terrain-odom fit``)::
 
-    format_version: 1
-    model: edd-sym            # a name from terrain_odom.kinematics.MODELS
-    params: {alpha: 0.91, b_hat: 1.78}
-    track_width: 1.08         # m, only for models that need the nominal B
+    format_version: 2
+    model: edd-asym           # a name from terrain_odom.kinematics.MODELS
+    track_width: 1.08         # m: nominal B (models that need it; steering efficiency)
+    horizon: 2m               # training horizon h_t (informational)
+    sigma: [1.0, 1.0, 1.0]    # loss Sigma as standard deviations m, m, rad (informational)
+    bounds: {alpha_l: [0.0, 1.5], ...}       # search bounds (informational)
+    params: {alpha_l: 0.93, ...}              # one set for every terrain ...
+    fit: {loss: 14.2, segments: 83, length_m: 190.0, duration_s: 647.0, seconds: 2.8}
+    derived: {steering_efficiency: 1.71, eccentricity: 0.2}   # ICR models, informational
+    evaluation: {...}         # with --eval: error statistics (informational)
 
-Unknown keys and parameters are rejected with the file and key named.
+or, instead of ``params``/``fit``/``derived``, one set per terrain label::
+
+    terrains:
+      grass:   {params: {...}, fit: {...}, derived: {...}}
+      asphalt: {params: {...}, fit: {...}, derived: {...}}
+
+For ``icr`` and ``icr-slip`` files, :meth:`ModelParams.icr` gives each
+terrain's ``(y_l, y_r, x_icr, alpha)``: the values that can seed the ICR EKF.
+Version 1 files (``format_version, model, params, track_width`` only) are
+still read. Unknown keys and parameters are rejected with the file and key
+named; the informational entries are checked for shape only.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any, BinaryIO
 
 import numpy as np
 import yaml
 
 from terrain_odom.errors import InputFileError
-from terrain_odom.kinematics import get_model
+from terrain_odom.io.atomic import write_atomic
+from terrain_odom.kinematics import eccentricity, get_model, steering_efficiency
+from terrain_odom.types import WheelLog
 
-__all__ = ["ModelParams", "read_params", "PARAMS_FORMAT_VERSION"]
+__all__ = [
+    "ANY_TERRAIN",
+    "PARAMS_FORMAT_VERSION",
+    "ParamSet",
+    "ModelParams",
+    "read_params",
+    "write_params",
+    "derived_quantities",
+]
 
-PARAMS_FORMAT_VERSION = 1
-_KEYS = {"format_version", "model", "params", "track_width"}
+PARAMS_FORMAT_VERSION = 2
+ANY_TERRAIN = "*"  # key of the single set of a file without per-terrain sets
+_V1_KEYS = {"format_version", "model", "params", "track_width"}
+_INFO_KEYS = {"horizon", "sigma", "bounds", "evaluation"}
+_SET_KEYS = {"params", "fit", "derived"}
+_V2_KEYS = _V1_KEYS | _INFO_KEYS | _SET_KEYS | {"terrains"}
+_FIT_KEYS = ("loss", "segments", "length_m", "duration_s", "seconds")
+
+
+@dataclass(frozen=True)
+class ParamSet:
+    """One fitted parameter set and what the fit reported about it.
+
+    Attributes
+    ----------
+    params : dict of str to float
+        Parameter values by name.
+    fit : dict of str to float
+        Training figures (``loss``, ``segments``, ``length_m``, ``duration_s``,
+        ``seconds``); empty for hand-written files.
+    """
+
+    params: dict[str, float]
+    fit: dict[str, float] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
 class ModelParams:
-    """A constant kinematic model: its name, parameter values and ``B`` (m)."""
+    """A constant kinematic model: parameter sets, one per terrain or one for all.
+
+    Attributes
+    ----------
+    model : str
+        Model name.
+    sets : dict of str to ParamSet
+        By terrain label, or ``{ANY_TERRAIN: set}``.
+    track_width : float, optional
+        Nominal track width ``B``, m.
+    info : dict
+        Informational entries (``horizon``, ``sigma``, ``bounds``, ``evaluation``).
+    """
 
     model: str
-    params: dict[str, float]
+    sets: dict[str, ParamSet]
     track_width: float | None = None
+    info: dict[str, Any] = field(default_factory=dict)
 
-    def vector(self) -> np.ndarray:
-        """Parameter values in the model's order, shape (k,)."""
-        return np.array([self.params[n] for n in get_model(self.model).param_names], dtype=float)
+    @property
+    def per_terrain(self) -> bool:
+        """Whether the file holds one set per terrain label."""
+        return ANY_TERRAIN not in self.sets
+
+    def vector(self, terrain: str | None = None) -> np.ndarray:
+        """Parameter values in the model's order, shape (k,).
+
+        Raises
+        ------
+        KeyError
+            For a per-terrain file, if ``terrain`` is None or has no set.
+        """
+        if not self.per_terrain:
+            chosen = self.sets[ANY_TERRAIN]
+        elif terrain in self.sets:
+            chosen = self.sets[terrain]
+        else:
+            raise KeyError(
+                f"no {self.model} parameters for terrain {terrain!r}; "
+                f"the file has {sorted(self.sets)}"
+            )
+        names = get_model(self.model).param_names
+        return np.array([chosen.params[n] for n in names], dtype=float)
+
+    def rows(self, log: WheelLog) -> np.ndarray:
+        """Parameters of every row of a log: its terrain's set, shape (N, k).
+
+        Raises
+        ------
+        InputFileError
+            If the file is per terrain and the log has no terrain column or a
+            terrain without a set.
+        """
+        k = len(get_model(self.model).param_names)
+        if not self.per_terrain:
+            return np.broadcast_to(self.vector(), (len(log), k))
+        if log.terrain is None:
+            raise InputFileError(
+                f"{log.source}: no terrain column, but the {self.model} parameters are per "
+                f"terrain ({sorted(self.sets)})"
+            )
+        labels, inverse = np.unique(log.terrain, return_inverse=True)
+        try:
+            table = np.array([self.vector(str(label)) for label in labels]).reshape(labels.size, k)
+        except KeyError as exc:
+            raise InputFileError(f"{log.source}: {exc.args[0]}") from None
+        return table[inverse.ravel()]
+
+    def icr(self, terrain: str | None = None) -> tuple[float, float, float, float]:
+        """``(y_l, y_r, x_icr, alpha)`` of an ``icr`` or ``icr-slip`` set (EKF seed).
+
+        ``alpha`` is 1 for the ``icr`` model.
+        """
+        if self.model not in ("icr", "icr-slip"):
+            raise ValueError(f"model {self.model!r} has no ICR state; fit 'icr' or 'icr-slip'")
+        v = self.vector(terrain)
+        return float(v[0]), float(v[1]), float(v[2]), float(v[3]) if v.size > 3 else 1.0
+
+
+def derived_quantities(
+    model: str, params: Mapping[str, float], track_width: float | None
+) -> dict[str, float]:
+    """Steering efficiency ``c`` and eccentricity ``e`` of models with track ICRs.
+
+    Returns an empty dict for models without ``y_l, y_r`` (and ``c`` only
+    with a ``track_width``).
+    """
+    names = get_model(model).param_names
+    if "y_l" not in names or "y_r" not in names:
+        return {}
+    y_l, y_r = params["y_l"], params["y_r"]
+    out = {"eccentricity": float(eccentricity(y_l, y_r))}
+    if track_width is not None:
+        out = {"steering_efficiency": float(steering_efficiency(y_l, y_r, track_width)), **out}
+    return out
 
 
 def _number(value: object, where: str) -> float:
@@ -46,8 +183,30 @@ def _number(value: object, where: str) -> float:
     return float(value)
 
 
+def _mapping(value: object, where: str) -> dict:
+    if not isinstance(value, dict):
+        raise InputFileError(f"{where}: expected a mapping, got {value!r}")
+    return value
+
+
+def _read_set(data: dict, names: tuple[str, ...], where: str, model: str) -> ParamSet:
+    raw = data.get("params") or {}
+    if not isinstance(raw, dict) or set(map(str, raw)) != set(names):
+        raise InputFileError(
+            f"{where}: model {model!r} needs params {list(names)}, "
+            f"got {sorted(map(str, raw)) if isinstance(raw, dict) else raw!r}"
+        )
+    params = {str(k): _number(v, f"{where}: params.{k}") for k, v in raw.items()}
+    fit = _mapping(data.get("fit") or {}, f"{where}: fit")
+    unknown = sorted(set(map(str, fit)) - set(_FIT_KEYS))
+    if unknown:
+        raise InputFileError(f"{where}: fit: unknown key(s) {unknown}; allowed: {list(_FIT_KEYS)}")
+    _mapping(data.get("derived") or {}, f"{where}: derived")
+    return ParamSet(params, {str(k): _number(v, f"{where}: fit.{k}") for k, v in fit.items()})
+
+
 def read_params(path: str | Path) -> ModelParams:
-    """Read and validate a parameter file.
+    """Read and validate a parameter file (version 1 or 2).
 
     Raises
     ------
@@ -62,28 +221,89 @@ def read_params(path: str | Path) -> ModelParams:
     except yaml.YAMLError:
         raise InputFileError(f"{path}: not valid YAML") from None
     if not isinstance(data, dict):
-        raise InputFileError(f"{path}: expected a mapping with keys {sorted(_KEYS)}")
-    unknown = sorted(set(map(str, data)) - _KEYS)
-    if unknown:
-        raise InputFileError(f"{path}: unknown key(s) {unknown}; allowed: {sorted(_KEYS)}")
+        raise InputFileError(f"{path}: expected a mapping with keys {sorted(_V2_KEYS)}")
     version = data.get("format_version")
-    if version != PARAMS_FORMAT_VERSION:
+    if version not in (1, PARAMS_FORMAT_VERSION):
         raise InputFileError(
-            f"{path}: format_version {version!r} is not supported (expected {PARAMS_FORMAT_VERSION})"
+            f"{path}: format_version {version!r} is not supported (expected 1 or "
+            f"{PARAMS_FORMAT_VERSION})"
         )
+    allowed = _V1_KEYS if version == 1 else _V2_KEYS
+    unknown = sorted(set(map(str, data)) - allowed)
+    if unknown:
+        raise InputFileError(f"{path}: unknown key(s) {unknown}; allowed: {sorted(allowed)}")
     try:
         model = get_model(str(data.get("model")))
     except ValueError as exc:
         raise InputFileError(f"{path}: {exc}") from None
-    raw = data.get("params") or {}
-    if not isinstance(raw, dict) or set(map(str, raw)) != set(model.param_names):
-        raise InputFileError(
-            f"{path}: model {model.name!r} needs params {list(model.param_names)}, "
-            f"got {sorted(map(str, raw)) if isinstance(raw, dict) else raw!r}"
-        )
-    params = {str(k): _number(v, f"{path}: params.{k}") for k, v in raw.items()}
+    if "terrains" in data:
+        if set(data) & _SET_KEYS:
+            raise InputFileError(
+                f"{path}: give either 'terrains' or top-level {sorted(_SET_KEYS)}, not both"
+            )
+        terrains = _mapping(data["terrains"], f"{path}: terrains")
+        if not terrains:
+            raise InputFileError(f"{path}: terrains: no parameter set")
+        sets = {
+            str(name): _read_set(
+                _mapping(entry, f"{path}: terrains.{name}"),
+                model.param_names,
+                f"{path}: terrains.{name}",
+                model.name,
+            )
+            for name, entry in terrains.items()
+        }
+    else:
+        sets = {ANY_TERRAIN: _read_set(data, model.param_names, str(path), model.name)}
     b = data.get("track_width")
     track_width = None if b is None else _number(b, f"{path}: track_width")
-    if model.needs_track_width and track_width is not None and track_width <= 0:
+    if track_width is not None and track_width <= 0:
         raise InputFileError(f"{path}: track_width must be > 0 m, got {track_width}")
-    return ModelParams(model.name, params, track_width)
+    info = {k: data[k] for k in sorted(_INFO_KEYS) if k in data}
+    return ModelParams(model.name, sets, track_width, info)
+
+
+def _set_entry(mp: ModelParams, ps: ParamSet) -> dict[str, Any]:
+    entry: dict[str, Any] = {"params": {k: float(v) for k, v in ps.params.items()}}
+    if ps.fit:
+        entry["fit"] = {k: ps.fit[k] for k in _FIT_KEYS if k in ps.fit}
+    derived = derived_quantities(mp.model, ps.params, mp.track_width)
+    if derived:
+        entry["derived"] = derived
+    return entry
+
+
+def _plain(value: Any) -> Any:
+    """Numpy scalars and tuples to plain YAML types; NaN to None."""
+    if isinstance(value, dict):
+        return {str(k): _plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple, np.ndarray)):
+        return [_plain(v) for v in value]
+    if isinstance(value, (np.integer, np.floating)):
+        value = value.item()
+    if isinstance(value, float) and math.isnan(value):
+        return None
+    return value
+
+
+def write_params(path: str | Path, mp: ModelParams) -> None:
+    """Write a version-2 parameter file atomically (derived ``c``, ``e`` recomputed)."""
+    data: dict[str, Any] = {
+        "format_version": PARAMS_FORMAT_VERSION,
+        "model": mp.model,
+    }
+    if mp.track_width is not None:
+        data["track_width"] = float(mp.track_width)
+    data.update({k: mp.info[k] for k in ("horizon", "sigma", "bounds") if k in mp.info})
+    if mp.per_terrain:
+        data["terrains"] = {name: _set_entry(mp, ps) for name, ps in mp.sets.items()}
+    else:
+        data.update(_set_entry(mp, mp.sets[ANY_TERRAIN]))
+    if "evaluation" in mp.info:
+        data["evaluation"] = mp.info["evaluation"]
+    text = yaml.safe_dump(_plain(data), sort_keys=False, default_flow_style=None, width=100)
+
+    def write(handle: BinaryIO) -> None:
+        handle.write(text.encode("utf-8"))
+
+    write_atomic(path, write)

@@ -413,7 +413,8 @@ MODELS: dict[str, KinematicModel] = {
         KinematicModel(
             "roc",
             ("alpha", "beta_1", "beta_2"),
-            ((0.0, 1.5), (-_BIG, _BIG), (-_BIG, _BIG)),
+            # Baril: beta in R; these keep y_0 > 0 for every curvature (no singular twist)
+            ((0.0, 1.5), (-0.95, _BIG), (0.0, _BIG)),
             True,
             twist_roc,
         ),

@@ -1,0 +1,42 @@
+"""``terrain-odom compare``: fit every kinematic model and tabulate held-out errors."""
+
+from __future__ import annotations
+
+import argparse
+
+from terrain_odom.cli.fit import MODEL_CHOICES, add_fit_options, fit_options
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    """Register the ``compare`` subcommand."""
+    p = sub.add_parser("compare", help="fit every kinematic model, compare held-out errors")
+    add_fit_options(p)
+    p.add_argument("--eval", nargs="+", required=True, help="held-out logs (with poses)")
+    p.add_argument(
+        "--models",
+        nargs="+",
+        choices=MODEL_CHOICES,
+        help="models to compare (default: all)",
+    )
+    p.add_argument("--out", help="folder for compare.md, compare.json, compare.png, params_*.yaml")
+    p.set_defaults(func=_cmd_compare)
+
+
+def _cmd_compare(args: argparse.Namespace) -> int:
+    from terrain_odom.fitting import DEFAULT_TRAINING_HORIZON
+    from terrain_odom.workflows_fit import compare
+
+    report = compare(
+        args.log,
+        args.eval,
+        out_dir=args.out,
+        models=args.models,
+        horizon=args.horizon or DEFAULT_TRAINING_HORIZON,
+        by_terrain=args.by_terrain,
+        options=fit_options(args),
+        config_path=args.config,
+    )
+    print(report["markdown"], end="")
+    if args.out:
+        print(f"tables, box plot and parameter files in {args.out}")
+    return 0

@@ -1,0 +1,486 @@
+"""Offline model identification workflows: what ``terrain-odom fit`` and ``compare`` run.
+
+:func:`fit` fits one constant kinematic model (one set, or one per terrain)
+on training logs and writes a parameter file; :func:`compare` fits every
+model and writes Baril-style tables (Markdown, JSON) and a box plot. The
+computation lives in :mod:`terrain_odom.fitting` and
+:mod:`terrain_odom.evaluation`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from terrain_odom import __version__
+from terrain_odom.config import Config, load_config
+from terrain_odom.errors import ConfigError, InputFileError
+from terrain_odom.evaluation import (
+    ErrorSummary,
+    WindowErrors,
+    Windows,
+    model_twist,
+    spatial_windows,
+    summarize,
+    window_errors,
+)
+from terrain_odom.fitting import (
+    DEFAULT_TRAINING_HORIZON,
+    FitOptions,
+    Horizon,
+    fit_model,
+    parse_horizon,
+    segment_set,
+    training_windows,
+)
+from terrain_odom.io import read_wheel_log
+from terrain_odom.io.atomic import write_atomic
+from terrain_odom.io.params import (
+    ANY_TERRAIN,
+    ModelParams,
+    ParamSet,
+    derived_quantities,
+    write_params,
+)
+from terrain_odom.io.report import write_json
+from terrain_odom.kinematics import MODELS, get_model
+from terrain_odom.types import WheelLog
+
+__all__ = [
+    "LogSource",
+    "FitReport",
+    "fit",
+    "evaluate_params",
+    "compare",
+]
+
+LogSource = str | Path | WheelLog
+"""A wheel-log CSV path, or an already loaded :class:`WheelLog`."""
+
+ALL = "all"  # group name of evaluation windows when fits are not per terrain
+
+
+@dataclass(frozen=True)
+class FitReport:
+    """Result of :func:`fit`.
+
+    Attributes
+    ----------
+    params : ModelParams
+        The fitted model (what was written to the parameter file).
+    seconds : dict of str to float
+        Fit wall time per terrain (``"*"`` without per-terrain sets), s.
+    skipped : tuple of str
+        Terrains left out because no training segment lies on them.
+    evaluation : dict
+        With evaluation logs: error statistics of the fitted model and of the
+        ideal differential drive, per group (terrain or ``"all"``).
+    """
+
+    params: ModelParams
+    seconds: dict[str, float]
+    skipped: tuple[str, ...] = ()
+    evaluation: dict[str, Any] = field(default_factory=dict)
+
+
+def _load(sources: Sequence[LogSource], cfg: Config, role: str) -> list[WheelLog]:
+    logs = []
+    for src in sources:
+        log = (
+            src
+            if isinstance(src, WheelLog)
+            else read_wheel_log(src, wheel_radius=cfg.robot.wheel_radius)
+        )
+        if not log.has_pose.any():
+            raise InputFileError(
+                f"{log.source}: no pose measurements (x, y, yaw); a {role} log needs them"
+            )
+        logs.append(log)
+    if not logs:
+        raise InputFileError(f"no {role} log given")
+    return logs
+
+
+def _horizon(value: str | float | Horizon) -> Horizon:
+    if isinstance(value, Horizon):
+        return value
+    try:
+        return parse_horizon(value)
+    except ValueError as exc:
+        raise ConfigError(str(exc)) from None
+
+
+def _terrains(logs: Sequence[WheelLog]) -> list[str]:
+    missing = [log.source for log in logs if log.terrain is None]
+    if missing:
+        raise InputFileError(f"{missing[0]}: no terrain column; --by-terrain needs one")
+    return sorted({str(x) for log in logs for x in np.unique(log.terrain)})
+
+
+def _fit_sets(
+    model: str,
+    logs: Sequence[WheelLog],
+    horizon: Horizon,
+    by_terrain: bool,
+    options: FitOptions,
+    track_width: float,
+) -> tuple[dict[str, ParamSet], dict[str, float], tuple[str, ...]]:
+    """Fit one set (``ANY_TERRAIN``) or one per terrain."""
+    groups = _terrains(logs) if by_terrain else [None]
+    sets: dict[str, ParamSet] = {}
+    seconds: dict[str, float] = {}
+    skipped = []
+    for terrain in groups:
+        segments = segment_set(logs, [training_windows(log, horizon, terrain) for log in logs])
+        if segments.count == 0:
+            skipped.append(str(terrain))
+            continue
+        result = fit_model(model, segments, options=options, track_width=track_width)
+        key = ANY_TERRAIN if terrain is None else terrain
+        sets[key] = ParamSet(
+            result.as_dict(),
+            {
+                "loss": result.loss,
+                "segments": result.segments,
+                "length_m": result.length,
+                "duration_s": result.duration,
+                "seconds": result.seconds,
+            },
+        )
+        seconds[key] = result.seconds
+    if not sets:
+        where = "" if not by_terrain else " on any terrain"
+        raise InputFileError(
+            f"no training segment of {horizon}{where} in "
+            f"{', '.join(log.source for log in logs)} (pose measurements never that far apart "
+            f"within a segment); use a shorter --horizon"
+        )
+    return sets, seconds, tuple(skipped)
+
+
+def _group_errors(
+    mp: ModelParams, logs: Sequence[WheelLog], h_e: float, track_width: float
+) -> dict[str, list[WindowErrors]]:
+    """Window errors of a model on evaluation logs, grouped by start-row terrain."""
+    model = get_model(mp.model)
+    groups: dict[str, list[WindowErrors]] = {}
+    for log in logs:
+        windows = spatial_windows(log, h_e)
+        if len(windows) == 0:
+            continue
+        values = mp.rows(log)  # per-terrain sets need (and check) the terrain column
+        labels = np.asarray(log.terrain) if mp.per_terrain else np.full(len(log), ALL)
+        b = mp.track_width or track_width
+        errors = window_errors(log, windows, model_twist(model, values[windows.start], b))
+        start_labels = labels[windows.start]
+        for label in np.unique(start_labels):
+            keep = np.flatnonzero(start_labels == label)
+            groups.setdefault(str(label), []).append(_subset(errors, keep))
+    return groups
+
+
+def _subset(errors: WindowErrors, keep: np.ndarray) -> WindowErrors:
+    w = errors.windows
+    return WindowErrors(
+        windows=Windows(start=w.start[keep], end=w.end[keep], length=w.length[keep]),
+        predicted=errors.predicted[keep],
+        translation=errors.translation[keep],
+        rotation=errors.rotation[keep],
+    )
+
+
+def evaluate_params(
+    mp: ModelParams, logs: Sequence[WheelLog], h_e: float, track_width: float
+) -> dict[str, ErrorSummary]:
+    """Error statistics of a fitted model on evaluation logs, per terrain (or ``"all"``).
+
+    Parameters
+    ----------
+    mp : ModelParams
+        The model; per-terrain sets are applied to the windows starting on
+        their terrain.
+    logs : sequence of WheelLog
+        Evaluation logs.
+    h_e : float
+        Evaluation horizon, m.
+    track_width : float
+        Nominal ``B``, m (when ``mp`` has none).
+
+    Returns
+    -------
+    dict of str to ErrorSummary
+        Pooled over the logs, per group.
+    """
+    return {k: summarize(v) for k, v in _group_errors(mp, logs, h_e, track_width).items()}
+
+
+def _idd(mp: ModelParams, track_width: float) -> ModelParams:
+    """Return the ideal differential drive with the same grouping as ``mp``."""
+    return ModelParams("idd", {k: ParamSet({}) for k in mp.sets}, track_width)
+
+
+def fit(
+    logs: Sequence[LogSource],
+    model: str,
+    *,
+    out: str | Path | None = None,
+    horizon: str | float | Horizon = DEFAULT_TRAINING_HORIZON,
+    eval_logs: Sequence[LogSource] = (),
+    by_terrain: bool = False,
+    options: FitOptions | None = None,
+    config: Config | None = None,
+    config_path: str | Path | None = None,
+) -> FitReport:
+    """Fit a constant kinematic model on training logs and write a parameter file.
+
+    Parameters
+    ----------
+    logs : sequence of str, Path or WheelLog
+        Training logs with pose measurements; the loss sums over all of them
+        (so it does not matter how a run is split into files at segment breaks).
+    model : str
+        A name from :data:`terrain_odom.kinematics.MODELS`.
+    out : str or Path, optional
+        Parameter file to write (YAML, see :mod:`terrain_odom.io.params`).
+    horizon : str, float or Horizon, optional
+        Training horizon ``h_t``: a distance like ``"2m"`` (default 2 m) or a
+        duration like ``"2s"``.
+    eval_logs : sequence, optional
+        Held-out logs: their errors per metre (and the ideal differential
+        drive's) go into the report and the file.
+    by_terrain : bool, optional
+        One parameter set per terrain label of the training logs.
+    options : FitOptions, optional
+        Optimiser settings (Sigma, population, generations, seed).
+    config, config_path : optional
+        Configuration: wheel radius, nominal track width, evaluation horizon.
+
+    Returns
+    -------
+    FitReport
+    """
+    cfg = config if config is not None else load_config(config_path)
+    try:
+        m = get_model(model)
+    except ValueError as exc:
+        raise ConfigError(str(exc)) from None
+    h_t = _horizon(horizon)
+    train = _load(logs, cfg, "training")
+    evals = _load(eval_logs, cfg, "evaluation") if eval_logs else []
+    opt = options or FitOptions()
+    b = cfg.robot.track_width
+    sets, seconds, skipped = _fit_sets(m.name, train, h_t, by_terrain, opt, b)
+    info: dict[str, Any] = {
+        "horizon": str(h_t),
+        "sigma": None if opt.sigma is None else np.asarray(opt.sigma, dtype=float).tolist(),
+        "bounds": {
+            n: [float(lo), float(hi)] for n, (lo, hi) in zip(m.param_names, m.bounds, strict=True)
+        },
+    }
+    mp = ModelParams(m.name, sets, b, info)
+    evaluation: dict[str, Any] = {}
+    if evals:
+        h_e = cfg.evaluation.horizon
+        fitted = evaluate_params(mp, evals, h_e, b)
+        ideal = evaluate_params(_idd(mp, b), evals, h_e, b)
+        evaluation = {
+            "horizon_m": h_e,
+            "logs": [log.source for log in evals],
+            "groups": {
+                g: {m.name: fitted[g].to_dict(), f"idd (B={b:g} m)": ideal[g].to_dict()}
+                for g in fitted
+            },
+        }
+        mp = ModelParams(m.name, sets, b, {**info, "evaluation": evaluation})
+    if out is not None:
+        write_params(out, mp)
+    return FitReport(mp, seconds, skipped, evaluation)
+
+
+def _fmt_stats(s: ErrorSummary) -> tuple[str, str]:
+    t, r = s.translation, s.rotation
+    if t.count == 0:
+        return "n/a", "n/a"
+    return (
+        f"{t.median:.4f} [{t.q25:.3f}-{t.q75:.3f}]",
+        f"{r.median:.3f} [{r.q25:.2f}-{r.q75:.2f}]",
+    )
+
+
+def _fmt_params(model: str, ps: ParamSet, track_width: float) -> str:
+    values = {**ps.params, **derived_quantities(model, ps.params, track_width)}
+    short = {"steering_efficiency": "c", "eccentricity": "e"}
+    return ", ".join(f"{short.get(k, k)}={v:.3f}" for k, v in values.items()) or "-"
+
+
+def compare(
+    logs: Sequence[LogSource],
+    eval_logs: Sequence[LogSource],
+    *,
+    out_dir: str | Path | None = None,
+    models: Sequence[str] | None = None,
+    horizon: str | float | Horizon = DEFAULT_TRAINING_HORIZON,
+    by_terrain: bool = False,
+    options: FitOptions | None = None,
+    config: Config | None = None,
+    config_path: str | Path | None = None,
+) -> dict[str, Any]:
+    """Fit every model and tabulate parameters and held-out errors (Baril Table I, Fig. 5-6).
+
+    Parameters
+    ----------
+    logs, eval_logs : sequence of str, Path or WheelLog
+        Training and evaluation logs (with poses).
+    out_dir : str or Path, optional
+        Folder for ``compare.md``, ``compare.json``, ``compare.png`` and one
+        ``params_<model>.yaml`` per model (created if missing).
+    models : sequence of str, optional
+        Models to compare (default: all of ``MODELS``; ``idd`` is only evaluated).
+    horizon, by_terrain, options, config, config_path
+        As for :func:`fit`.
+
+    Returns
+    -------
+    dict
+        ``markdown`` (the tables), ``models`` (per model: sets, fit seconds,
+        errors per group) and the settings.
+    """
+    cfg = config if config is not None else load_config(config_path)
+    names = list(models) if models is not None else list(MODELS)
+    for name in names:
+        if name not in MODELS:
+            raise ConfigError(f"unknown kinematic model {name!r}; choose from {sorted(MODELS)}")
+    h_t = _horizon(horizon)
+    train = _load(logs, cfg, "training")
+    evals = _load(eval_logs, cfg, "evaluation")
+    target = None if out_dir is None else Path(out_dir)
+    if target is not None:
+        target.mkdir(parents=True, exist_ok=True)
+    opt = options or FitOptions()
+    b = cfg.robot.track_width
+    h_e = cfg.evaluation.horizon
+    results: dict[str, Any] = {}
+    raw_errors: dict[str, dict[str, list[WindowErrors]]] = {}
+    for name in names:
+        sets, seconds, skipped = _fit_sets(name, train, h_t, by_terrain, opt, b)
+        mp = ModelParams(name, sets, b, {"horizon": str(h_t)})
+        raw_errors[name] = _group_errors(mp, evals, h_e, b)
+        results[name] = {
+            "sets": {k: {"params": v.params, "fit": v.fit} for k, v in sets.items()},
+            "derived": {k: derived_quantities(name, v.params, b) for k, v in sets.items()},
+            "skipped_terrains": list(skipped),
+            "errors": {g: summarize(e).to_dict() for g, e in raw_errors[name].items()},
+        }
+        if target is not None:
+            write_params(target / f"params_{name}.yaml", mp)
+    markdown = _markdown(names, results, raw_errors, b, h_t, h_e)
+    report = {
+        "terrain_odom_version": __version__,
+        "command": "compare",
+        "training_logs": [log.source for log in train],
+        "evaluation_logs": [log.source for log in evals],
+        "horizon_train": str(h_t),
+        "horizon_eval_m": h_e,
+        "track_width_m": b,
+        "models": results,
+        "markdown": markdown,
+    }
+    if target is not None:
+        write_atomic(target / "compare.md", lambda handle: handle.write(markdown.encode()))
+        write_json(target / "compare.json", report)
+        _box_plot(target / "compare.png", names, raw_errors, h_e)
+    return report
+
+
+def _markdown(
+    names: Sequence[str],
+    results: dict[str, Any],
+    raw_errors: dict[str, dict[str, list[WindowErrors]]],
+    track_width: float,
+    h_t: Horizon,
+    h_e: float,
+) -> str:
+    groups = sorted({g for r in results.values() for g in r["sets"]})
+    head = [g if g != ANY_TERRAIN else "all training logs" for g in groups]
+    lines = [
+        f"Parameters per model and terrain (trained on h_t = {h_t} segments; "
+        f"c = (y_l - y_r) / B with B = {track_width:g} m, e = eccentricity)",
+        "",
+        "| model | " + " | ".join(head) + " |",
+        "|---" * (len(groups) + 1) + "|",
+    ]
+    for name in names:
+        sets = results[name]["sets"]
+        cells = [
+            _fmt_params(name, ParamSet(sets[g]["params"]), track_width) if g in sets else "-"
+            for g in groups
+        ]
+        if name == "idd":
+            cells = [f"B={track_width:g} m (not fitted)"] * len(groups)
+        lines.append(f"| {name} | " + " | ".join(cells) + " |")
+    lines += [
+        "",
+        f"Held-out error per metre over h_e = {h_e:g} m windows: median [q25-q75]",
+        "",
+        "| model | terrain | windows | m/m | deg/m | fit (s) |",
+        "|---|---|---|---|---|---|",
+    ]
+    for name in names:
+        for g, errs in sorted(raw_errors[name].items()):
+            summary = summarize(errs)
+            t, r = _fmt_stats(summary)
+            sets = results[name]["sets"]
+            fit_s = sets.get(g, sets.get(ANY_TERRAIN, {"fit": {}}))["fit"].get("seconds", 0.0)
+            lines.append(
+                f"| {name} | {g} | {summary.translation.count} | {t} | {r} | {fit_s:.1f} |"
+            )
+    return "\n".join(lines) + "\n"
+
+
+def _box_plot(
+    path: Path, names: Sequence[str], raw_errors: dict[str, dict[str, list[WindowErrors]]], h_e
+) -> None:
+    """Box plots of the per-metre errors per model and terrain (Baril Fig. 5-6 style)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    groups = sorted({g for e in raw_errors.values() for g in e})
+    width = 0.8 / max(1, len(groups))
+    fig, axes = plt.subplots(2, 1, figsize=(min(14.0, 2.0 + 0.5 * len(names) * len(groups)), 7))
+    for ax, attr, unit in (
+        (axes[0], "translation_per_m", "translational error (m/m)"),
+        (axes[1], "rotation_per_m", "angular error (deg/m)"),
+    ):
+        for j, g in enumerate(groups):
+            data = [
+                np.concatenate([getattr(e, attr) for e in raw_errors[n].get(g, [])] or [[]])
+                for n in names
+            ]
+            pos = np.arange(len(names)) + (j - (len(groups) - 1) / 2) * width
+            keep = [i for i, d in enumerate(data) if d.size]
+            box = ax.boxplot(
+                [data[i] for i in keep],
+                positions=pos[keep],
+                widths=0.9 * width,
+                showfliers=False,
+                patch_artist=True,
+            )
+            for patch in box["boxes"]:
+                patch.set_facecolor(f"C{j}")
+                patch.set_alpha(0.6)
+            ax.plot([], [], color=f"C{j}", lw=6, alpha=0.6, label=g)
+        ax.set_xticks(np.arange(len(names)), names)
+        ax.set_ylabel(unit)
+        ax.set_yscale("log")
+        ax.grid(True, axis="y", alpha=0.3)
+    axes[0].legend(title="terrain")
+    axes[0].set_title(f"Held-out model error over h_e = {h_e:g} m windows")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)

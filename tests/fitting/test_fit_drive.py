@@ -1,0 +1,40 @@
+"""Acceptance of the offline identification on the real Warthog logs (skipped if absent)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from terrain_odom.config import load_config
+from terrain_odom.evaluation import model_twist, spatial_windows, summarize, window_errors
+from terrain_odom.io import read_wheel_log
+from terrain_odom.kinematics import get_model
+from terrain_odom.workflows_fit import fit
+
+REPO = Path(__file__).resolve().parents[2]
+DRIVE = REPO.parent / "shared" / "data" / "drive"
+
+pytestmark = pytest.mark.skipif(not DRIVE.is_dir(), reason="../shared/data/drive not present")
+
+
+def test_edd_sym_on_held_out_grass_runs():
+    """Leave-one-run-out on the five grass runs, held-out windows pooled (README figures)."""
+    cfg = load_config(REPO / "config" / "warthog.yaml")
+    grass = [
+        read_wheel_log(p, wheel_radius=cfg.robot.wheel_radius)
+        for p in sorted(DRIVE.glob("warthog_wheels_grass*.csv"))
+    ]
+    assert len(grass) == 5
+    edd, idd = get_model("edd-sym"), get_model("idd")
+    fitted, ideal = [], []
+    for i, test in enumerate(grass):
+        report = fit([g for j, g in enumerate(grass) if j != i], "edd-sym", config=cfg)
+        windows = spatial_windows(test)
+        fitted.append(window_errors(test, windows, model_twist(edd, report.params.vector())))
+        ideal.append(window_errors(test, windows, model_twist(idd, [], cfg.robot.track_width)))
+    s, base = summarize(fitted), summarize(ideal)
+    assert s.translation.median <= 0.05
+    assert s.rotation.median <= 0.7
+    assert s.translation.median < 0.5 * base.translation.median
+    assert s.rotation.median < 0.2 * base.rotation.median
