@@ -25,7 +25,7 @@ from sklearn.model_selection import StratifiedKFold
 
 from terrain_odom import __version__
 from terrain_odom.errors import ConfigError, InputFileError
-from terrain_odom.io.atomic import write_atomic
+from terrain_odom.io.atomic import write_atomic, write_text_atomic
 from terrain_odom.io.report import write_json
 from terrain_odom.vision.classifier import (
     ClassifierConfig,
@@ -352,7 +352,7 @@ def report_accuracy(
         return report
     outputs = (out_dir / "accuracy.json", out_dir / "accuracy.csv", out_dir / "confusion.png")
     write_json(outputs[0], report.to_dict())
-    write_atomic(outputs[1], lambda handle: handle.write(accuracy_csv(report).encode("utf-8")))
+    write_text_atomic(outputs[1], accuracy_csv(report))
     write_atomic(outputs[2], lambda handle: plot_confusion(report, handle))
     return dataclasses.replace(report, outputs=outputs)
 
@@ -398,12 +398,10 @@ def plot_confusion(report: AccuracyReport, handle: BinaryIO) -> None:
 
     matplotlib is imported here, with the Agg canvas (no display needed).
     """
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
+    from terrain_odom.reporting.plots import new_figure
 
     classes = report.chosen.classes
-    fig = Figure(figsize=(4.2 * 2, 3.8), layout="constrained")
-    FigureCanvasAgg(fig)
+    fig = new_figure(4.2 * 2, 3.8)
     for ax, (title, cv) in zip(
         fig.subplots(1, 2),
         (("chosen", report.chosen), ("paper (Chen et al.)", report.paper)),

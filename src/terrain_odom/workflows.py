@@ -39,7 +39,7 @@ from terrain_odom.evaluation.prediction import (
     slip_twist_from_rows,
 )
 from terrain_odom.io import TrajectoryWriter, read_trajectory_csv, read_wheel_log, write_tum
-from terrain_odom.io.atomic import write_atomic
+from terrain_odom.io.atomic import write_atomic, write_text_atomic
 from terrain_odom.io.frames import read_frames
 from terrain_odom.io.groundtruth import GroundTruth, read_groundtruth
 from terrain_odom.io.params import ModelParams, read_params
@@ -315,15 +315,14 @@ def run(
     report_path = out / "report.json"
     write_json(report_path, report)
     md_path = out / "report.md"
-    markdown = run_markdown(to_jsonable(report), plots)
-    write_atomic(md_path, lambda handle: handle.write(markdown.encode("utf-8")))
+    write_text_atomic(md_path, run_markdown(to_jsonable(report), plots))
     return RunSummary(csv_path, tum_path, report_path, len(log), seconds, md_path)
 
 
 def _read_groundtruth(path: str | Path, log: WheelLog) -> GroundTruth:
     """Read ground truth and check it covers the log's time span."""
     gt = read_groundtruth(path)
-    if len(log) and (log.t[0] < gt.t[0] - 1e-9 or log.t[-1] > gt.t[-1] + 1e-9):
+    if not gt.covers(log.t):
         raise InputFileError(
             f"{gt.source}: covers {gt.t[0]:g}-{gt.t[-1]:g} s but the wheel log {log.source} "
             f"spans {log.t[0]:g}-{log.t[-1]:g} s (is it the ground truth of this run?)"

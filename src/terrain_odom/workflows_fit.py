@@ -12,7 +12,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, BinaryIO
 
 import numpy as np
 
@@ -38,7 +38,7 @@ from terrain_odom.fitting import (
     training_windows,
 )
 from terrain_odom.io import read_wheel_log
-from terrain_odom.io.atomic import write_atomic
+from terrain_odom.io.atomic import write_atomic, write_text_atomic
 from terrain_odom.io.params import (
     ANY_TERRAIN,
     ModelParams,
@@ -48,6 +48,7 @@ from terrain_odom.io.params import (
 )
 from terrain_odom.io.report import write_json
 from terrain_odom.kinematics import MODELS, get_model
+from terrain_odom.reporting.markdown import table
 from terrain_odom.types import WheelLog
 
 __all__ = [
@@ -390,9 +391,11 @@ def compare(
         "markdown": markdown,
     }
     if target is not None:
-        write_atomic(target / "compare.md", lambda handle: handle.write(markdown.encode()))
+        write_text_atomic(target / "compare.md", markdown)
         write_json(target / "compare.json", report)
-        _box_plot(target / "compare.png", names, raw_errors, h_e)
+        write_atomic(
+            target / "compare.png", lambda handle: _box_plot(handle, names, raw_errors, h_e)
+        )
     return report
 
 
@@ -406,13 +409,7 @@ def _markdown(
 ) -> str:
     groups = sorted({g for r in results.values() for g in r["sets"]})
     head = [g if g != ANY_TERRAIN else "all training logs" for g in groups]
-    lines = [
-        f"Parameters per model and terrain (trained on h_t = {h_t} segments; "
-        f"c = (y_l - y_r) / B with B = {track_width:g} m, e = eccentricity)",
-        "",
-        "| model | " + " | ".join(head) + " |",
-        "|---" * (len(groups) + 1) + "|",
-    ]
+    param_rows = []
     for name in names:
         sets = results[name]["sets"]
         cells = [
@@ -421,38 +418,41 @@ def _markdown(
         ]
         if name == "idd":
             cells = [f"B={track_width:g} m (not fitted)"] * len(groups)
-        lines.append(f"| {name} | " + " | ".join(cells) + " |")
-    lines += [
-        "",
-        f"Held-out error per metre over h_e = {h_e:g} m windows: median [q25-q75]",
-        "",
-        "| model | terrain | windows | m/m | deg/m | fit (s) |",
-        "|---|---|---|---|---|---|",
-    ]
+        param_rows.append([name, *cells])
+    error_rows = []
     for name in names:
         for g, errs in sorted(raw_errors[name].items()):
             summary = summarize(errs)
             t, r = _fmt_stats(summary)
             sets = results[name]["sets"]
             fit_s = sets.get(g, sets.get(ANY_TERRAIN, {"fit": {}}))["fit"].get("seconds", 0.0)
-            lines.append(
-                f"| {name} | {g} | {summary.translation.count} | {t} | {r} | {fit_s:.1f} |"
-            )
+            error_rows.append([name, g, summary.translation.count, t, r, f"{fit_s:.1f}"])
+    lines = [
+        f"Parameters per model and terrain (trained on h_t = {h_t} segments; "
+        f"c = (y_l - y_r) / B with B = {track_width:g} m, e = eccentricity)",
+        "",
+        table(["model", *head], param_rows),
+        "",
+        f"Held-out error per metre over h_e = {h_e:g} m windows: median [q25-q75]",
+        "",
+        table(["model", "terrain", "windows", "m/m", "deg/m", "fit (s)"], error_rows),
+    ]
     return "\n".join(lines) + "\n"
 
 
 def _box_plot(
-    path: Path, names: Sequence[str], raw_errors: dict[str, dict[str, list[WindowErrors]]], h_e
+    handle: BinaryIO,
+    names: Sequence[str],
+    raw_errors: dict[str, dict[str, list[WindowErrors]]],
+    h_e: float,
 ) -> None:
     """Box plots of the per-metre errors per model and terrain (Baril Fig. 5-6 style)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from terrain_odom.reporting.plots import new_figure
 
     groups = sorted({g for e in raw_errors.values() for g in e})
     width = 0.8 / max(1, len(groups))
-    fig, axes = plt.subplots(2, 1, figsize=(min(14.0, 2.0 + 0.5 * len(names) * len(groups)), 7))
+    fig = new_figure(min(14.0, 2.0 + 0.5 * len(names) * len(groups)), 7)
+    axes = fig.subplots(2, 1)
     for ax, attr, unit in (
         (axes[0], "translation_per_m", "translational error (m/m)"),
         (axes[1], "rotation_per_m", "angular error (deg/m)"),
@@ -481,6 +481,4 @@ def _box_plot(
         ax.grid(True, axis="y", alpha=0.3)
     axes[0].legend(title="terrain")
     axes[0].set_title(f"Held-out model error over h_e = {h_e:g} m windows")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    fig.savefig(handle, format="png", dpi=110)

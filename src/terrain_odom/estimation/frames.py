@@ -14,6 +14,7 @@ the image centre.
 
 from __future__ import annotations
 
+import functools
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -171,7 +172,7 @@ class FramePipeline:
         else:
             record.roi_status = FULL_FRAME
             record.box = (0, 0, width, height)
-            record.ahead = self._image_centre_ahead()
+            record.ahead = self._image_centre_ahead
             region = image
         self.roi_counts[record.roi_status] = self.roi_counts.get(record.roi_status, 0) + 1
         if region is not None:
@@ -193,6 +194,7 @@ class FramePipeline:
         self.classifier.classify(image)
         return 1e3 * (time.perf_counter() - started)
 
+    @functools.cached_property
     def _image_centre_ahead(self) -> float:
         """Distance to the ground at the image centre, m (0 if it is above the horizon)."""
         centre = [(self.camera.width - 1) / 2.0, (self.camera.height - 1) / 2.0]

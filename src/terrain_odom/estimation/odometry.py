@@ -362,7 +362,7 @@ class _TerrainFlow:
             return
         if confirmed is None:
             return
-        target = float(self.tracker.changed_at if self.tracker.changed_at is not None else where)
+        target = float(self.tracker.changed_at)  # type: ignore[arg-type] - set with every `at`
         if target > self.travelled:
             self.pending.append((target, confirmed, self.ekf.t))
         elif not self.pending:

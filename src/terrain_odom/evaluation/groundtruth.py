@@ -169,7 +169,7 @@ def groundtruth_log(log: WheelLog, gt: GroundTruth) -> WheelLog:
     ValueError
         If the ground truth does not cover the log's time span.
     """
-    if log.t[0] < gt.t[0] - 1e-9 or log.t[-1] > gt.t[-1] + 1e-9:
+    if not gt.covers(log.t):
         raise ValueError(
             f"{gt.source} covers {gt.t[0]:g}-{gt.t[-1]:g} s but the log {log.source} spans "
             f"{log.t[0]:g}-{log.t[-1]:g} s"

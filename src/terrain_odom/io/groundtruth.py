@@ -59,6 +59,10 @@ class GroundTruth:
     def __len__(self) -> int:
         return int(self.t.size)
 
+    def covers(self, t: np.ndarray) -> bool:
+        """Whether the ground truth spans the times ``t`` (s; 1 ns slack)."""
+        return bool(t.size == 0 or (t[0] >= self.t[0] - 1e-9 and t[-1] <= self.t[-1] + 1e-9))
+
     def changes(self) -> list[tuple[float, str, str]]:
         """Return the true terrain changes ``(t, previous, new)`` (t: first row on the new one)."""
         rows = np.flatnonzero(self.terrain[1:] != self.terrain[:-1]) + 1

@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from terrain_odom.io.atomic import write_atomic
+from terrain_odom.io.atomic import write_text_atomic
 
 __all__ = ["write_json", "to_jsonable"]
 
@@ -33,10 +33,10 @@ def to_jsonable(value: Any) -> Any:
 
 
 def write_json(path: str | Path, data: Any) -> None:
-    """Write ``data`` as indented JSON atomically (see :func:`write_atomic`).
+    """Write ``data`` as indented JSON atomically (see :func:`~terrain_odom.io.atomic.write_atomic`).
 
     A reader never sees a half-written file, and an existing file is only
     replaced once the new one is complete.
     """
     text = json.dumps(to_jsonable(data), indent=2, allow_nan=False) + "\n"
-    write_atomic(path, lambda handle: handle.write(text.encode("utf-8")))
+    write_text_atomic(path, text)

@@ -25,7 +25,7 @@ from types import TracebackType
 import numpy as np
 
 from terrain_odom.io._csv import CsvTable, floats_or_nan, read_csv
-from terrain_odom.io.atomic import write_atomic
+from terrain_odom.io.atomic import write_text_atomic
 
 __all__ = ["TrajectoryWriter", "read_trajectory_csv", "write_tum"]
 
@@ -240,8 +240,7 @@ def write_tum(path: StrPath, t: np.ndarray, x: np.ndarray, y: np.ndarray, yaw: n
     columns = _tum_columns(t, x, y, yaw)
     lines = ["# timestamp tx ty tz qx qy qz qw\n"]
     lines += [" ".join(map(repr, values)) + "\n" for values in columns.T.tolist()]
-    text = "".join(lines)
-    write_atomic(path, lambda handle: handle.write(text.encode("utf-8")))
+    write_text_atomic(path, "".join(lines))
 
 
 def _checked_columns(columns: Sequence[str]) -> tuple[str, ...]:

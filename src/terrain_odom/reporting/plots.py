@@ -14,17 +14,26 @@ import numpy as np
 from terrain_odom.estimation.odometry import OdometryResult
 from terrain_odom.io.groundtruth import GroundTruth
 
-__all__ = ["plot_trajectory", "plot_icr", "plot_frames"]
+__all__ = ["new_figure", "plot_trajectory", "plot_icr", "plot_frames"]
 
 _DPI = 110
 
 
-def _figure(width: float, height: float, rows: int = 1) -> tuple[Any, Any]:
+def new_figure(width: float, height: float) -> Any:
+    """Return a matplotlib ``Figure`` on the Agg canvas (no display, no pyplot state).
+
+    matplotlib is imported here, so importing this module stays cheap.
+    """
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
     fig = Figure(figsize=(width, height), layout="constrained")
     FigureCanvasAgg(fig)
+    return fig
+
+
+def _figure(width: float, height: float, rows: int = 1) -> tuple[Any, Any]:
+    fig = new_figure(width, height)
     return fig, fig.subplots(rows, 1, sharex=True, squeeze=False)[:, 0]
 
 

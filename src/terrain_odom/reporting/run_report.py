@@ -79,11 +79,11 @@ def run_variants(
         without terrain.
     """
     out = {}
+    frames = ReplayedFrames(records) if records is not None else None
     for variant in VARIANTS:
         if variant.adapt and labels is None and records is None:
             continue
         terrain = dataclasses.replace(config.terrain, adapt=variant.adapt, memory=variant.memory)
-        frames = ReplayedFrames(records) if records is not None else None
         out[variant.name] = run_icr_ekf(
             log,
             dataclasses.replace(config, terrain=terrain),
@@ -95,9 +95,9 @@ def run_variants(
 
 def _icr_model(result: OdometryResult) -> Any:
     names = list(result.names)
-    columns = [result.states[:, names.index(n)] for n in ("y_l", "y_r", "x_icr")]
+    y_l, y_r, x_icr = _icr_columns(result).T
     alpha = result.states[:, names.index("alpha")] if "alpha" in names else 1.0
-    return lambda windows: icr_twist_from_rows(windows, *columns, alpha)
+    return lambda windows: icr_twist_from_rows(windows, y_l, y_r, x_icr, alpha)
 
 
 def _frames_section(
