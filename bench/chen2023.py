@@ -1,8 +1,8 @@
 """Chen et al. 2023's experiment reproduced on the simulator (issue 4 acceptance).
 
 For each seed: ``terrain-odom simulate --scenario chen2023 --seed S
---frame-format jpg``, ``terrain-odom train`` on that run's patches (ground the
-run does not drive over), then ``terrain-odom run --images ... --groundtruth
+--frame-format jpg``, ``terrain-odom train --tile-size 32`` on that run's patches
+(ground the run does not drive over), then ``terrain-odom run --images ... --groundtruth
 ...`` once per reset schedule (``--reset-at arrival`` and ``immediate``).
 Prints, per seed and schedule: frame accuracy, feature time with and without
 the region of interest, mean model-odometry position error of idd and the
@@ -37,7 +37,8 @@ def _prepare(work: Path, seed: int, reuse: bool) -> Path:
         args = ["--out", str(sim), "--scenario", "chen2023", "--seed", str(seed)]
         assert cli(["simulate", *args, "--frame-format", "jpg"]) == 0
         patches, model = str(sim / "patches"), str(sim / "model.npz")
-        assert cli(["train", "--images", patches, "--out", model, "--jobs", "1"]) == 0
+        train = ["train", "--images", patches, "--out", model, "--jobs", "1", "--tile-size", "32"]
+        assert cli(train) == 0
     return sim
 
 

@@ -2,7 +2,10 @@
 
 Trained on the labelled patches (grass, gravel, brick; 40 each) of a
 simulated ``chen2023`` run with seed 1, drawn from map areas that run does
-not drive over, with the default classifier settings. The quick-start sample
+not drive over, with the default classifier settings but for tiles of about
+32 px a side (``--tile-size 32``: a region's classification time is then
+proportional to its area, which is what the region of interest saves). The
+quick-start sample
 (``sample_images/chen2023``) is seed 0, so the model is not trained on it.
 From the repository root::
 
@@ -11,7 +14,7 @@ From the repository root::
 which runs exactly::
 
     terrain-odom simulate --out TMP --scenario chen2023 --seed 1 --duration 48 --no-frames
-    terrain-odom train --images TMP/patches --out models/default.npz
+    terrain-odom train --images TMP/patches --out models/default.npz --tile-size 32
 """
 
 from __future__ import annotations
@@ -33,7 +36,8 @@ def make(out: str | Path = MODEL) -> int:
         args = ["simulate", "--out", tmp, "--scenario", "chen2023", "--seed", str(SEED)]
         code = cli([*args, "--duration", "48", "--no-frames"])
         if code == 0:
-            code = cli(["train", "--images", str(Path(tmp) / "patches"), "--out", str(out)])
+            patches = str(Path(tmp) / "patches")
+            code = cli(["train", "--images", patches, "--out", str(out), "--tile-size", "32"])
     return code
 
 

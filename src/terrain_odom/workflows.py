@@ -20,7 +20,7 @@ from tqdm import tqdm
 from terrain_odom import __version__
 from terrain_odom.config import Config, config_to_dict, load_config
 from terrain_odom.errors import ConfigError, InputFileError
-from terrain_odom.estimation.frames import FRAME_COLUMNS, FramePipeline, FrameRecord
+from terrain_odom.estimation.frames import FRAME_COLUMNS, FramePipeline, FrameRecord, one_thread
 from terrain_odom.estimation.icr_ekf import state_names
 from terrain_odom.estimation.odometry import OdometryRow, run_icr_ekf
 from terrain_odom.estimation.slip_ekf import OUTPUT_NAMES, SlipModel, param_names, run_slip_ekf
@@ -236,6 +236,7 @@ def run(
     with contextlib.ExitStack() as stack:
         writer = stack.enter_context(TrajectoryWriter(csv_path, columns))
         stack.enter_context(bar)
+        stack.enter_context(one_thread())  # camera-rate work on one core (see one_thread)
         pipeline = None
         if frame_list is not None and classifier is not None:
             frame_writer = stack.enter_context(TrajectoryWriter(frames_csv, FRAME_COLUMNS))

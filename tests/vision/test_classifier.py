@@ -26,6 +26,7 @@ from terrain_odom.vision.classifier import (
     paper_config,
     region_features,
     split_tiles,
+    tile_grid,
     tiles_per_side,
 )
 
@@ -365,6 +366,40 @@ def test_colour_statistics_lab_of_a_grey_patch_and_circular_hue():
     assert hsv[1] < 3.0  # the spread is small, not ~88
 
 
+def test_fixed_size_tiles_scale_with_the_area():
+    cfg = ClassifierConfig(tile_size=64)
+    # Tiles of about 64 px whatever the region: a region 4x the area has 4x the tiles.
+    assert tile_grid(120, 160, cfg) == (2, 3)
+    assert tile_grid(240, 320, cfg) == (4, 5)
+    assert tile_grid(480, 640, cfg) == (8, 10)
+    assert tile_grid(95, 96, cfg) == (1, 2)  # 95 / 64 = 1.48: one row; 96 / 64 = 1.5: two
+    assert tile_grid(10, 700, cfg) == (1, 11)  # a sliver: one row, never zero
+    rng = np.random.default_rng(3)
+    for shape in ((120, 160), (240, 320), (40, 50)):
+        image = rng.integers(0, 256, size=(*shape, 3), dtype=np.uint8)
+        features = image_features(image, cfg)
+        assert features.shape == (np.prod(tile_grid(*shape, cfg)), 30)
+        # Each row is the features of its tile, cut at rounded edges.
+        tiles = split_tiles(image, *tile_grid(*shape, cfg))
+        np.testing.assert_array_equal(features[-1], region_features(tiles[-1], cfg))
+    with pytest.raises(ConfigError, match="tile_size: must be >= 8"):
+        load_classifier_config(None, {"tile_size": 4})
+    assert load_classifier_config(None, {"tile_size": 8}).tile_size == 8
+
+
+def test_fixed_tile_size_is_saved_with_the_model_and_checked(tmp_path):
+    rng = np.random.default_rng(4)
+    cfg = ClassifierConfig(tile_size=32, k=1)
+    images = [rng.integers(0, 256, size=(64, 64, 3), dtype=np.uint8) for _ in range(4)]
+    features = [image_features(im, cfg) for im in images]
+    region = np.repeat(np.arange(4), [len(f) for f in features])
+    clf = TerrainClassifier(cfg).fit(np.vstack(features), ["a", "a", "b", "b"], region)
+    loaded = TerrainClassifier.load(clf.save(tmp_path / "m.npz"))
+    assert loaded.cfg.tile_size == 32
+    with pytest.raises(InputFileError, match="tile_size=32.*tile_size=None"):
+        TerrainClassifier.load(tmp_path / "m.npz", expected=ClassifierConfig(k=1))
+
+
 def test_split_tiles_covers_every_pixel_once():
     image = np.arange(7 * 9).reshape(7, 9)
     tiles = split_tiles(image, 3)
@@ -372,6 +407,11 @@ def test_split_tiles_covers_every_pixel_once():
     assert sorted(np.concatenate([t.ravel() for t in tiles]).tolist()) == list(range(63))
     with pytest.raises(ValueError, match="cannot cut"):
         split_tiles(image, 8)
+    columns = split_tiles(image, 2, 4)
+    assert [t.shape for t in columns[:4]] == [(4, 2), (4, 2), (4, 3), (4, 2)]
+    assert sorted(np.concatenate([t.ravel() for t in columns]).tolist()) == list(range(63))
+    with pytest.raises(ValueError, match="cannot cut"):
+        split_tiles(image, 2, 10)
 
 
 def test_image_features_rejects_non_rgb_input():

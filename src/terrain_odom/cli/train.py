@@ -20,7 +20,7 @@ def add_classifier_options(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--config",
         help="classifier YAML: any of features, n_t, relative_counts, pyramid_levels, "
-        "scale, k, weights, tiles, min_tile_size (default: built-in defaults)",
+        "scale, k, weights, tiles, min_tile_size, tile_size (default: built-in defaults)",
     )
     p.add_argument(
         "--features",
@@ -39,6 +39,12 @@ def add_classifier_options(p: argparse.ArgumentParser) -> None:
         type=int,
         help="smallest tile side in pixels: smaller images get fewer tiles per side",
     )
+    p.add_argument(
+        "--tile-size",
+        type=int,
+        help="tiles of about this side in pixels, as many as fit (instead of --tiles); "
+        "a region's time is then proportional to its area",
+    )
     p.add_argument("--jobs", type=int, help="feature-extraction processes (default: all cores)")
 
 
@@ -48,7 +54,7 @@ def classifier_config(args: argparse.Namespace) -> ClassifierConfig:
 
     overrides: dict[str, Any] = {
         name: getattr(args, name)
-        for name in ("features", "k", "tiles", "min_tile_size")
+        for name in ("features", "k", "tiles", "min_tile_size", "tile_size")
         if getattr(args, name) is not None
     }
     if args.no_scale:
@@ -61,7 +67,12 @@ def describe(cfg: ClassifierConfig) -> str:
     return (
         f"features={cfg.features} n_t={cfg.n_t} relative_counts={cfg.relative_counts} "
         f"pyramid_levels={cfg.pyramid_levels} scale={cfg.scale} k={cfg.k} "
-        f"weights={cfg.weights} tiles={cfg.tiles} min_tile_size={cfg.min_tile_size}"
+        f"weights={cfg.weights} "
+        + (
+            f"tile_size={cfg.tile_size}"
+            if cfg.tile_size is not None
+            else f"tiles={cfg.tiles} min_tile_size={cfg.min_tile_size}"
+        )
     )
 
 

@@ -7,19 +7,20 @@ region of interest from the current wheel speeds and ICR estimate
 (:func:`~terrain_odom.vision.camera.region_of_interest`; the whole frame with
 ``use_roi=False``), classifies it, and hands one record per frame to
 ``on_frame`` once the terrain tracker has seen the label. Each label comes
-with how far ahead the classified ground is: the distance to the predicted
-pose at the region's centre, or with the whole frame to the ground point at
-the image centre.
+with how far ahead the classified ground is: the distance to the ground
+seen at the pixel centre of the region (or of the whole frame).
 """
 
 from __future__ import annotations
 
-import functools
+import contextlib
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 
+import cv2
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 from terrain_odom.errors import InputFileError
 from terrain_odom.estimation.odometry import Sighting
@@ -28,7 +29,7 @@ from terrain_odom.vision.camera import GroundCamera, RoiConfig, crop, region_of_
 from terrain_odom.vision.classifier import TerrainClassifier
 from terrain_odom.vision.dataset import read_image_rgb
 
-__all__ = ["FRAME_COLUMNS", "FrameRecord", "FramePipeline", "ReplayedFrames"]
+__all__ = ["FRAME_COLUMNS", "FrameRecord", "FramePipeline", "ReplayedFrames", "one_thread"]
 
 FRAME_COLUMNS = (
     "t",
@@ -50,6 +51,25 @@ FRAME_COLUMNS = (
 
 FULL_FRAME = "full_frame"
 """``roi_status`` of a frame classified whole (``--no-roi``)."""
+
+
+@contextlib.contextmanager
+def one_thread() -> Iterator[None]:
+    """Run the block on one thread: OpenMP, BLAS and OpenCV pools limited to 1.
+
+    A frame's KNN query (a few tiles against ~1000 training rows) and its
+    OpenCV calls are far too small to share out: scikit-learn's OpenMP
+    threads then mostly wait for each other, and on a machine whose cores
+    are busy with other processes a 0.6 ms query took 100 ms. The previous
+    limits are restored on exit.
+    """
+    threads = cv2.getNumThreads()
+    cv2.setNumThreads(1)
+    try:
+        with threadpool_limits(limits=1):
+            yield
+    finally:
+        cv2.setNumThreads(threads)
 
 
 @dataclass
@@ -167,24 +187,34 @@ class FramePipeline:
             result = region_of_interest(self.camera, self.roi, v_l, v_r, icr_params)
             record.roi_status = result.status.value
             record.box = result.box
-            record.ahead = float(np.hypot(*result.pose[:2]))
+            if result.box is not None:
+                record.ahead = self._ahead(result.box)
             region = crop(image, result) if result.box is not None else None
         else:
             record.roi_status = FULL_FRAME
             record.box = (0, 0, width, height)
-            record.ahead = self._image_centre_ahead
+            record.ahead = self._ahead((0, 0, self.camera.width, self.camera.height))
             region = image
         self.roi_counts[record.roi_status] = self.roi_counts.get(record.roi_status, 0) + 1
+        # The whole frame is timed before the region on every other frame, so that
+        # each gets the cold caches of the first classification equally often.
+        whole = self.time_full_frame and self.use_roi and region is not None
+        whole_first = whole and index % 2 == 0
+        if whole_first:
+            record.ms_features_full = self._time_whole(image)
         if region is not None:
             features_start = time.perf_counter()
             record.label, record.confidence = self.classifier.classify(region)
             done = time.perf_counter()
             record.ms_features = 1e3 * (done - features_start)
             record.ms_total = 1e3 * (done - started)
+            if whole_first:
+                record.ms_total -= record.ms_features_full
             self.ms_total.append(record.ms_total)
-        if self.time_full_frame:
-            whole = self.use_roi and region is not None
-            record.ms_features_full = self._time_whole(image) if whole else record.ms_features
+        if whole and not whole_first:
+            record.ms_features_full = self._time_whole(image)
+        elif self.time_full_frame and not whole:
+            record.ms_features_full = record.ms_features
         self._pending = record
         return Sighting(record.label, record.ahead) if record.label else None
 
@@ -194,10 +224,17 @@ class FramePipeline:
         self.classifier.classify(image)
         return 1e3 * (time.perf_counter() - started)
 
-    @functools.cached_property
-    def _image_centre_ahead(self) -> float:
-        """Distance to the ground at the image centre, m (0 if it is above the horizon)."""
-        centre = [(self.camera.width - 1) / 2.0, (self.camera.height - 1) / 2.0]
+    def _ahead(self, box: tuple[int, int, int, int]) -> float:
+        """Distance to the ground at the pixel centre of a box, m (0 above the horizon).
+
+        A region's label flips to a new terrain once about half its pixels
+        show it; for an edge across the path that is when the edge is at the
+        box's middle row, whose ground is nearer than the middle of the
+        footprint the box was drawn around (perspective puts more pixels on
+        near ground).
+        """
+        x0, y0, x1, y1 = box
+        centre = [(x0 + x1 - 1) / 2.0, (y0 + y1 - 1) / 2.0]
         ahead = float(np.hypot(*self.camera.backproject([centre])[0]))
         return ahead if np.isfinite(ahead) else 0.0
 

@@ -19,10 +19,15 @@ that recipe selectable (``features="sfta"``, ``relative_counts=False``,
   SFTA throws away colour, which is what separates e.g. wood from carpet;
 - **image pyramid** (``pyramid_levels``): SFTA also of the region halved
   ``1, 2, ...`` times, describing the texture at coarser scales;
-- **tile voting** (``tiles``, ``min_tile_size``): a region is cut into up to
-  ``tiles x tiles`` tiles of at least ``min_tile_size`` pixels a side
-  (:func:`tiles_per_side`), each tile is classified, and the region gets the
-  majority label with the vote share as its confidence;
+- **tile voting** (``tiles``, ``min_tile_size``, or ``tile_size``): a region
+  is cut into up to ``tiles x tiles`` tiles of at least ``min_tile_size``
+  pixels a side (:func:`tiles_per_side`), or, with ``tile_size``, into tiles
+  of about ``tile_size`` pixels a side whatever the region's size
+  (:func:`tile_grid`), each tile is classified, and the region gets the
+  majority label with the vote share as its confidence. Fixed-size tiles
+  describe every region at the scale of the training tiles, and make the
+  time a region takes proportional to its area, which is what a region of
+  interest saves (Chen's Table 2);
 - **distance weighting** of the neighbours' votes (``weights``).
 
 Regions of different sizes have different numbers of tiles, so the features
@@ -71,6 +76,7 @@ __all__ = [
     "colour_statistics",
     "region_features",
     "tiles_per_side",
+    "tile_grid",
     "split_tiles",
     "image_features",
     "make_pipeline",
@@ -87,9 +93,20 @@ MODEL_FORMAT_VERSION = 2
 PAPER_K = 5
 """Neighbour count of the paper-faithful configuration (Chen et al. do not state theirs)."""
 
+MIN_TILE_SIZE = 8
+"""Smallest ``tile_size``, px (SFTA's box counting needs a few box sizes)."""
+
 FeatureOption = Literal["sfta", "sfta+lab", "sfta+hsv"]
 
-FEATURE_FIELDS = ("features", "n_t", "relative_counts", "pyramid_levels", "tiles", "min_tile_size")
+FEATURE_FIELDS = (
+    "features",
+    "n_t",
+    "relative_counts",
+    "pyramid_levels",
+    "tiles",
+    "min_tile_size",
+    "tile_size",
+)
 """Fields of :class:`ClassifierConfig` that change the feature vectors."""
 
 
@@ -127,6 +144,10 @@ class ClassifierConfig:
         textures that leaves about 3 sizes (up to 17 % of the dimensions are
         two-point slopes), in 32 px tiles about 4 (at most 3 %). 64x64
         skimage patches: 96.4 % with 16 px tiles, 98.4 % with 32 px.
+    tile_size : int or None
+        If set, px (>= 8): tiles of about this side instead, as many as fit
+        (:func:`tile_grid`; ``tiles`` and ``min_tile_size`` are then unused).
+        A region's time is then proportional to its area.
     """
 
     features: FeatureOption = "sfta+lab"
@@ -138,6 +159,11 @@ class ClassifierConfig:
     weights: Literal["uniform", "distance"] = "distance"
     tiles: int = 4
     min_tile_size: int = 32
+    tile_size: int | None = None
+
+    def __post_init__(self) -> None:
+        if self.tile_size is not None and self.tile_size < MIN_TILE_SIZE:
+            raise ConfigError(f"tile_size: must be >= {MIN_TILE_SIZE} px, got {self.tile_size}")
 
     def feature_key(self) -> dict[str, Any]:
         """Return the fields that define the feature vectors (:data:`FEATURE_FIELDS`)."""
@@ -312,24 +338,51 @@ def tiles_per_side(height: int, width: int, cfg: ClassifierConfig) -> int:
     return min(cfg.tiles, max(1, min(height, width) // cfg.min_tile_size))
 
 
-def split_tiles(image: NDArray, tiles: int) -> list[NDArray]:
-    """Cut an image into ``tiles x tiles`` tiles, row by row.
+def tile_grid(height: int, width: int, cfg: ClassifierConfig) -> tuple[int, int]:
+    """Return the tile rows and columns of a ``height x width`` region.
 
-    Tile edges are at ``round(i * H / tiles)`` and ``round(j * W / tiles)``,
-    so every pixel belongs to exactly one tile.
+    With ``cfg.tile_size`` set: ``round(height / tile_size)`` rows and
+    ``round(width / tile_size)`` columns (halves up, at least one each), so
+    tile sides are within ``[2/3, 3/2] * tile_size`` once the region is at
+    least ``tile_size`` a side; otherwise ``n x n`` with
+    ``n = tiles_per_side(height, width, cfg)``.
+
+    >>> cfg = ClassifierConfig(tile_size=64)
+    >>> tile_grid(240, 320, cfg), tile_grid(96, 100, cfg), tile_grid(20, 500, cfg)
+    ((4, 5), (2, 2), (1, 8))
+    >>> tile_grid(240, 320, ClassifierConfig())
+    (4, 4)
+    """
+    if cfg.tile_size is None:
+        n = tiles_per_side(height, width, cfg)
+        return n, n
+    return (
+        max(1, int(height / cfg.tile_size + 0.5)),
+        max(1, int(width / cfg.tile_size + 0.5)),
+    )
+
+
+def split_tiles(image: NDArray, tiles: int, columns: int | None = None) -> list[NDArray]:
+    """Cut an image into ``tiles`` rows by ``columns`` (default ``tiles``) columns of tiles.
+
+    Tiles come row by row. Tile edges are at ``round(i * H / tiles)`` and
+    ``round(j * W / columns)``, so every pixel belongs to exactly one tile.
 
     >>> [t.shape for t in split_tiles(np.zeros((5, 4)), 2)]
     [(2, 2), (2, 2), (3, 2), (3, 2)]
+    >>> [t.shape for t in split_tiles(np.zeros((4, 9)), 1, 3)]
+    [(4, 3), (4, 3), (4, 3)]
     """
     height, width = image.shape[:2]
-    if tiles > min(height, width):
-        raise ValueError(f"cannot cut a {height}x{width} image into {tiles}x{tiles} tiles")
+    columns = tiles if columns is None else columns
+    if tiles > height or columns > width:
+        raise ValueError(f"cannot cut a {height}x{width} image into {tiles}x{columns} tiles")
     rows = np.rint(np.linspace(0, height, tiles + 1)).astype(int)
-    cols = np.rint(np.linspace(0, width, tiles + 1)).astype(int)
+    cols = np.rint(np.linspace(0, width, columns + 1)).astype(int)
     return [
         image[rows[i] : rows[i + 1], cols[j] : cols[j + 1]]
         for i in range(tiles)
-        for j in range(tiles)
+        for j in range(columns)
     ]
 
 
@@ -344,21 +397,21 @@ def image_features(image_rgb: NDArray[np.uint8], cfg: ClassifierConfig) -> NDArr
 
     Returns
     -------
-    ndarray of float64, shape (n ** 2, n_features)
-        :func:`region_features` of each tile, row by row, with
-        ``n = tiles_per_side(H, W, cfg)`` (one row when ``n == 1``).
+    ndarray of float64, shape (n_tiles, n_features)
+        :func:`region_features` of each tile, row by row, of the
+        :func:`tile_grid` of the region (one row for a single tile).
     """
     image_rgb = np.asarray(image_rgb)
     if image_rgb.ndim != 3 or image_rgb.shape[2] != 3 or image_rgb.dtype != np.uint8:
         raise ValueError(
             f"expected an RGB uint8 image (H, W, 3), got {image_rgb.dtype} {image_rgb.shape}"
         )
-    tiles = tiles_per_side(image_rgb.shape[0], image_rgb.shape[1], cfg)
-    rgb_tiles = split_tiles(image_rgb, tiles)
+    grid = tile_grid(image_rgb.shape[0], image_rgb.shape[1], cfg)
+    rgb_tiles = split_tiles(image_rgb, *grid)
     space = _colour_space(cfg)
     if space is None:
         return np.stack([_features(tile, None, cfg) for tile in rgb_tiles])
-    colour_tiles = split_tiles(_convert(image_rgb, space), tiles)  # one conversion
+    colour_tiles = split_tiles(_convert(image_rgb, space), *grid)  # one conversion
     return np.stack([_features(*pair, cfg) for pair in zip(rgb_tiles, colour_tiles, strict=True)])
 
 
@@ -570,7 +623,7 @@ class TerrainClassifier:
         Parameters
         ----------
         image_rgb : ndarray of uint8, shape (H, W, 3)
-            Cut into :func:`tiles_per_side` tiles per side.
+            Cut into the tiles of :func:`tile_grid`.
 
         Returns
         -------

@@ -1,0 +1,131 @@
+"""Speed of the whole ``terrain-odom run`` on 640x480 frames, on one core (issue 4 acceptance).
+
+Simulates the ``chen2023`` scenario with its camera doubled in resolution
+(640x480, fx = fy = 400 px, same mounting, so the same ground at twice the
+pixels), trains the classifier on that run's patches with tiles of about
+64 px (the 32-px tiles of the 320x240 default model, at the same ground
+scale), then times on one core, pinned, with one thread:
+
+- **decode**: ``cv2.imread`` of every frame (the pure decoding baseline);
+- **run**: the Python API behind ``terrain-odom run --images ... --wheels ...``
+  (:func:`terrain_odom.workflows.run`): reading the log and frames list,
+  decoding, region of interest, SFTA + KNN, terrain tracking, the ICR EKF
+  over every wheel row and pose measurement, streaming ``trajectory.csv`` and
+  ``frames.csv``, ``report.json`` and ``report.md`` (no ground truth, so no
+  whole-frame timing and no plots);
+- **run without frames**: the same over the wheel log alone (the EKF share).
+
+Prints frames per second of the whole run (target >= 100) and its time per
+frame as a ratio of the pure decoding time, best of ``--repeat`` runs each,
+and the machine's load average before and after (other jobs slow all three).
+
+Usage::
+
+    python bench/run.py [--work /tmp/bench_run] [--duration 60] [--repeat 3] [--reuse]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import time
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from terrain_odom.cli.main import main as cli
+from terrain_odom.estimation.frames import one_thread
+from terrain_odom.io.frames import read_frames
+from terrain_odom.workflows import TerrainSource, run
+
+CAMERA_640 = """\
+robot:
+  wheel_radius: 0.1
+  track_width: 0.5
+camera:
+  width: 640
+  height: 480
+  fx: 400.0
+  fy: 400.0
+  cx: 319.5
+  cy: 239.5
+  mount_x: 0.3
+  mount_y: 0.0
+  mount_height: 1.0
+  mount_pitch: 1.0471975511965976
+"""
+
+
+def prepare(work: Path, duration: float, reuse: bool) -> Path:
+    """Simulate the 640x480 run and train its model (unless reused); return the run folder."""
+    sim = work / "sim640"
+    if reuse and (sim / "model.npz").is_file():
+        return sim
+    work.mkdir(parents=True, exist_ok=True)
+    camera = work / "camera640.yaml"  # robot as the scenario, camera x2
+    camera.write_text(CAMERA_640, encoding="utf-8")
+    args = ["simulate", "--out", str(sim), "--scenario", "chen2023", "--seed", "0"]
+    args += ["--duration", str(duration), "--frame-format", "jpg", "--config", str(camera)]
+    assert cli(args) == 0
+    train = ["train", "--images", str(sim / "patches"), "--out", str(sim / "model.npz")]
+    assert cli([*train, "--tile-size", "64", "--jobs", "1"]) == 0
+    return sim
+
+
+def best_of(repeat: int, fn) -> float:
+    """Smallest wall time of ``repeat`` calls of ``fn``, s."""
+    times = []
+    for _ in range(repeat):
+        started = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - started)
+    return min(times)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--work", type=Path, default=Path("/tmp/bench_run"))
+    parser.add_argument("--duration", type=float, default=60.0, help="simulated seconds")
+    parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--reuse", action="store_true", help="reuse the simulated run and model")
+    args = parser.parse_args()
+    sim = prepare(args.work, args.duration, args.reuse)
+    os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
+    files = read_frames(sim).files
+    n_frames = len(files)
+    print(f"load average before: {os.getloadavg()}; one core, one thread")
+
+    def decode() -> None:
+        for path in files:
+            assert cv2.imread(str(path), cv2.IMREAD_COLOR) is not None
+
+    def full_run() -> None:
+        run(sim / "log.csv", args.work / "out", images=sim, model=sim / "model.npz", progress=False)
+
+    def wheels_only() -> None:
+        run(sim / "log.csv", args.work / "out_wheels", terrain=TerrainSource.NONE, progress=False)
+
+    with one_thread():
+        t_decode = best_of(args.repeat, decode)
+        t_run = best_of(args.repeat, full_run)
+        t_wheels = best_of(args.repeat, wheels_only)
+    frames = np.genfromtxt(args.work / "out" / "frames.csv", delimiter=",", names=True)
+    height, width = cv2.imread(str(files[0])).shape[:2]
+    per = 1e3 / n_frames
+    print(f"{n_frames} frames of {width}x{height}, best of {args.repeat}")
+    print(f"decode only        {t_decode * per:6.2f} ms/frame")
+    print(f"run without frames {t_wheels * per:6.2f} ms/frame (EKF over the wheel log)")
+    print(
+        f"whole run          {t_run * per:6.2f} ms/frame = {n_frames / t_run:6.1f} frames/s "
+        f"(target >= 100) = {t_run / t_decode:.2f} x decode"
+    )
+    print(
+        f"in the run: SFTA + KNN {np.nanmean(frames['ms_features']):.2f} ms mean, frame total "
+        f"(decode + ROI + features) {np.nanmean(frames['ms_total']):.2f} ms mean"
+    )
+    print(f"load average after: {os.getloadavg()}")
+
+
+if __name__ == "__main__":
+    main()
