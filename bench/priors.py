@@ -11,7 +11,8 @@ always fitted on other data than the log they are scored on:
    the filter with terrain resets, without and with terrain memory;
 2. real (``stitched_grass_to_asphalt.csv``, config/warthog.yaml): grass fitted
    on the four other grass runs, asphalt on the other asphalt recording
-   (``windows_warthog_asphalt.csv``, another day). Model-odometry error
+   (``windows_warthog_asphalt.csv``, not the asphalt run of the log).
+   Model-odometry error
    (median m/m and deg/m, mean end position error over 2-m windows) of the
    windows that start while the robot drives (it stands still ~40 s at the
    start and ~51 s after the switch; every pose measurement then starts a

@@ -257,7 +257,7 @@ PRIOR_SIGMA = IcrSigmas(0.04, 0.03, 0.02, 0.01)
 
 
 def _prior_block(ekf: IcrEkf, state: IcrState) -> None:
-    """The ICR estimate is ``state`` with covariance ``PRIOR_SIGMA**2``, uncorrelated."""
+    """Check the ICR estimate is ``state`` with covariance ``PRIOR_SIGMA**2``, uncorrelated."""
     n = len(ekf.names) - 3
     np.testing.assert_allclose(ekf.params, [state.y_l, state.y_r, state.x_icr, state.alpha][:n])
     sig = np.array([PRIOR_SIGMA.y_l, PRIOR_SIGMA.y_r, PRIOR_SIGMA.x_icr, PRIOR_SIGMA.alpha])
