@@ -407,7 +407,7 @@ class IcrEkf:
 
     # ---------------------------------------------------- terrain adaptation
     def set_terrain(self, label: str) -> None:
-        """Name the terrain the filter is on, without any reset.
+        """Name the terrain the filter is on, without a ``P_B`` reset.
 
         The first terrain named (the one the filter starts on) seeds the ICR
         estimate from its prior, if :attr:`priors` has one; later calls only
