@@ -55,6 +55,7 @@ def test_per_terrain_pb_falls_back_to_sigma_pb(tmp_path):
         ("robot:\n  wheel_radus: 0.3\n", r"cfg\.yaml: robot: unknown key\(s\) \['wheel_radus'\]"),
         ("ekf:\n  sigma_r: {x: -0.1}\n", r"ekf\.sigma_r\.x: must be > 0, got -0\.1"),
         ("ekf:\n  sigma_q: {x: -0.1}\n", r"ekf\.sigma_q\.x: must be >= 0"),
+        ("ekf:\n  sigma_prior: {y_l: 0}\n", r"ekf\.sigma_prior\.y_l: must be > 0, got 0"),
         ("ekf:\n  sigma_r: {x: abc}\n", r"ekf\.sigma_r\.x: must be a number, got 'abc'"),
         ("ekf:\n  sigma_r: {x: .nan}\n", r"ekf\.sigma_r\.x: must be finite"),
         ("ekf:\n  estimate_alpha: 1\n", r"ekf\.estimate_alpha: must be true or false"),

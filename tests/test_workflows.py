@@ -126,7 +126,7 @@ def test_interrupted_run_keeps_streamed_rows(
     real = workflows.run_icr_ekf
     seen: list[OdometryRow] = []
 
-    def interrupted(log, config, *, labels=None, on_row=None, frames=None):  # type: ignore[no-untyped-def]
+    def interrupted(log, config, *, on_row=None, **kw):  # type: ignore[no-untyped-def]
         assert on_row is not None  # run() streams through on_row
 
         def forward(row: OdometryRow) -> None:
@@ -135,7 +135,7 @@ def test_interrupted_run_keeps_streamed_rows(
             if len(seen) == INTERRUPT_AFTER:
                 raise KeyboardInterrupt
 
-        return real(log, config, labels=labels, on_row=forward, frames=frames)
+        return real(log, config, on_row=forward, **kw)
 
     monkeypatch.setattr(workflows, "run_icr_ekf", interrupted)
     out_dir = tmp_path / "out"
@@ -171,13 +171,13 @@ def test_interrupt_does_not_clobber_previous_report(
     before = first.report_json.read_text(encoding="utf-8")
     real = workflows.run_icr_ekf
 
-    def interrupted(log, config, *, labels=None, on_row=None, frames=None):  # type: ignore[no-untyped-def]
+    def interrupted(log, config, *, on_row=None, **kw):  # type: ignore[no-untyped-def]
         def forward(row: OdometryRow) -> None:
             on_row(row)
             if row.index == 9:
                 raise KeyboardInterrupt
 
-        return real(log, config, labels=labels, on_row=forward, frames=frames)
+        return real(log, config, on_row=forward, **kw)
 
     monkeypatch.setattr(workflows, "run_icr_ekf", interrupted)
     with pytest.raises(KeyboardInterrupt):

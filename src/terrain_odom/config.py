@@ -2,10 +2,10 @@
 
 The defaults of these dataclasses are the values in ``config/default.yaml``
 (a test keeps the two equal). Noise values are standard deviations:
-``sigma_p0`` and ``sigma_pb`` in the state's units, ``sigma_r`` in the
-measurement's units, and ``sigma_q`` as continuous-time noise densities in
-units per square-root second (the discrete process noise over a step of
-``dt`` seconds is ``sigma_q**2 * dt``).
+``sigma_p0``, ``sigma_pb`` and ``sigma_prior`` in the state's units,
+``sigma_r`` in the measurement's units, and ``sigma_q`` as continuous-time
+noise densities in units per square-root second (the discrete process noise
+over a step of ``dt`` seconds is ``sigma_q**2 * dt``).
 """
 
 from __future__ import annotations
@@ -147,6 +147,10 @@ class EkfConfig:
         terrain change (``P_B``).
     sigma_pb_per_terrain : dict of str to IcrSigmas
         Optional ``P_B`` per terrain label, overriding ``sigma_pb``.
+    sigma_prior : IcrSigmas
+        Standard deviations of an offline prior (``run --priors``): the ICR
+        block of ``P`` wherever a fitted parameter set seeds the estimate,
+        at the start or on a change to its terrain (instead of ``P_B``).
     limits : IcrLimits
         Bounds of the ICR state.
     """
@@ -162,6 +166,9 @@ class EkfConfig:
     sigma_r: PoseSigmas = field(default_factory=PoseSigmas)
     sigma_pb: IcrSigmas = field(default_factory=IcrSigmas)
     sigma_pb_per_terrain: dict[str, IcrSigmas] = field(default_factory=dict)
+    sigma_prior: IcrSigmas = field(
+        default_factory=lambda: IcrSigmas(y_l=0.05, y_r=0.05, x_icr=0.05, alpha=0.01)
+    )
     limits: IcrLimits = field(default_factory=IcrLimits)
 
 

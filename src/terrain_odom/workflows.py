@@ -21,7 +21,7 @@ from terrain_odom import __version__
 from terrain_odom.config import Config, config_to_dict, load_config
 from terrain_odom.errors import ConfigError, InputFileError
 from terrain_odom.estimation.frames import FRAME_COLUMNS, FramePipeline, FrameRecord, one_thread
-from terrain_odom.estimation.icr_ekf import state_names
+from terrain_odom.estimation.icr_ekf import IcrPriors, state_names
 from terrain_odom.estimation.odometry import OdometryRow, run_icr_ekf
 from terrain_odom.estimation.slip_ekf import OUTPUT_NAMES, SlipModel, param_names, run_slip_ekf
 from terrain_odom.evaluation import (
@@ -54,6 +54,7 @@ __all__ = [
     "TerrainSource",
     "RunSummary",
     "run",
+    "read_priors",
     "evaluate",
     "trajectory_columns",
     "default_model",
@@ -129,6 +130,21 @@ def trajectory_columns(names: tuple[str, ...]) -> list[str]:
     )
 
 
+def read_priors(path: str | Path) -> IcrPriors:
+    """Read a parameter file of ``terrain-odom fit --model icr|icr-slip`` as EKF priors.
+
+    Raises
+    ------
+    InputFileError
+        If the file is missing or malformed, or its model has no ICR state.
+    """
+    params = read_params(path)
+    try:
+        return IcrPriors.from_params(params)
+    except ValueError as exc:
+        raise InputFileError(f"{path}: {exc}") from None
+
+
 def _labels(log: WheelLog, source: TerrainSource) -> np.ndarray | None:
     if source is TerrainSource.NONE:
         return None
@@ -154,6 +170,7 @@ def run(
     use_roi: bool = True,
     groundtruth: str | Path | None = None,
     estimator: str = "icr-ekf",
+    priors: str | Path | None = None,
 ) -> RunSummary:
     """Run the terrain-adaptive ICR EKF (or slip EKF) over a wheel log; write the results.
 
@@ -195,6 +212,12 @@ def run(
         are dead reckoning reset to every measured pose component and whose
         ``y_l, y_r, x_icr`` are the ICRs at the row's track speeds, followed
         by the parameters ``l1 .. l6(, alpha)``.
+    priors : str or Path, optional
+        Parameter file of ``terrain-odom fit --model icr|icr-slip``
+        (:func:`read_priors`): the ICR EKF starts from it and, per terrain
+        (``--by-terrain``), takes a terrain's set on each confirmed change
+        to it (see :class:`~terrain_odom.estimation.icr_ekf.IcrEkf`).
+        Not for ``slip-ekf``.
 
     Returns
     -------
@@ -203,6 +226,13 @@ def run(
     started = time.perf_counter()
     if estimator not in ESTIMATORS:
         raise ConfigError(f"unknown estimator {estimator!r}; choose one of {list(ESTIMATORS)}")
+    slip = estimator == "slip-ekf"
+    if slip and priors is not None:
+        raise ConfigError(
+            "--priors seeds the ICR EKF (--estimator icr-ekf); the slip EKF's parameters "
+            "l1 .. l6 are not ICRs"
+        )
+    icr_priors = None if priors is None else read_priors(priors)
     if config is None and config_path is None and images is not None:
         config_path = images_config(images)
     cfg = config if config is not None else load_config(config_path)
@@ -210,6 +240,12 @@ def run(
     gt = _read_groundtruth(groundtruth, log) if groundtruth is not None else None
     use_frames = images is not None and terrain is not TerrainSource.NONE
     labels = None if use_frames else _labels(log, terrain)
+    if icr_priors is not None and icr_priors.terrains and labels is None and not use_frames:
+        raise ConfigError(
+            f"{priors}: per-terrain priors ({', '.join(sorted(icr_priors.terrains))}) need "
+            f"terrain labels, but this run has none (--no-terrain, or no terrain column in "
+            f"{log.source}); fit without --by-terrain for one prior"
+        )
     frame_list = classifier = None
     if use_frames:
         if model is None:
@@ -220,7 +256,6 @@ def run(
     if out.exists() and not out.is_dir():
         raise InputFileError(f"{out}: --out must be a directory, but a file of that name exists")
     out.mkdir(parents=True, exist_ok=True)
-    slip = estimator == "slip-ekf"
     if slip and not np.any(log.has_yaw):
         raise InputFileError(f"{log.source}: --estimator slip-ekf needs a 'yaw' column with values")
     names = (
@@ -264,8 +299,12 @@ def run(
             writer.write(values)
             bar.update(1)
 
-        runner = run_slip_ekf if slip else run_icr_ekf
-        result = runner(log, cfg, labels=labels, on_row=on_row, frames=pipeline)
+        if slip:
+            result = run_slip_ekf(log, cfg, labels=labels, on_row=on_row, frames=pipeline)
+        else:
+            result = run_icr_ekf(
+                log, cfg, labels=labels, on_row=on_row, frames=pipeline, priors=icr_priors
+            )
     states = result.states
     tum_path = out / "trajectory.tum"
     write_tum(tum_path, log.t, states[:, 0], states[:, 1], states[:, 2])
@@ -275,7 +314,11 @@ def run(
         "terrain_odom_version": __version__,
         "command": "run",
         "estimator": estimator,
-        "inputs": {"wheels": str(Path(wheels).resolve()), "config": _path_or_none(config_path)},
+        "inputs": {
+            "wheels": str(Path(wheels).resolve()),
+            "config": _path_or_none(config_path),
+            "priors": _path_or_none(priors),
+        },
         "terrain_source": (
             "camera" if use_frames else terrain.value if labels is not None else "none"
         ),
@@ -309,6 +352,7 @@ def run(
             labels=labels,
             records=records if pipeline is not None else None,
             use_roi=use_roi,
+            priors=icr_priors,
         )
         report["inputs"]["groundtruth"] = str(Path(groundtruth).resolve())  # type: ignore[arg-type]
         report["groundtruth"] = scored.section

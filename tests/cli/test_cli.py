@@ -465,13 +465,13 @@ def test_run_interrupted_keeps_rows_and_exits_130(
 
     real = workflows.run_icr_ekf
 
-    def interrupted(log, config, *, labels=None, on_row=None, frames=None):  # type: ignore[no-untyped-def]
+    def interrupted(log, config, *, on_row=None, **kw):  # type: ignore[no-untyped-def]
         def forward(row):  # type: ignore[no-untyped-def]
             on_row(row)
             if row.index == 149:
                 raise KeyboardInterrupt
 
-        return real(log, config, labels=labels, on_row=forward, frames=frames)
+        return real(log, config, on_row=forward, **kw)
 
     monkeypatch.setattr(workflows, "run_icr_ekf", interrupted)
     out_dir = tmp_path / "out"

@@ -1,4 +1,4 @@
-"""Tests of the ICR EKF: Jacobians, consistency, convergence, reset, memory."""
+"""Tests of the ICR EKF: Jacobians, consistency, convergence, reset, memory, priors."""
 
 from __future__ import annotations
 
@@ -14,7 +14,8 @@ from terrain_odom.config import (
     TerrainConfig,
 )
 from terrain_odom.errors import EstimationError
-from terrain_odom.estimation import IcrEkf, icr_step, icr_step_jacobian
+from terrain_odom.estimation import IcrEkf, IcrPriors, icr_step, icr_step_jacobian
+from terrain_odom.io.params import ANY_TERRAIN, ModelParams, ParamSet
 from terrain_odom.kinematics import integrate, twist_icr, wrap_angle
 
 
@@ -249,3 +250,90 @@ def test_reset_speeds_up_reconvergence_after_an_icr_jump():
     with_reset, without = settle_time(True), settle_time(False)
     assert with_reset < 10.0
     assert without > 5 * with_reset
+
+
+GRASS, GRAVEL = IcrState(0.42, -0.40, 0.05, 0.93), IcrState(0.60, -0.58, 0.10, 0.85)
+PRIOR_SIGMA = IcrSigmas(0.04, 0.03, 0.02, 0.01)
+
+
+def _prior_block(ekf: IcrEkf, state: IcrState) -> None:
+    """Check the ICR estimate is ``state`` with covariance ``PRIOR_SIGMA**2``, uncorrelated."""
+    n = len(ekf.names) - 3
+    np.testing.assert_allclose(ekf.params, [state.y_l, state.y_r, state.x_icr, state.alpha][:n])
+    sig = np.array([PRIOR_SIGMA.y_l, PRIOR_SIGMA.y_r, PRIOR_SIGMA.x_icr, PRIOR_SIGMA.alpha])
+    np.testing.assert_allclose(ekf.P[3:, 3:], np.diag(sig[:n] ** 2))
+    assert np.all(ekf.P[:3, 3:] == 0.0)
+
+
+@pytest.mark.parametrize("estimate_alpha", [True, False])
+def test_prior_of_the_first_terrain_seeds_the_filter(estimate_alpha):
+    cfg = _config(sigma_prior=PRIOR_SIGMA, estimate_alpha=estimate_alpha)
+    ekf = IcrEkf(cfg, priors=IcrPriors(terrains={"grass": GRASS}))
+    np.testing.assert_allclose(ekf.params[:3], [0.5, -0.5, 0.0])  # config.initial until named
+    ekf.set_terrain("grass")
+    _prior_block(ekf, GRASS)  # alpha dropped by the 6-state filter
+    t, v_l, v_r, _, z = _simulate((0.9, -0.75, 0.15, 0.92), n=100)
+    _run(ekf, t, v_l, v_r, z)
+    moved = ekf.params
+    ekf.set_terrain("grass")  # renaming (adaptation off) never seeds again
+    np.testing.assert_array_equal(ekf.params, moved)
+
+
+def test_single_prior_is_the_initial_estimate_only():
+    ekf = IcrEkf(_config(sigma_prior=PRIOR_SIGMA), priors=IcrPriors(start=GRAVEL))
+    _prior_block(ekf, GRAVEL)
+    ekf.set_terrain("grass")
+    change = ekf.reset_on_terrain_change("gravel")
+    assert not change.prior
+    np.testing.assert_allclose(np.diag(ekf.P)[3:], [0.25, 0.25, 0.25, 0.01])  # default P_B
+
+
+def test_change_takes_the_prior_and_a_terrain_without_one_gets_pb():
+    cfg = _config(sigma_prior=PRIOR_SIGMA, sigma_pb=IcrSigmas(0.5, 0.5, 0.3, 0.1))
+    ekf = IcrEkf(cfg, TerrainConfig(memory=False), priors=IcrPriors(terrains={"gravel": GRAVEL}))
+    ekf.set_terrain("grass")  # no prior: config.initial kept
+    t, v_l, v_r, _, z = _simulate((0.9, -0.75, 0.15, 0.92), n=200)
+    _run(ekf, t, v_l, v_r, z)
+    change = ekf.reset_on_terrain_change("gravel")
+    assert (change.label, change.restored, change.prior) == ("gravel", False, True)
+    _prior_block(ekf, GRAVEL)
+    change = ekf.reset_on_terrain_change("sand")
+    assert not change.prior
+    np.testing.assert_allclose(ekf.params, [0.60, -0.58, 0.10, 0.85])  # estimate kept
+    np.testing.assert_allclose(np.diag(ekf.P)[3:], [0.25, 0.25, 0.09, 0.01])
+
+
+@pytest.mark.parametrize("memory", [True, False])
+def test_remembered_estimate_wins_over_the_prior(memory):
+    priors = IcrPriors(terrains={"grass": GRASS, "gravel": GRAVEL})
+    ekf = IcrEkf(_config(sigma_prior=PRIOR_SIGMA), TerrainConfig(memory=memory), priors=priors)
+    ekf.set_terrain("grass")
+    t, v_l, v_r, _, z = _simulate((0.9, -0.75, 0.15, 0.92), n=400)  # 20 s, not the prior
+    _run(ekf, t, v_l, v_r, z)
+    online = ekf.params
+    assert ekf.reset_on_terrain_change("gravel").prior
+    for _ in range(10):
+        ekf.predict(1.0, 1.0, 0.1)
+    change = ekf.reset_on_terrain_change("grass")
+    assert (change.restored, change.prior) == (memory, not memory)
+    if memory:
+        np.testing.assert_array_equal(ekf.params, online)
+    else:
+        _prior_block(ekf, GRASS)
+
+
+def _param_file(model: str, sets: dict[str, dict[str, float]]) -> ModelParams:
+    return ModelParams(model, {k: ParamSet(v) for k, v in sets.items()})
+
+
+def test_priors_from_parameter_files():
+    slip = {"y_l": 0.42, "y_r": -0.40, "x_icr": 0.05, "alpha": 0.93}
+    per_terrain = IcrPriors.from_params(_param_file("icr-slip", {"grass": slip}))
+    assert per_terrain == IcrPriors(terrains={"grass": GRASS})
+    icr = {"y_l": 0.6, "y_r": -0.58, "x_icr": 0.1}
+    single = IcrPriors.from_params(_param_file("icr", {ANY_TERRAIN: icr}))
+    assert single == IcrPriors(start=IcrState(0.6, -0.58, 0.1, 1.0))
+    with pytest.raises(ValueError, match="no ICR state; fit 'icr' or 'icr-slip'"):
+        IcrPriors.from_params(_param_file("edd-sym", {ANY_TERRAIN: {"alpha": 1, "b_hat": 1}}))
+    with pytest.raises(ValueError, match="terrain 'grass' needs y_l > 0 > y_r"):
+        IcrPriors.from_params(_param_file("icr", {"grass": {**icr, "y_r": 0.2}}))

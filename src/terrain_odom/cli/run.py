@@ -46,6 +46,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help="icr-ekf: EKF over pose and ICRs (default); slip-ekf: EKF over the slip "
         "parameters of the ICR functions, for low-rate or heading-only pose",
     )
+    p.add_argument(
+        "--priors",
+        metavar="PARAMS.yaml",
+        help="offline ICRs from 'terrain-odom fit --model icr|icr-slip' (icr-ekf only): the "
+        "filter starts from them and, with --by-terrain sets, takes a terrain's set on "
+        "each confirmed change to it (covariance ekf.sigma_prior)",
+    )
     terrain = p.add_mutually_exclusive_group()
     terrain.add_argument(
         "--terrain-from-log",
@@ -97,6 +104,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
         use_roi=not args.no_roi,
         groundtruth=args.groundtruth,
         estimator=args.estimator,
+        priors=args.priors,
     )
     print(f"{summary.rows} rows in {summary.seconds:.2f} s")
     print(f"trajectory: {summary.trajectory_csv}")

@@ -3,6 +3,7 @@
 from terrain_odom.estimation.icr_ekf import (
     STATE_NAMES,
     IcrEkf,
+    IcrPriors,
     TerrainChange,
     icr_step,
     icr_step_jacobian,
@@ -14,6 +15,7 @@ from terrain_odom.estimation.terrain import TerrainTracker
 __all__ = [
     "STATE_NAMES",
     "IcrEkf",
+    "IcrPriors",
     "TerrainChange",
     "TerrainTracker",
     "icr_step",

@@ -28,13 +28,15 @@ References
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 from filterpy.kalman import ExtendedKalmanFilter
 from numpy.typing import ArrayLike
 
-from terrain_odom.config import EkfConfig, IcrSigmas, TerrainConfig
+from terrain_odom.config import EkfConfig, IcrSigmas, IcrState, TerrainConfig
 from terrain_odom.errors import EstimationError
 from terrain_odom.kinematics import (
     arc_increment_with_jacobian,
@@ -43,7 +45,18 @@ from terrain_odom.kinematics import (
     wrap_angle,
 )
 
-__all__ = ["state_names", "IcrEkf", "TerrainChange", "icr_step", "icr_step_jacobian", "STATE_NAMES"]
+if TYPE_CHECKING:
+    from terrain_odom.io.params import ModelParams
+
+__all__ = [
+    "state_names",
+    "IcrEkf",
+    "IcrPriors",
+    "TerrainChange",
+    "icr_step",
+    "icr_step_jacobian",
+    "STATE_NAMES",
+]
 
 logger = logging.getLogger(__name__)
 
@@ -138,6 +151,9 @@ class TerrainChange:
     t_confirmed : float or None
         When the change was confirmed, s, if earlier than ``t`` (a reset
         scheduled for the robot's arrival on ground seen ahead).
+    prior : bool
+        Whether the ICR estimate was set to the offline prior of ``label``
+        (:class:`IcrPriors`) instead of keeping it with ``P_B``.
     """
 
     t: float
@@ -146,6 +162,53 @@ class TerrainChange:
     restored: bool
     reset: bool = True
     t_confirmed: float | None = None
+    prior: bool = False
+
+
+@dataclass(frozen=True)
+class IcrPriors:
+    """Offline ICR parameters that seed the filter (``terrain-odom run --priors``).
+
+    Attributes
+    ----------
+    terrains : mapping of str to IcrState
+        Parameters per terrain label: the estimate when the filter starts on
+        that terrain or changes to it.
+    start : IcrState or None
+        One set for every terrain: the initial estimate only (it says
+        nothing about a terrain the robot changes to).
+
+    Examples
+    --------
+    >>> from terrain_odom.config import IcrState
+    >>> priors = IcrPriors(terrains={"grass": IcrState(0.42, -0.40, 0.05, 0.93)})
+    >>> sorted(priors.terrains)
+    ['grass']
+    """
+
+    terrains: Mapping[str, IcrState] = field(default_factory=dict)
+    start: IcrState | None = None
+
+    @classmethod
+    def from_params(cls, params: ModelParams) -> IcrPriors:
+        """Priors from a parameter file of ``terrain-odom fit --model icr|icr-slip``.
+
+        A per-terrain file (``--by-terrain``) gives :attr:`terrains`, a file
+        with one set :attr:`start`. ``alpha`` is 1 for the ``icr`` model.
+
+        Raises
+        ------
+        ValueError
+            If the model has no ICR state, or a set has not ``y_l > 0 > y_r``.
+        """
+        states = {label: IcrState(*params.icr(label)) for label in params.sets}
+        for label, s in states.items():
+            if not s.y_l > 0.0 > s.y_r:
+                where = f"terrain {label!r}" if params.per_terrain else "the parameter set"
+                raise ValueError(f"{where} needs y_l > 0 > y_r, got y_l={s.y_l}, y_r={s.y_r}")
+        if params.per_terrain:
+            return cls(terrains=states)
+        return cls(start=next(iter(states.values())))
 
 
 class _Filter(ExtendedKalmanFilter):
@@ -169,6 +232,12 @@ class IcrEkf:
         Terrain adaptation settings (reset to ``P_B``, terrain memory).
     pose : array_like, shape (3,), optional
         Initial pose ``x, y, yaw``; the origin if omitted.
+    priors : IcrPriors, optional
+        Offline ICR parameters: ``priors.start`` replaces
+        ``config.initial``; a terrain's prior seeds the estimate when the
+        filter starts on it or changes to it (see
+        :meth:`reset_on_terrain_change`), with covariance
+        ``config.sigma_prior**2``.
 
     Examples
     --------
@@ -185,9 +254,11 @@ class IcrEkf:
         terrain: TerrainConfig | None = None,
         *,
         pose: ArrayLike | None = None,
+        priors: IcrPriors | None = None,
     ) -> None:
         self.config = config
         self.terrain_config = terrain if terrain is not None else TerrainConfig()
+        self.priors = priors if priors is not None else IcrPriors()
         self.names = state_names(config.estimate_alpha)
         n = len(self.names)
         ini = config.initial
@@ -207,6 +278,8 @@ class IcrEkf:
         self._terrain_since = 0.0
         self._memory: dict[str, tuple[np.ndarray, np.ndarray]] = {}
         self.last_nis = float("nan")
+        if self.priors.start is not None:
+            self._seed(self.priors.start)
 
     # ----------------------------------------------------------------- state
     def _sigmas(self, sig: object, names: tuple[str, ...] | None = None) -> np.ndarray:
@@ -334,9 +407,35 @@ class IcrEkf:
 
     # ---------------------------------------------------- terrain adaptation
     def set_terrain(self, label: str) -> None:
-        """Name the terrain the filter starts on, without any reset."""
-        self.terrain = str(label)
+        """Name the terrain the filter is on, without a ``P_B`` reset.
+
+        The first terrain named (the one the filter starts on) seeds the ICR
+        estimate from its prior, if :attr:`priors` has one; later calls only
+        rename (terrain adaptation off).
+        """
+        label = str(label)
+        prior = self.priors.terrains.get(label) if self.terrain is None else None
+        if prior is not None:
+            self._seed(prior)
+        self.terrain = label
         self._terrain_since = self.t
+
+    def _set_icr_block(self, cov: np.ndarray, estimate: np.ndarray | None = None) -> None:
+        """Set the ICR covariance (and estimate), uncorrelated with the pose."""
+        P = self._filter.P  # noqa: N806
+        P[3:, :] = 0.0
+        P[:, 3:] = 0.0
+        P[3:, 3:] = cov
+        if estimate is not None:
+            self._filter.x[3:, 0] = estimate
+            self._constrain()
+
+    def _seed(self, prior: IcrState) -> None:
+        """Set the ICR estimate to ``prior`` with covariance ``sigma_prior**2``."""
+        n_icr = len(self.names) - 3
+        estimate = np.array([prior.y_l, prior.y_r, prior.x_icr, prior.alpha])[:n_icr]
+        cov = np.diag(self._sigmas(self.config.sigma_prior, self.names[3:]) ** 2)
+        self._set_icr_block(cov, estimate)
 
     def _pb_variances(self, label: str) -> np.ndarray:
         sig: IcrSigmas = self.config.sigma_pb_per_terrain.get(label, self.config.sigma_pb)
@@ -351,7 +450,12 @@ class IcrEkf:
         estimate and covariance of the terrain being left are remembered (if
         the robot stayed there at least ``memory_min_dwell`` s), and those of
         ``label``, if remembered, are restored instead of ``P_B``: the filter
-        resumes where it left that terrain.
+        resumes where it left that terrain. Otherwise, if :attr:`priors` has
+        a set for ``label``, the ICR estimate is set to it with covariance
+        ``sigma_prior**2``: a robot calibrated on that terrain re-converges
+        at once. A remembered estimate wins over the prior: on the first
+        visit the filter started from the prior, so what it remembers is
+        that prior updated by the drive, and more recent.
 
         Returns
         -------
@@ -361,21 +465,30 @@ class IcrEkf:
         label = str(label)
         tc = self.terrain_config
         previous = self.terrain
-        P = self._filter.P  # noqa: N806
         if (
             tc.memory
             and previous is not None
             and self.t - self._terrain_since >= tc.memory_min_dwell
         ):
-            self._memory[previous] = (self.params, P[3:, 3:].copy())
+            self._memory[previous] = (self.params, self._filter.P[3:, 3:].copy())
         restored = tc.memory and label in self._memory
-        P[3:, :] = 0.0
-        P[:, 3:] = 0.0
+        prior = None if restored else self.priors.terrains.get(label)
         if restored:
-            self._filter.x[3:, 0], P[3:, 3:] = self._memory[label]
+            estimate, cov = self._memory[label]
+            self._set_icr_block(cov, estimate)
+        elif prior is not None:
+            self._seed(prior)
         else:
-            P[3:, 3:] = np.diag(self._pb_variances(label))
-        change = TerrainChange(self.t, previous, label, bool(restored))
-        logger.info("terrain %s -> %s at t=%.2f s (restored=%s)", previous, label, self.t, restored)
-        self.set_terrain(label)
+            self._set_icr_block(np.diag(self._pb_variances(label)))
+        change = TerrainChange(self.t, previous, label, bool(restored), prior=prior is not None)
+        logger.info(
+            "terrain %s -> %s at t=%.2f s (restored=%s, prior=%s)",
+            previous,
+            label,
+            self.t,
+            restored,
+            prior is not None,
+        )
+        self.terrain = label
+        self._terrain_since = self.t
         return change

@@ -24,7 +24,7 @@ from typing import Protocol
 import numpy as np
 
 from terrain_odom.config import Config
-from terrain_odom.estimation.icr_ekf import IcrEkf, TerrainChange
+from terrain_odom.estimation.icr_ekf import IcrEkf, IcrPriors, TerrainChange
 from terrain_odom.estimation.terrain import TerrainTracker
 from terrain_odom.kinematics import twist_icr
 from terrain_odom.types import WheelLog
@@ -222,6 +222,7 @@ def run_icr_ekf(
     labels: Sequence[str] | None = None,
     on_row: Callable[[OdometryRow], None] | None = None,
     frames: FrameObserver | None = None,
+    priors: IcrPriors | None = None,
 ) -> OdometryResult:
     """Estimate pose and ICRs over a whole log.
 
@@ -242,12 +243,15 @@ def run_icr_ekf(
         a frame at ``t_f`` is observed right after the last row with
         ``t <= t_f`` (with that row's wheel speeds and the filter's state
         then); frames before the first row or after the last are skipped.
+    priors : IcrPriors, optional
+        Offline ICR parameters seeding the filter at the start and on
+        confirmed changes (see :class:`~terrain_odom.estimation.icr_ekf.IcrEkf`).
 
     Returns
     -------
     OdometryResult
     """
-    ekf = IcrEkf(config.ekf, config.terrain)
+    ekf = IcrEkf(config.ekf, config.terrain, priors=priors)
     return run_rows(log, config, _IcrSteps(ekf, log), labels=labels, on_row=on_row, frames=frames)
 
 

@@ -38,13 +38,29 @@ def _percent(value: float | None) -> float | None:
 
 def _changes(report: dict[str, Any]) -> str:
     rows = [
-        [c["t"], c.get("t_confirmed"), c["previous"], c["label"], c["reset"], c["restored"]]
+        [
+            c["t"],
+            c.get("t_confirmed"),
+            c["previous"],
+            c["label"],
+            c["reset"],
+            c["restored"],
+            c.get("prior", False),
+        ]
         for c in report["terrain_changes"]
     ]
     if not rows:
         return "No terrain change was confirmed."
     return table(
-        ["applied at (s)", "confirmed at (s)", "from", "to", "P reset", "memory restored"],
+        [
+            "applied at (s)",
+            "confirmed at (s)",
+            "from",
+            "to",
+            "P reset",
+            "memory restored",
+            "offline prior",
+        ],
         rows,
         digits=2,
     )
@@ -155,6 +171,9 @@ def run_markdown(report: dict[str, Any], plots: Sequence[str] = ()) -> str:
         "## Terrain changes",
         _changes(report),
     ]
+    priors = report["inputs"].get("priors")
+    if priors is not None:
+        parts.insert(2, f"- offline priors: `{priors}`")
     section = report.get("groundtruth")
     if section is not None:
         if "frames" in section:

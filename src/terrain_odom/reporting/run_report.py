@@ -19,6 +19,7 @@ import numpy as np
 
 from terrain_odom.config import Config
 from terrain_odom.estimation.frames import FrameRecord, ReplayedFrames
+from terrain_odom.estimation.icr_ekf import IcrPriors
 from terrain_odom.estimation.odometry import OdometryResult, run_icr_ekf
 from terrain_odom.evaluation.groundtruth import (
     feature_times,
@@ -59,6 +60,7 @@ def run_variants(
     *,
     labels: Sequence[str] | None = None,
     records: list[FrameRecord] | None = None,
+    priors: IcrPriors | None = None,
 ) -> dict[str, OdometryResult]:
     """Run the filter variants on the same log and terrain labels.
 
@@ -71,6 +73,9 @@ def run_variants(
         Terrain label per log row.
     records : list of FrameRecord, optional
         Frames of a camera run, replayed (their labels and distances ahead).
+    priors : IcrPriors, optional
+        The run's offline priors, used by every variant (per-terrain priors
+        only by those with terrain labels).
 
     Returns
     -------
@@ -89,6 +94,7 @@ def run_variants(
             dataclasses.replace(config, terrain=terrain),
             labels=labels if variant.adapt else None,
             frames=frames if variant.adapt else None,
+            priors=priors,
         )
     return out
 
@@ -141,6 +147,7 @@ def groundtruth_section(
     labels: Sequence[str] | None = None,
     records: list[FrameRecord] | None = None,
     use_roi: bool = True,
+    priors: IcrPriors | None = None,
 ) -> GroundTruthReport:
     """Score a run against ground truth.
 
@@ -156,6 +163,8 @@ def groundtruth_section(
         The run's terrain labels per row, or its frame records.
     use_roi : bool
         Whether the frames were classified on the region of interest.
+    priors : IcrPriors, optional
+        The run's offline priors (``run --priors``).
 
     Returns
     -------
@@ -166,7 +175,7 @@ def groundtruth_section(
     """
     true_log = groundtruth_log(log, gt)
     true_terrain = gt.terrain[np.clip(np.searchsorted(gt.t, log.t - 1e-9), 0, len(gt) - 1)]
-    results = run_variants(log, config, labels=labels, records=records)
+    results = run_variants(log, config, labels=labels, records=records, priors=priors)
     b = config.robot.track_width
     idd = get_model("idd")
     models: dict[str, Any] = {f"idd (B={b:g} m)": lambda _w: model_twist(idd, [], b)}
