@@ -28,6 +28,7 @@ from terrain_odom.vision.classifier import (
     split_tiles,
     tile_grid,
     tiles_per_side,
+    tiles_within,
 )
 
 TILE = 64
@@ -385,6 +386,41 @@ def test_fixed_size_tiles_scale_with_the_area():
     with pytest.raises(ConfigError, match="tile_size: must be >= 8"):
         load_classifier_config(None, {"tile_size": 4})
     assert load_classifier_config(None, {"tile_size": 8}).tile_size == 8
+
+
+def test_tiles_within_a_polygon_are_those_whose_centre_it_contains():
+    cfg = ClassifierConfig(tile_size=10)  # a 40x60 region: 4 x 6 tiles, centres at 4.5, 14.5, ...
+    triangle = [(0, 0), (59, 0), (0, 39)]  # the upper-left half, u / 59 + v / 39 <= 1
+    kept = tiles_within(40, 60, cfg, triangle)
+    v, u = np.divmod(kept, 6) * np.array([[10], [10]]) + 4.5
+    assert np.all(u / 59 + v / 39 <= 1) and kept.size == 12
+    outside = np.setdiff1d(np.arange(24), kept)
+    v, u = np.divmod(outside, 6) * np.array([[10], [10]]) + 4.5
+    assert np.all(u / 59 + v / 39 > 1)
+    # A polygon between tile centres keeps the tile nearest its vertex mean.
+    sliver = [(20, 20), (23, 20), (23, 23)]
+    assert tiles_within(40, 60, cfg, sliver).tolist() == [2 * 6 + 2]
+    rng = np.random.default_rng(5)
+    image = rng.integers(0, 256, size=(40, 60, 3), dtype=np.uint8)
+    np.testing.assert_array_equal(
+        image_features(image, cfg, within=triangle), image_features(image, cfg)[kept]
+    )
+
+
+def test_a_polygon_decides_which_tiles_vote():
+    # Gravel on the left two thirds, brick on the right third; the polygon covers the
+    # right third only, so brick wins there although gravel has most of the region.
+    cfg = ClassifierConfig(tile_size=64, k=1)
+    features = [image_features(t, cfg) for n in ("gravel", "brick") for t in texture_tiles(n, 0)]
+    labels = [n for n in ("gravel", "brick") for _ in texture_tiles(n, 0)]
+    flat, region_index = stack_regions(features)
+    clf = TerrainClassifier(cfg).fit(flat, labels, region_index)
+    region = np.concatenate(
+        (texture_half("gravel", 1)[:128, :128], texture_half("brick", 1)[:128, :64]), axis=1
+    )
+    assert clf.classify(region)[0] == "gravel"
+    right = [(128, 0), (191, 0), (191, 127), (128, 127)]
+    assert clf.classify(region, within=right) == ("brick", 1.0)
 
 
 def test_fixed_tile_size_is_saved_with_the_model_and_checked(tmp_path):

@@ -192,12 +192,15 @@ class FramePipeline:
             record.roi_status = result.status.value
             record.box = result.box
             record.ahead = float(np.hypot(*result.pose[:2]))
-            region = crop(image, result) if result.box is not None else None
+            region = footprint = None
+            if result.box is not None:  # the footprint's tiles vote, not its bounding box's
+                region = crop(image, result)
+                footprint = result.image_polygon - np.array(result.box[:2], dtype=float)
         else:
             record.roi_status = FULL_FRAME
             record.box = (0, 0, width, height)
             record.ahead = self._image_centre_ahead
-            region = image
+            region, footprint = image, None
         self.roi_counts[record.roi_status] = self.roi_counts.get(record.roi_status, 0) + 1
         # The whole frame is timed before the region on every other frame, so that
         # each gets the cold caches of the first classification equally often.
@@ -207,7 +210,7 @@ class FramePipeline:
             record.ms_features_full = self._time_whole(image)
         if region is not None:
             features_start = time.perf_counter()
-            record.label, record.confidence = self.classifier.classify(region)
+            record.label, record.confidence = self.classifier.classify(region, footprint)
             done = time.perf_counter()
             record.ms_features = 1e3 * (done - features_start)
             record.ms_total = 1e3 * (done - started)

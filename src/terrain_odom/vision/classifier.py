@@ -54,7 +54,7 @@ from typing import Any, Literal
 import cv2
 import numpy as np
 import yaml
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 from sklearn.neighbors import KNeighborsClassifier
 from sklearn.pipeline import Pipeline
 from sklearn.preprocessing import StandardScaler
@@ -78,6 +78,7 @@ __all__ = [
     "tiles_per_side",
     "tile_grid",
     "split_tiles",
+    "tiles_within",
     "image_features",
     "make_pipeline",
     "check_regions",
@@ -362,6 +363,15 @@ def tile_grid(height: int, width: int, cfg: ClassifierConfig) -> tuple[int, int]
     )
 
 
+def _tile_edges(height: int, width: int, tiles: int, columns: int) -> tuple[NDArray, NDArray]:
+    """Row and column edges of a ``tiles x columns`` grid: ``round(i * H / tiles)``, ..."""
+    if tiles > height or columns > width:
+        raise ValueError(f"cannot cut a {height}x{width} image into {tiles}x{columns} tiles")
+    rows = np.rint(np.linspace(0, height, tiles + 1)).astype(int)
+    cols = np.rint(np.linspace(0, width, columns + 1)).astype(int)
+    return rows, cols
+
+
 def split_tiles(image: NDArray, tiles: int, columns: int | None = None) -> list[NDArray]:
     """Cut an image into ``tiles`` rows by ``columns`` (default ``tiles``) columns of tiles.
 
@@ -373,12 +383,8 @@ def split_tiles(image: NDArray, tiles: int, columns: int | None = None) -> list[
     >>> [t.shape for t in split_tiles(np.zeros((4, 9)), 1, 3)]
     [(4, 3), (4, 3), (4, 3)]
     """
-    height, width = image.shape[:2]
     columns = tiles if columns is None else columns
-    if tiles > height or columns > width:
-        raise ValueError(f"cannot cut a {height}x{width} image into {tiles}x{columns} tiles")
-    rows = np.rint(np.linspace(0, height, tiles + 1)).astype(int)
-    cols = np.rint(np.linspace(0, width, columns + 1)).astype(int)
+    rows, cols = _tile_edges(image.shape[0], image.shape[1], tiles, columns)
     return [
         image[rows[i] : rows[i + 1], cols[j] : cols[j + 1]]
         for i in range(tiles)
@@ -386,7 +392,46 @@ def split_tiles(image: NDArray, tiles: int, columns: int | None = None) -> list[
     ]
 
 
-def image_features(image_rgb: NDArray[np.uint8], cfg: ClassifierConfig) -> NDArray:
+def tiles_within(height: int, width: int, cfg: ClassifierConfig, polygon: ArrayLike) -> NDArray:
+    """Return the :func:`tile_grid` tiles whose centre is inside a polygon.
+
+    Parameters
+    ----------
+    height, width : int
+        Region size, px.
+    cfg : ClassifierConfig
+    polygon : array_like, shape (M, 2)
+        ``(u, v)`` vertices in region pixels (pixel centres at integers),
+        e.g. the visible footprint of a region of interest.
+
+    Returns
+    -------
+    ndarray of intp
+        Tile indices, row by row, of the tiles whose centre is inside or on
+        the polygon; if there is none, the one tile nearest the polygon's
+        vertex mean, so that a region is never left without a tile.
+
+    >>> square = [(0, 0), (99, 0), (99, 99), (0, 99)]
+    >>> tiles_within(100, 200, ClassifierConfig(tile_size=50), square).tolist()
+    [0, 1, 4, 5]
+    """
+    grid = tile_grid(height, width, cfg)
+    rows, cols = _tile_edges(height, width, *grid)
+    v, u = np.meshgrid(
+        (rows[:-1] + rows[1:] - 1) / 2.0, (cols[:-1] + cols[1:] - 1) / 2.0, indexing="ij"
+    )
+    centres = np.column_stack((u.ravel(), v.ravel()))
+    contour = np.asarray(polygon, dtype=np.float32).reshape(-1, 1, 2)
+    inside = [cv2.pointPolygonTest(contour, (float(x), float(y)), False) >= 0 for x, y in centres]
+    if any(inside):
+        return np.flatnonzero(inside)
+    nearest = np.argmin(np.sum((centres - contour.reshape(-1, 2).mean(axis=0)) ** 2, axis=1))
+    return np.array([nearest], dtype=np.intp)
+
+
+def image_features(
+    image_rgb: NDArray[np.uint8], cfg: ClassifierConfig, within: ArrayLike | None = None
+) -> NDArray:
     """Feature vectors of the tiles of a region.
 
     Parameters
@@ -394,25 +439,32 @@ def image_features(image_rgb: NDArray[np.uint8], cfg: ClassifierConfig) -> NDArr
     image_rgb : ndarray of uint8, shape (H, W, 3)
         RGB region of any size.
     cfg : ClassifierConfig
+    within : array_like, shape (M, 2), optional
+        A polygon in region pixels: only the tiles whose centre it contains
+        are described (:func:`tiles_within`), e.g. the footprint of a region
+        of interest inside its bounding box.
 
     Returns
     -------
     ndarray of float64, shape (n_tiles, n_features)
-        :func:`region_features` of each tile, row by row, of the
-        :func:`tile_grid` of the region (one row for a single tile).
+        :func:`region_features` of each tile (of those within the polygon),
+        row by row, of the :func:`tile_grid` of the region (one row for a
+        single tile).
     """
     image_rgb = np.asarray(image_rgb)
     if image_rgb.ndim != 3 or image_rgb.shape[2] != 3 or image_rgb.dtype != np.uint8:
         raise ValueError(
             f"expected an RGB uint8 image (H, W, 3), got {image_rgb.dtype} {image_rgb.shape}"
         )
-    grid = tile_grid(image_rgb.shape[0], image_rgb.shape[1], cfg)
+    height, width = image_rgb.shape[:2]
+    grid = tile_grid(height, width, cfg)
+    keep = range(grid[0] * grid[1]) if within is None else tiles_within(height, width, cfg, within)
     rgb_tiles = split_tiles(image_rgb, *grid)
     space = _colour_space(cfg)
     if space is None:
-        return np.stack([_features(tile, None, cfg) for tile in rgb_tiles])
+        return np.stack([_features(rgb_tiles[i], None, cfg) for i in keep])
     colour_tiles = split_tiles(_convert(image_rgb, space), *grid)  # one conversion
-    return np.stack([_features(*pair, cfg) for pair in zip(rgb_tiles, colour_tiles, strict=True)])
+    return np.stack([_features(rgb_tiles[i], colour_tiles[i], cfg) for i in keep])
 
 
 def make_pipeline(cfg: ClassifierConfig) -> Pipeline:
@@ -617,13 +669,18 @@ class TerrainClassifier:
         """Label of each region (see :meth:`predict_with_confidence`)."""
         return self.predict_with_confidence(features, region)[0]
 
-    def classify(self, image_rgb: NDArray[np.uint8]) -> tuple[str, float]:
+    def classify(
+        self, image_rgb: NDArray[np.uint8], within: ArrayLike | None = None
+    ) -> tuple[str, float]:
         """Classify one RGB image region of any size.
 
         Parameters
         ----------
         image_rgb : ndarray of uint8, shape (H, W, 3)
             Cut into the tiles of :func:`tile_grid`.
+        within : array_like, shape (M, 2), optional
+            Polygon in region pixels: only the tiles whose centre it contains
+            vote (:func:`image_features`).
 
         Returns
         -------
@@ -631,7 +688,7 @@ class TerrainClassifier:
         confidence : float
             Vote share in [0, 1] (of the tiles with several, else of the neighbours).
         """
-        features = image_features(image_rgb, self.cfg)
+        features = image_features(image_rgb, self.cfg, within)
         labels, confidence = self.predict_with_confidence(
             features, np.zeros(features.shape[0], dtype=np.intp)
         )
