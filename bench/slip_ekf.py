@@ -36,12 +36,14 @@ from terrain_odom.config import Config, EkfConfig, IcrState, RobotConfig, load_c
 from terrain_odom.estimation.odometry import run_icr_ekf
 from terrain_odom.estimation.slip_ekf import SlipModel, run_slip_ekf
 from terrain_odom.evaluation import (
+    Windows,
     icr_twist_from_rows,
     model_twist,
     non_overlapping,
     predict_window_ends,
     settling_time,
     time_windows,
+    window_errors,
 )
 from terrain_odom.evaluation.prediction import (
     prediction_errors,
@@ -150,11 +152,17 @@ def errors(log, windows, twist):
     return e.position, e.heading
 
 
-def slip_errors(log, filt_log, windows, cfg, labels=None):
-    res = run_slip_ekf(filt_log, cfg, labels=labels)
+def slip_twist(windows, res, cfg):
+    """Twist callable of a slip EKF run's parameters (each window's start row)."""
     model = SlipModel.from_config(cfg.slip_ekf, cfg.robot.track_width)
     n = 6 + cfg.slip_ekf.estimate_alpha
-    return errors(log, windows, slip_twist_from_rows(windows, res.states[:, 6 : 6 + n], model))
+    return slip_twist_from_rows(windows, res.states[:, 6 : 6 + n], model)
+
+
+def slip_errors(log, filt_log, windows, cfg, labels=None):
+    return errors(
+        log, windows, slip_twist(windows, run_slip_ekf(filt_log, cfg, labels=labels), cfg)
+    )
 
 
 def icr_errors(log, filt_log, windows, cfg, labels=None):
@@ -259,33 +267,27 @@ def fit_icr_slip(logs) -> np.ndarray:
     return fit_model("icr-slip", segments, options=FitOptions(popsize=8, maxiter=100)).params
 
 
-def real(data: Path):
-    cfg = load_config(REPO / "config" / "warthog.yaml")
+def filter_table(logs, cfg):
+    """Per-log 2-s errors at 1-Hz pose; return the rows and, per log, the windows and runs."""
     b = cfg.robot.track_width
-    model = SlipModel.from_config(cfg.slip_ekf, b)
-    logs = {
-        p.stem.replace("warthog_wheels_", ""): read_wheel_log(
-            p, wheel_radius=cfg.robot.wheel_radius
-        )
-        for p in sorted(data.glob("warthog_wheels_*.csv"))
-    }
     print(f"\n3. Real Warthog logs, pose 1 Hz, config/warthog.yaml (B = {b} m), 2-s errors;")
     print("   T: the slip_ekf section was tuned on this log")
     print(f"   {'log':<34} {'n':>4}  {'idd m':>6} {'deg':>5} | {'slip m':>6} {'deg':>5}"
           f" {'-%pos':>5} {'-%hdg':>5} | {'heading-only m':>14} {'deg':>5} {'-%pos':>5}"
           f" {'-%hdg':>5} | {'icr-ekf m':>9} {'deg':>5}")  # fmt: skip
-    rows, prepared = {}, {}
+    rows, runs = {}, {}
     for name, log in logs.items():
         sub, keep = one_hz(log)
         heading = dataclasses.replace(
             sub, pose=np.c_[np.full((len(log), 2), np.nan), sub.pose[:, 2]]
         )
         w = prediction_windows(log, starts=keep)
-        prepared[name] = (sub, w)
+        res = run_slip_ekf(sub, cfg, labels=log.terrain)
+        runs[name] = (w, res)
         rows[name] = (
             len(w),
             errors(log, w, model_twist(get_model("idd"), [], b)),
-            slip_errors(log, sub, w, cfg, log.terrain),
+            errors(log, w, slip_twist(w, res, cfg)),
             slip_errors(log, heading, w, cfg, log.terrain),
             icr_errors(log, sub, w, cfg, log.terrain),
         )
@@ -300,18 +302,24 @@ def real(data: Path):
         n = np.array([rows[k][0] for k in names])
         mean = [np.average([rows[k][i] for k in names], axis=0, weights=n) for i in range(1, 5)]
         line(title, int(n.sum()), *mean)
+    return rows, runs
 
+
+def reachable(logs, cfg, rows, runs):
+    """Print what constant models and a per-window speed scale reach on the same windows."""
+    b = cfg.robot.track_width
+    model = SlipModel.from_config(cfg.slip_ekf, b)
+    idd_model = get_model("idd")
     print("\n   What constant models reach on the same windows: 2-s position error reduction")
     print("   vs idd (%); fitted on the non-overlapping 2-s windows of the same log (in-sample)")
-    print("   or of the five other logs")
+    print("   or of the five other logs; idd with the best speed scale (0.7-1.2) per window")
     print(f"   {'log':<34} {'slip EKF':>8} | {'slip model: same':>16} {'others':>6} |"
-          f" {'icr-slip: same':>14} {'others':>6}")  # fmt: skip
-    pooled: dict[str, list] = {k: [] for k in ("idd", "ekf", "ss", "so", "is", "io")}
+          f" {'icr-slip: same':>14} {'others':>6} | {'idd, scaled':>11}")  # fmt: skip
+    pooled: dict[str, list] = {k: [] for k in ("idd", "ekf", "ss", "so", "is", "io", "sc")}
     for name, log in logs.items():
-        _, w = prepared[name]
+        w = runs[name][0]
         others = [v for k, v in logs.items() if k != name]
-        idd = prediction_errors(log, w, model_twist(get_model("idd"), [], b)).position
-        ekf = rows[name][2][0]
+        idd = rows[name][1][0]
         consts = [
             fit_slip_constant([log], model),
             fit_slip_constant(others, model),
@@ -322,17 +330,68 @@ def real(data: Path):
             model_twist(get_model("icr-slip"), p) for p in consts[2:]
         ]
         pos = [prediction_errors(log, w, tw).position for tw in twists]
-        n = len(w)
-        for key, value in zip(pooled, [idd, ekf, *pos], strict=True):
-            pooled[key].append((n, value))
-        cells = [100 * (1 - e / idd) for e in (ekf, *pos)]
+        best = np.full(len(w), np.inf)
+        for scale in np.linspace(0.7, 1.2, 51):
+            tw = model_twist(idd_model, [], b)
+            err = window_errors(log, w, lambda v_l, v_r, i, s=scale, f=tw: f(s * v_l, s * v_r, i))
+            best = np.minimum(best, err.translation)
+        values = [idd, rows[name][2][0], *pos, float(best.mean())]
+        for key, value in zip(pooled, values, strict=True):
+            pooled[key].append((len(w), value))
+        cells = [100 * (1 - e / idd) for e in values[1:]]
         print(f"   {name:<34} {cells[0]:8.0f} | {cells[1]:16.0f} {cells[2]:6.0f} |"
-              f" {cells[3]:14.0f} {cells[4]:6.0f}")  # fmt: skip
+              f" {cells[3]:14.0f} {cells[4]:6.0f} | {cells[5]:11.0f}")  # fmt: skip
     mean = {k: np.average([v for _, v in r], weights=[n for n, _ in r]) for k, r in pooled.items()}
-    cells = [100 * (1 - mean[k] / mean["idd"]) for k in ("ekf", "ss", "so", "is", "io")]
+    cells = [100 * (1 - mean[k] / mean["idd"]) for k in ("ekf", "ss", "so", "is", "io", "sc")]
     print(f"   {'all six, pooled':<34} {cells[0]:8.1f} | {cells[1]:16.1f} {cells[2]:6.1f} |"
-          f" {cells[3]:14.1f} {cells[4]:6.1f}")  # fmt: skip
+          f" {cells[3]:14.1f} {cells[4]:6.1f} | {cells[5]:11.1f}")  # fmt: skip
 
+
+def where_the_gain_is(logs, cfg, runs):
+    """Print the errors of the first 30 s of motion and later, and the final alpha."""
+    b = cfg.robot.track_width
+    print("\n   Mean 2-s position error (m) in the first 30 s of motion and after; final alpha")
+    print(f"   {'log':<34} {'first 30 s: idd':>15} {'slip':>6} | {'later: idd':>10} {'slip':>6}"
+          f" | {'alpha':>5}")  # fmt: skip
+    for name, log in logs.items():
+        w, res = runs[name]
+        idd = window_errors(log, w, model_twist(get_model("idd"), [], b)).translation
+        slip = window_errors(log, w, slip_twist(w, res, cfg)).translation
+        moving = np.abs(log.v_l) + np.abs(log.v_r) > 0.1
+        early = log.t[w.start] < log.t[np.argmax(moving)] + 30.0
+        alpha = res.states[-1, 12] if cfg.slip_ekf.estimate_alpha else 1.0
+        print(f"   {name:<34} {idd[early].mean():15.3f} {slip[early].mean():6.3f} |"
+              f" {idd[~early].mean():10.3f} {slip[~early].mean():6.3f} | {alpha:5.3f}")  # fmt: skip
+
+
+def residual_spread(logs, cfg):
+    """Print the spread of the 1-s pose-change residuals of the constant slip model (sigma_r)."""
+    model = SlipModel.from_config(cfg.slip_ekf, cfg.robot.track_width)
+    tuning = [logs[k] for k in TUNING_LOGS]
+    params = fit_slip_constant(tuning, model)
+    res = []
+    for log in tuning:
+        _, keep = one_hz(log)
+        w = Windows(start=keep[:-1], end=keep[1:], length=np.zeros(keep.size - 1))
+        end = predict_window_ends(log, w, constant_twist(model, params))
+        err = relative_pose(log.pose[w.start], end) - relative_pose(
+            log.pose[w.start], log.pose[w.end]
+        )
+        err[:, 2] = wrap_angle(err[:, 2])
+        moving = np.array([np.any(np.abs(log.v_l[i:j]) + np.abs(log.v_r[i:j]) > 0.1)
+                           for i, j in zip(w.start, w.end, strict=True)])  # fmt: skip
+        res.append(err[moving])
+    res = np.concatenate(res)
+    rms, med = np.sqrt(np.mean(res**2, axis=0)), np.median(np.abs(res), axis=0)
+    print("\n   1-s pose-change residuals of the constant slip model fitted on the tuning logs,")
+    print(f"   while moving (dx, dy m; dyaw rad): rms {rms[0]:.3f} {rms[1]:.3f} {rms[2]:.3f},"
+          f" median |.| {med[0]:.3f} {med[1]:.3f} {med[2]:.3f}")  # fmt: skip
+
+
+def latency_table(logs, cfg):
+    """Print the ICP stamp latency per log and the errors with the wheel speeds delayed."""
+    b = cfg.robot.track_width
+    model = SlipModel.from_config(cfg.slip_ekf, b)
     print("\n   ICP pose stamps behind the wheel speeds (heading changes vs wheel yaw rate), and")
     print(f"   2-s position errors with every row's wheel speeds taken from {DELAY} s earlier")
     print("   (the filter's input and the windows alike)")
@@ -357,6 +416,21 @@ def real(data: Path):
     red = [100 * (1 - mean[k] / mean["idd"]) for k in ("ekf", "ss", "is")]
     print(f"   {'all six, pooled':<34} {'':>9} | {mean['idd']:6.3f} {red[0]:11.1f}"
           f" {red[1]:18.1f} {red[2]:16.1f}")  # fmt: skip
+
+
+def real(data: Path):
+    cfg = load_config(REPO / "config" / "warthog.yaml")
+    logs = {
+        p.stem.replace("warthog_wheels_", ""): read_wheel_log(
+            p, wheel_radius=cfg.robot.wheel_radius
+        )
+        for p in sorted(data.glob("warthog_wheels_*.csv"))
+    }
+    rows, runs = filter_table(logs, cfg)
+    reachable(logs, cfg, rows, runs)
+    where_the_gain_is(logs, cfg, runs)
+    residual_spread(logs, cfg)
+    latency_table(logs, cfg)
 
 
 def line(name, n, idd, slip, ho, icr):

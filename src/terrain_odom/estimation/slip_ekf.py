@@ -30,9 +30,10 @@ with the current parameters; the Jacobian is analytic (chain rule through
 arcs and composition; tested against finite differences). The pose noise of
 overlapping windows is independent unless they share an end, and a longer
 change is measured with the same noise, so a window of a few tenths of a
-second makes each update informative enough to linearise well at 10 Hz. When either pose lacks a position (a GPS outage), only
-the heading change is fused, and it leaves ``alpha`` alone (a heading change
-cannot tell a slip factor from a wider ICR spacing).
+second makes each update informative enough to linearise well at 10 Hz.
+When either pose lacks a position (a GPS outage), only the heading change is
+fused, and it leaves ``alpha`` alone (a heading change cannot tell a slip
+factor from a wider ICR spacing).
 
 References
 ----------
@@ -436,9 +437,9 @@ class _SlipSteps:
     Updates at every row with a measured yaw, with the pose change since the
     anchor: the latest earlier such row of the same segment at least
     ``slip_ekf.window`` seconds before (0: the previous one), or the
-    segment's first one while the segment is shorter. The recorded pose (``x, y, yaw``) is dead
-    reckoning with the current parameters from the origin at each segment
-    start, reset to every measured pose component.
+    segment's first one while the segment is shorter. The recorded pose
+    (``x, y, yaw``) is dead reckoning with the current parameters from the
+    origin at each segment start, reset to every measured pose component.
     """
 
     def __init__(self, ekf: SlipEkf, log: WheelLog) -> None:
@@ -522,8 +523,9 @@ def run_slip_ekf(
     -------
     OdometryResult
         ``names`` are ``x, y, yaw`` (dead reckoning from the origin at each
-        segment start, reset to every measured component), ``y_l, y_r, x_icr`` (at the row's track speeds), then the
-        parameters; ``stds`` hold NaN for the pose.
+        segment start, reset to every measured component), ``y_l, y_r,
+        x_icr`` (at the row's track speeds), then the parameters; ``stds``
+        hold NaN for the pose.
 
     Raises
     ------
