@@ -20,14 +20,15 @@ from terrain_odom.io import read_wheel_log
 from terrain_odom.kinematics import get_model
 
 REPO = Path(__file__).resolve().parents[1]
-ASPHALT = REPO.parent / "shared" / "data" / "drive" / "warthog_wheels_asphalt_2024_9_25_12h8s57.csv"
+# One of the three logs config/warthog.yaml's slip_ekf section was not tuned on.
+HELD_OUT = REPO.parent / "shared" / "data" / "drive" / "warthog_wheels_grass_2024_7_29_14h4s53.csv"
 
-pytestmark = pytest.mark.skipif(not ASPHALT.is_file(), reason="../shared/data/drive not present")
+pytestmark = pytest.mark.skipif(not HELD_OUT.is_file(), reason="../shared/data/drive not present")
 
 
-def test_asphalt_one_hz_beats_ideal_differential_drive_full_and_heading_only():
+def test_held_out_grass_one_hz_beats_ideal_differential_drive_full_and_heading_only():
     cfg = load_config(REPO / "config" / "warthog.yaml")
-    log = read_wheel_log(ASPHALT, wheel_radius=cfg.robot.wheel_radius)
+    log = read_wheel_log(HELD_OUT, wheel_radius=cfg.robot.wheel_radius)
     rows = np.flatnonzero(log.has_pose)
     sec = np.floor(log.t[rows])
     keep = rows[np.r_[True, sec[1:] != sec[:-1]]]  # first pose of every second: 1 Hz
@@ -38,7 +39,8 @@ def test_asphalt_one_hz_beats_ideal_differential_drive_full_and_heading_only():
     model = SlipModel.from_config(cfg.slip_ekf, cfg.robot.track_width)
     heading = pose.copy()
     heading[:, :2] = np.nan
-    for p, factor in ((pose, 0.5), (heading, 1.0)):
+    # measured: -52 % / -65 % with the full pose, -42 % / -63 % with the heading only
+    for p, factor in ((pose, 0.6), (heading, 0.7)):
         res = run_slip_ekf(dataclasses.replace(log, pose=p), cfg, labels=log.terrain)
         e = prediction_errors(log, w, slip_twist_from_rows(w, res.states[:, 6:], model))
         assert e.position < factor * idd.position

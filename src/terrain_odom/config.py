@@ -264,6 +264,11 @@ class SlipEkfConfig:
         Initial standard deviations (``P0``).
     sigma_q : SlipSigmas
         Random-walk densities of the parameters, unit / sqrt(s).
+    window : float
+        Length of the measured pose change, s: each update compares the pose
+        change since the latest pose measurement at least ``window`` seconds
+        earlier (the segment's first one while the segment is shorter) with
+        its prediction; 0: since the previous measurement.
     sigma_r : PoseChangeSigmas
         Noise of the measured pose change between two pose measurements.
     sigma_pb : SlipSigmas
@@ -277,6 +282,7 @@ class SlipEkfConfig:
     curvature: bool = True
     eps: float = 1e-3
     iterations: int = 3
+    window: float = field(default=0.0, metadata=NON_NEGATIVE)
     initial: SlipParams = field(default_factory=SlipParams)
     sigma_p0: SlipSigmas = field(default_factory=SlipSigmas)
     sigma_q: SlipSigmas = field(

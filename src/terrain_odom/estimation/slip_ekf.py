@@ -21,14 +21,19 @@ The body twist is :func:`~terrain_odom.kinematics.twist_icr` of these ICRs.
 
 The filter state is the parameter vector ``l1 .. l6(, alpha)`` only: the
 pose is not a state, the parameters follow a random walk. At each pose
-measurement the measurement is the pose change since the previous
-measurement, expressed in the frame of the previous measured pose
-(``relative_pose``); the prediction integrates the recorded wheel speeds over
-that interval (exact arcs, zero-order hold) with the current parameters; the
-Jacobian is analytic (chain rule through arcs and composition; tested against
-finite differences). When either pose lacks a position (a GPS outage), only
-the heading change is fused, and it leaves ``alpha`` alone (a heading change
-cannot tell a slip factor from a wider ICR spacing).
+measurement the measurement is, as in the paper, the pose change over the
+last few seconds: since the latest earlier pose measurement at least
+``slip_ekf.window`` seconds before (0: the previous one), expressed in the
+frame of that measured pose (``relative_pose``); the prediction integrates
+the recorded wheel speeds over that interval (exact arcs, zero-order hold)
+with the current parameters; the Jacobian is analytic (chain rule through
+arcs and composition; tested against finite differences). The pose noise of
+overlapping windows is independent unless they share an end, and a longer
+change is measured with the same noise, so a window of a few tenths of a
+second makes each update informative enough to linearise well at 10 Hz.
+When either pose lacks a position (a GPS outage), only the heading change is
+fused, and it leaves ``alpha`` alone (a heading change cannot tell a slip
+factor from a wider ICR spacing).
 
 References
 ----------
@@ -39,6 +44,7 @@ References
 from __future__ import annotations
 
 import logging
+from collections import deque
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
@@ -348,7 +354,7 @@ class SlipEkf:
         Parameters
         ----------
         z : array_like, shape (3,)
-            Measured ``dx, dy, dyaw`` since the previous pose measurement, in
+            Measured ``dx, dy, dyaw`` since an earlier pose measurement, in
             the frame of that pose (m, m, rad); ``dx, dy`` NaN for heading only.
         v_l, v_r, dt : array_like, shape (K,)
             The recorded track speeds (m/s) over the interval and how long
@@ -428,23 +434,27 @@ class SlipEkf:
 class _SlipSteps:
     """:class:`~terrain_odom.estimation.odometry.RowStepper` of the slip EKF.
 
-    Updates at every row with a measured yaw, from the previous such row of
-    the same segment. The recorded pose (``x, y, yaw``) is dead reckoning
-    with the current parameters from the origin at each segment start, reset
-    to every measured pose component.
+    Updates at every row with a measured yaw, with the pose change since the
+    anchor: the latest earlier such row of the same segment at least
+    ``slip_ekf.window`` seconds before (0: the previous one), or the
+    segment's first one while the segment is shorter. The recorded pose
+    (``x, y, yaw``) is dead reckoning with the current parameters from the
+    origin at each segment start, reset to every measured pose component.
     """
 
     def __init__(self, ekf: SlipEkf, log: WheelLog) -> None:
         self.filter = ekf
         self.names = OUTPUT_NAMES + ekf.names
         self._log = log
-        self._anchor: int | None = None
+        self._window = ekf.config.window
+        self._anchors: deque[int] = deque()  # rows with a yaw, oldest first
         self._pose = np.zeros(3)
 
     def advance(self, k: int, new_segment: bool) -> None:
         log = self._log
         if new_segment:
-            self._anchor, self._pose = None, np.zeros(3)
+            self._anchors.clear()
+            self._pose = np.zeros(3)
             self.filter.t = float(log.t[k])
         elif k > 0:
             dt = float(log.t[k] - log.t[k - 1])
@@ -453,13 +463,21 @@ class _SlipSteps:
             inc = self.filter.model.pose_change(params, log.v_l[k - 1], log.v_r[k - 1], dt)
             self._pose = compose(self._pose, inc)
 
+    def _anchor(self, t_k: float) -> int | None:
+        """Return the anchor of a measurement at ``t_k`` (s), dropping those never needed again."""
+        t, anchors = self._log.t, self._anchors
+        while len(anchors) > 1 and t[anchors[1]] <= t_k - self._window:
+            anchors.popleft()
+        return anchors[0] if anchors else None
+
     def measure(self, k: int) -> bool:
         log = self._log
         z = log.pose[k]
         self._pose = np.where(np.isfinite(z), z, self._pose)
         if not np.isfinite(z[2]):
             return False
-        j, self._anchor = self._anchor, k
+        j = self._anchor(float(log.t[k]))
+        self._anchors.append(k)
         if j is None:
             return False
         change = relative_pose(log.pose[j], z)  # NaN position if either lacks one
@@ -505,8 +523,9 @@ def run_slip_ekf(
     -------
     OdometryResult
         ``names`` are ``x, y, yaw`` (dead reckoning from the origin at each
-        segment start, reset to every measured component), ``y_l, y_r, x_icr`` (at the row's track speeds), then the
-        parameters; ``stds`` hold NaN for the pose.
+        segment start, reset to every measured component), ``y_l, y_r,
+        x_icr`` (at the row's track speeds), then the parameters; ``stds``
+        hold NaN for the pose.
 
     Raises
     ------
