@@ -451,7 +451,7 @@ def _box_plot(
 
     groups = sorted({g for e in raw_errors.values() for g in e})
     width = 0.8 / max(1, len(groups))
-    fig = new_figure(min(14.0, 2.0 + 0.5 * len(names) * len(groups)), 7)
+    fig = new_figure(min(14.0, max(6.5, 2.0 + 0.5 * len(names) * len(groups))), 7)  # title fits
     axes = fig.subplots(2, 1)
     for ax, attr, unit in (
         (axes[0], "translation_per_m", "translational error (m/m)"),
