@@ -10,8 +10,10 @@ region of interest from the current wheel speeds and ICR estimate
 with how far ahead the classified ground is: the distance to the predicted
 pose at the region's centre, or with the whole frame to the ground point at
 the image centre. (The ground at the region's pixel centre, nearer because
-perspective gives near ground more pixels, did worse in ``bench/chen2023.py``:
-terrain/no-terrain error 0.45, 0.50, 0.47 against 0.37, 0.51, 0.36.)
+perspective gives near ground more pixels, did worse in ``bench/chen2023.py``
+with 32-px tiles voting over the whole box: terrain/no-terrain error 0.45,
+0.50, 0.47 against 0.37, 0.51, 0.36.) Only the tiles whose centre is inside
+the footprint's projection vote (:func:`~terrain_odom.vision.classifier.tiles_within`).
 """
 
 from __future__ import annotations
@@ -137,7 +139,8 @@ class FramePipeline:
         Maps a frame's path to the text of its ``file`` cell.
     time_full_frame : bool
         Also time SFTA + KNN on the whole frame (its label is not used), for
-        Chen's Table 2 comparison.
+        Chen's Table 2 comparison: before the region on even-numbered frames,
+        after it on odd ones, so that each meets cold caches equally often.
 
     Attributes
     ----------
