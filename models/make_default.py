@@ -5,8 +5,8 @@ simulated ``chen2023`` run with seed 1, drawn from map areas that run does
 not drive over, with the default classifier settings but for tiles of about
 32 px a side (``--tile-size 32``: a region's classification time is then
 proportional to its area, which is what the region of interest saves). The
-quick-start sample
-(``sample_images/chen2023``) is seed 0, so the model is not trained on it.
+quick-start sample (``sample_images/chen2023``) is seed 0, so the model is
+not trained on it.
 From the repository root::
 
     python models/make_default.py
@@ -28,6 +28,7 @@ from terrain_odom.cli.main import main as cli
 HERE = Path(__file__).resolve().parent
 MODEL = HERE / "default.npz"
 SEED = 1
+TILE_SIZE = 32  # px
 
 
 def make(out: str | Path = MODEL) -> int:
@@ -37,7 +38,8 @@ def make(out: str | Path = MODEL) -> int:
         code = cli([*args, "--duration", "48", "--no-frames"])
         if code == 0:
             patches = str(Path(tmp) / "patches")
-            code = cli(["train", "--images", patches, "--out", str(out), "--tile-size", "32"])
+            train = ["train", "--images", patches, "--out", str(out)]
+            code = cli([*train, "--tile-size", str(TILE_SIZE)])
     return code
 
 
