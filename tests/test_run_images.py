@@ -104,6 +104,8 @@ def test_camera_run_confirms_the_true_changes_and_converges(sim, tmp_path, capsy
     correct = np.mean([truth_at[round(float(r["t"]) + 1.0, 2)] == r["label"] for r in rows[:-10]])
     assert correct > 0.9  # labels the ground one horizon (1 s) ahead
     assert all(float(r["ms_features_full"]) > 0 and float(r["ahead_m"]) > 0 for r in rows)
+    assert all(float(r["ms_knn"]) > 0 and float(r["ms_knn_full"]) > 0 for r in rows)
+    assert all(float(r["ms_features"]) + float(r["ms_knn"]) < float(r["ms_total"]) for r in rows)
     _check_groundtruth_report(report["groundtruth"], out)
 
 
@@ -113,6 +115,9 @@ def _check_groundtruth_report(section, out):
     assert set(section["frames"]["accuracy"]["per_terrain"]) == {"grass", "gravel"}
     times = section["frames"]["feature_time"]["all"]
     assert times["roi"]["frames"] == times["full_frame"]["frames"] == DURATION_S * FRAME_RATE_HZ
+    with_knn = section["frames"]["classification_time"]["all"]
+    assert with_knn["roi"]["mean_ms"] > times["roi"]["mean_ms"]
+    assert with_knn["full_frame"]["mean_ms"] > times["full_frame"]["mean_ms"]
     odometry = section["odometry"]
     assert list(odometry) == [
         "idd (B=0.5 m)",
@@ -131,7 +136,8 @@ def _check_groundtruth_report(section, out):
     no_terrain = section["reconvergence"]["ekf (no terrain)"][0]["settling_s"]
     assert no_terrain is None or no_terrain > 2 * to_gravel["settling_s"]
     markdown = (out / "report.md").read_text()
-    for heading in ("Frame classification", "Feature extraction time", "Model-odometry error"):
+    headings = ("Frame classification", "Feature extraction time", "Feature extraction + KNN")
+    for heading in (*headings, "Model-odometry error"):
         assert f"## {heading}" in markdown
     for name in ("trajectory", "icr", "frames"):
         image = cv2.imread(str(out / "plots" / f"{name}.png"))

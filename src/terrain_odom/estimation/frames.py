@@ -32,7 +32,7 @@ from terrain_odom.errors import InputFileError
 from terrain_odom.estimation.odometry import Sighting
 from terrain_odom.io.frames import FrameList
 from terrain_odom.vision.camera import GroundCamera, RoiConfig, crop, region_of_interest
-from terrain_odom.vision.classifier import TerrainClassifier
+from terrain_odom.vision.classifier import TerrainClassifier, image_features
 from terrain_odom.vision.dataset import read_image_rgb
 
 __all__ = ["FRAME_COLUMNS", "FrameRecord", "FramePipeline", "ReplayedFrames", "one_thread"]
@@ -52,6 +52,8 @@ FRAME_COLUMNS = (
     "roi_status",
     "ahead_m",
     "ms_features_full",
+    "ms_knn",
+    "ms_knn_full",
 )
 """Columns of ``OUT/frames.csv``."""
 
@@ -84,10 +86,12 @@ class FrameRecord:
 
     ``label`` is ``""`` and ``confidence``/``box`` are empty when the region
     of interest has no usable box (``roi_status`` ``outside`` or
-    ``too_small``); ``ms_features`` is the SFTA + KNN time, ``ms_total``
-    includes decoding and the region of interest; ``ahead`` is the distance
-    from the robot to the classified ground, m; ``ms_features_full`` the SFTA
-    + KNN time on the whole frame when that is timed for comparison.
+    ``too_small``); ``ms_features`` is the feature-extraction (SFTA and
+    colour) time and ``ms_knn`` the KNN vote's, ``ms_total`` includes
+    decoding and the region of interest; ``ahead`` is the distance from the
+    robot to the classified ground, m; ``ms_features_full`` and
+    ``ms_knn_full`` the same on the whole frame when that is timed for
+    comparison.
     """
 
     t: float
@@ -101,6 +105,8 @@ class FrameRecord:
     roi_status: str = ""
     ahead: float = float("nan")
     ms_features_full: float = float("nan")
+    ms_knn: float = float("nan")
+    ms_knn_full: float = float("nan")
 
     def row(self) -> dict[str, object]:
         """Return the record as a ``frames.csv`` row."""
@@ -117,6 +123,8 @@ class FrameRecord:
             "roi_status": self.roi_status,
             "ahead_m": self.ahead,
             "ms_features_full": self.ms_features_full,
+            "ms_knn": self.ms_knn,
+            "ms_knn_full": self.ms_knn_full,
         }
 
 
@@ -138,7 +146,7 @@ class FramePipeline:
     names : callable, optional
         Maps a frame's path to the text of its ``file`` cell.
     time_full_frame : bool
-        Also time SFTA + KNN on the whole frame (its label is not used), for
+        Also time features and KNN on the whole frame (its label is not used), for
         Chen's Table 2 comparison: before the region on even-numbered frames,
         after it on odd ones, so that each meets cold caches equally often.
 
@@ -210,28 +218,35 @@ class FramePipeline:
         whole = self.time_full_frame and self.use_roi and region is not None
         whole_first = whole and index % 2 == 0
         if whole_first:
-            record.ms_features_full = self._time_whole(image)
+            record.ms_features_full, record.ms_knn_full = self._time_whole(image)
         if region is not None:
-            features_start = time.perf_counter()
-            record.label, record.confidence = self.classifier.classify(region, footprint)
-            done = time.perf_counter()
-            record.ms_features = 1e3 * (done - features_start)
-            record.ms_total = 1e3 * (done - started)
+            (record.label, record.confidence), record.ms_features, record.ms_knn = (
+                self._classify_timed(region, footprint)
+            )
+            record.ms_total = 1e3 * (time.perf_counter() - started)
             if whole_first:
-                record.ms_total -= record.ms_features_full
+                record.ms_total -= record.ms_features_full + record.ms_knn_full
             self.ms_total.append(record.ms_total)
         if whole and not whole_first:
-            record.ms_features_full = self._time_whole(image)
+            record.ms_features_full, record.ms_knn_full = self._time_whole(image)
         elif self.time_full_frame and not whole:
-            record.ms_features_full = record.ms_features
+            record.ms_features_full, record.ms_knn_full = record.ms_features, record.ms_knn
         self._pending = record
         return Sighting(record.label, record.ahead) if record.label else None
 
-    def _time_whole(self, image: np.ndarray) -> float:
-        """SFTA + KNN time on the whole frame, ms."""
+    def _classify_timed(
+        self, region: np.ndarray, footprint: np.ndarray | None
+    ) -> tuple[tuple[str, float], float, float]:
+        """``(label, confidence)``, feature time and KNN time (ms) of a region."""
         started = time.perf_counter()
-        self.classifier.classify(image)
-        return 1e3 * (time.perf_counter() - started)
+        features = image_features(region, self.classifier.cfg, footprint)
+        extracted = time.perf_counter()
+        result = self.classifier.vote(features)
+        return result, 1e3 * (extracted - started), 1e3 * (time.perf_counter() - extracted)
+
+    def _time_whole(self, image: np.ndarray) -> tuple[float, float]:
+        """Feature and KNN time on the whole frame, ms (its label is not used)."""
+        return self._classify_timed(image, None)[1:]
 
     @functools.cached_property
     def _image_centre_ahead(self) -> float:

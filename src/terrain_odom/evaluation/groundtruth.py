@@ -130,15 +130,15 @@ def _time_stats(ms: np.ndarray) -> dict[str, Any]:
 def feature_times(
     truth: ArrayLike, ms_roi: ArrayLike, ms_full: ArrayLike
 ) -> dict[str, dict[str, Any]]:
-    """Feature-extraction time per true terrain, with and without the region of interest.
+    """Per-frame time per true terrain, with and without the region of interest.
 
     Parameters
     ----------
     truth : array_like of str, shape (F,)
         True terrain of each frame (``""`` rows are pooled into ``all`` only).
     ms_roi, ms_full : array_like, shape (F,)
-        SFTA + KNN time on the region of interest and on the whole frame, ms
-        (NaN where not measured).
+        Time on the region of interest and on the whole frame, ms (NaN where
+        not measured), e.g. of feature extraction.
 
     Returns
     -------

@@ -117,6 +117,11 @@ def _frames_section(
         "feature_time": feature_times(
             truth, [r.ms_features for r in records], [r.ms_features_full for r in records]
         ),
+        "classification_time": feature_times(
+            truth,
+            [r.ms_features + r.ms_knn for r in records],
+            [r.ms_features_full + r.ms_knn_full for r in records],
+        ),
     }, truth
 
 

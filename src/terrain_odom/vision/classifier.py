@@ -55,6 +55,7 @@ import cv2
 import numpy as np
 import yaml
 from numpy.typing import ArrayLike, NDArray
+from skimage.measure import points_in_poly
 from sklearn.neighbors import KNeighborsClassifier
 from sklearn.pipeline import Pipeline
 from sklearn.preprocessing import StandardScaler
@@ -407,8 +408,9 @@ def tiles_within(height: int, width: int, cfg: ClassifierConfig, polygon: ArrayL
     Returns
     -------
     ndarray of intp
-        Tile indices, row by row, of the tiles whose centre is inside or on
-        the polygon; if there is none, the one tile nearest the polygon's
+        Tile indices, row by row, of the tiles whose centre is inside the
+        polygon (``skimage.measure.points_in_poly``; a centre exactly on an
+        edge may fall either way); if there is none, the one tile nearest the polygon's
         vertex mean, so that a region is never left without a tile.
 
     >>> square = [(0, 0), (99, 0), (99, 99), (0, 99)]
@@ -421,11 +423,11 @@ def tiles_within(height: int, width: int, cfg: ClassifierConfig, polygon: ArrayL
         (rows[:-1] + rows[1:] - 1) / 2.0, (cols[:-1] + cols[1:] - 1) / 2.0, indexing="ij"
     )
     centres = np.column_stack((u.ravel(), v.ravel()))
-    contour = np.asarray(polygon, dtype=np.float32).reshape(-1, 1, 2)
-    inside = [cv2.pointPolygonTest(contour, (float(x), float(y)), False) >= 0 for x, y in centres]
-    if any(inside):
+    vertices = np.asarray(polygon, dtype=float).reshape(-1, 2)
+    inside = points_in_poly(centres, vertices)
+    if inside.any():
         return np.flatnonzero(inside)
-    nearest = np.argmin(np.sum((centres - contour.reshape(-1, 2).mean(axis=0)) ** 2, axis=1))
+    nearest = np.argmin(np.sum((centres - vertices.mean(axis=0)) ** 2, axis=1))
     return np.array([nearest], dtype=np.intp)
 
 
@@ -688,7 +690,22 @@ class TerrainClassifier:
         confidence : float
             Vote share in [0, 1] (of the tiles with several, else of the neighbours).
         """
-        features = image_features(image_rgb, self.cfg, within)
+        return self.vote(image_features(image_rgb, self.cfg, within))
+
+    def vote(self, features: NDArray) -> tuple[str, float]:
+        """Label and confidence of one region from its tiles' features.
+
+        Parameters
+        ----------
+        features : ndarray, shape (n_tiles, n_features)
+            :func:`image_features` of the region.
+
+        Returns
+        -------
+        label : str
+        confidence : float
+            As :meth:`classify` (the region is all the rows).
+        """
         labels, confidence = self.predict_with_confidence(
             features, np.zeros(features.shape[0], dtype=np.intp)
         )
