@@ -68,6 +68,27 @@ def test_simulate_rates_from_the_command_line(tmp_path):
     assert len((out / "frames.csv").read_text().splitlines()) == 1 + 2
 
 
+def test_pose_noise_from_the_command_line(tmp_path):
+    """The measured poses scatter about the true ones by the noise asked for."""
+    out = tmp_path / "run"
+    args = ["simulate", "--out", str(out), "--duration", "60", "--no-frames", "--no-patches"]
+    assert main([*args, "--pose-rate", "50", "--pose-noise", "0.05", "0.002"]) == 0
+    log = read_wheel_log(out / "log.csv")
+    with (out / "groundtruth.csv").open(newline="") as handle:
+        truth = np.array([[float(r[k]) for k in ("x", "y", "yaw")] for r in csv.DictReader(handle)])
+    error = log.pose - truth
+    assert np.std(error[:, :2]) == pytest.approx(0.05, rel=0.05)
+    assert np.std(error[:, 2]) == pytest.approx(0.002, rel=0.05)
+    meta = json.loads((out / "simulation.json").read_text())
+    assert meta["noise"]["pose_xy_m"] == 0.05 and meta["noise"]["pose_yaw_rad"] == 0.002
+
+
+@pytest.mark.parametrize("noise", [["-0.01", "0.01"], ["0.01", "inf"], ["nan", "0.01"]])
+def test_bad_pose_noise_is_a_one_line_error(tmp_path, capsys, noise):
+    assert main(["simulate", "--out", str(tmp_path / "x"), "--pose-noise", *noise]) == 2
+    assert "--pose-noise must be two finite values >= 0" in capsys.readouterr().err
+
+
 def test_a_rate_the_wheel_rate_is_not_a_multiple_of_is_an_error(tmp_path, capsys):
     args = ["simulate", "--out", str(tmp_path / "x"), "--frame-rate", "7"]
     assert main(args) == 2

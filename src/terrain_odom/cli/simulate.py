@@ -18,6 +18,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "--pose-rate", type=float, help="GPS-like pose rate, Hz (default: the scenario's)"
     )
     p.add_argument(
+        "--pose-noise",
+        type=float,
+        nargs=2,
+        metavar=("XY_M", "YAW_RAD"),
+        help="pose measurement noise std: position (m) and yaw (rad) (default: the scenario's)",
+    )
+    p.add_argument(
         "--frame-rate", type=float, help="camera frame rate, Hz (default: the scenario's)"
     )
     p.add_argument(
@@ -53,6 +60,10 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
         if value is not None and not value > 0.0:
             raise ConfigError(f"--{name.replace('_', '-')} must be > 0, got {value}")
     given = {k: v for k, v in changes.items() if v is not None}
+    if args.pose_noise is not None:
+        if not all(0.0 <= value < float("inf") for value in args.pose_noise):
+            raise ConfigError(f"--pose-noise must be two finite values >= 0, got {args.pose_noise}")
+        given.update(zip(("sigma_xy", "sigma_yaw"), args.pose_noise, strict=True))
     scenario = dataclasses.replace(scenario, **given)
     robot = camera = None
     if args.config is not None:
