@@ -277,6 +277,11 @@ class SlipEkfConfig:
         its prediction; 0: since the previous measurement.
     sigma_r : PoseChangeSigmas
         Noise of the measured pose change between two pose measurements.
+    robust : bool
+        Take a pose change whose normalised innovation squared exceeds the
+        99 % chi-square bound as an outlier: its noise is inflated by the
+        ratio, so it moves the parameters no more than a change at the bound
+        (for pose sensors with heavy-tailed errors, e.g. ICP stamp jitter).
     sigma_pb : SlipSigmas
         Standard deviations ``P`` is reset to on a confirmed terrain change.
     limits : IcrLimits
@@ -297,6 +302,7 @@ class SlipEkfConfig:
         )
     )
     sigma_r: PoseChangeSigmas = field(default_factory=PoseChangeSigmas)
+    robust: bool = False
     sigma_pb: SlipSigmas = field(default_factory=SlipSigmas)
     limits: IcrLimits = field(default_factory=IcrLimits)
 
