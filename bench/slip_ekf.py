@@ -13,9 +13,10 @@
    poses and end at the full-rate pose nearest 2 s later. The slip EKF uses
    config/warthog.yaml, tuned on the three logs marked ``T``. Then what
    constant models reach on the same windows (fitted on 2-s windows of the
-   same log, or of the five others), the latency of the ICP pose stamps
-   behind the wheel speeds, and the figures with the wheel speeds delayed by
-   0.2 s.
+   same log, or of the five others). Then the pose delay of every log
+   (``terrain_odom.estimation.time_offset``, estimated on the full-rate log:
+   ``--pose-delay auto``) and the same figures with it applied: the wheel
+   speeds delayed by it, for the filters' input and the windows alike.
 
 Usage::
 
@@ -35,6 +36,7 @@ from scipy.optimize import least_squares
 from terrain_odom.config import Config, EkfConfig, IcrState, RobotConfig, load_config
 from terrain_odom.estimation.odometry import run_icr_ekf
 from terrain_odom.estimation.slip_ekf import SlipModel, run_slip_ekf
+from terrain_odom.estimation.time_offset import calibrate_pose_delay
 from terrain_odom.evaluation import (
     Windows,
     icr_twist_from_rows,
@@ -61,7 +63,6 @@ TUNING_LOGS = (  # config/warthog.yaml slip_ekf was chosen on these; the others 
     "grass_2024_7_18_16h59s20",
     "grass_2024_7_29_14h46s15",
 )
-DELAY = 0.2  # s, wheel-speed delay of the latency check (median of the per-log estimates)
 
 
 # ---------------------------------------------------------------- 1. Sec. 4.1
@@ -203,40 +204,6 @@ def one_hz(log):
     return dataclasses.replace(log, pose=pose), keep
 
 
-def delayed(log, seconds: float):
-    """Return the log with each row's wheel speeds from ``seconds`` earlier (zero-order hold)."""
-    rows = np.clip(np.searchsorted(log.t, log.t - seconds, side="right") - 1, 0, len(log) - 1)
-    return dataclasses.replace(log, v_l=log.v_l[rows], v_r=log.v_r[rows])
-
-
-def pose_latency(log, track_width: float) -> float:
-    """Delay (s) of the pose stamps behind the wheel speeds that best explains the heading.
-
-    Heading changes over 5 pose intervals against ``c * integral of (v_r - v_l) / B``
-    over the same interval moved ``L`` earlier; ``c`` is fitted for each ``L`` on a
-    0-0.5 s grid and the ``L`` of the smallest residual is returned.
-    """
-    rows = np.flatnonzero(log.has_pose)
-    a, b = rows[:-5], rows[5:]
-    keep = log.t[b] - log.t[a] < 1.0
-    a, b = a[keep], b[keep]
-    rate = (log.v_r - log.v_l) / track_width
-    cum = np.r_[0.0, np.cumsum(rate[:-1] * np.diff(log.t))]
-
-    def turned(t):
-        i = np.clip(np.searchsorted(log.t, t, side="right") - 1, 0, len(log) - 1)
-        return cum[i] + rate[i] * (t - log.t[i])
-
-    measured = wrap_angle(log.pose[b, 2] - log.pose[a, 2])
-    lags = np.round(np.arange(0.0, 0.501, 0.01), 2)
-    cost = []
-    for lag in lags:
-        x = turned(log.t[b] - lag) - turned(log.t[a] - lag)
-        c = (x @ measured) / (x @ x)
-        cost.append(np.mean((measured - c * x) ** 2))
-    return float(lags[int(np.argmin(cost))])
-
-
 def constant_twist(model: SlipModel, params):
     """Twist callable of the slip model with constant parameters."""
     return lambda v_l, v_r, _i: model.twist(v_l, v_r, params)
@@ -267,11 +234,12 @@ def fit_icr_slip(logs) -> np.ndarray:
     return fit_model("icr-slip", segments, options=FitOptions(popsize=8, maxiter=100)).params
 
 
-def filter_table(logs, cfg):
+def filter_table(logs, cfg, title=True):
     """Per-log 2-s errors at 1-Hz pose; return the rows and, per log, the windows and runs."""
     b = cfg.robot.track_width
-    print(f"\n3. Real Warthog logs, pose 1 Hz, config/warthog.yaml (B = {b} m), 2-s errors;")
-    print("   T: the slip_ekf section was tuned on this log")
+    if title:
+        print(f"\n3. Real Warthog logs, pose 1 Hz, config/warthog.yaml (B = {b} m), 2-s errors,")
+        print("   pose stamps as recorded; T: the slip_ekf section was tuned on this log")
     print(f"   {'log':<34} {'n':>4}  {'idd m':>6} {'deg':>5} | {'slip m':>6} {'deg':>5}"
           f" {'-%pos':>5} {'-%hdg':>5} | {'heading-only m':>14} {'deg':>5} {'-%pos':>5}"
           f" {'-%hdg':>5} | {'icr-ekf m':>9} {'deg':>5}")  # fmt: skip
@@ -388,34 +356,39 @@ def residual_spread(logs, cfg):
           f" median |.| {med[0]:.3f} {med[1]:.3f} {med[2]:.3f}")  # fmt: skip
 
 
-def latency_table(logs, cfg):
-    """Print the ICP stamp latency per log and the errors with the wheel speeds delayed."""
+def calibrated_table(logs, cfg):
+    """Print each log's pose delay, then the filter table and constant models with it applied."""
     b = cfg.robot.track_width
     model = SlipModel.from_config(cfg.slip_ekf, b)
-    print("\n   ICP pose stamps behind the wheel speeds (heading changes vs wheel yaw rate), and")
-    print(f"   2-s position errors with every row's wheel speeds taken from {DELAY} s earlier")
-    print("   (the filter's input and the windows alike)")
-    print(f"   {'log':<34} {'latency s':>9} | {'idd m':>6} {'slip EKF -%':>11}"
-          f" {'slip model same -%':>18} {'icr-slip same -%':>16}")  # fmt: skip
-    pooled = {k: [] for k in ("idd", "ekf", "ss", "is")}
+    print("\n   Pose delay of each log (estimate_pose_delay on the full-rate log: heading changes")
+    print("   over 0.5 s against the wheel yaw rate moved earlier; --pose-delay auto)")
+    print(f"   {'log':<34} {'delay s':>7} {'+-':>6} {'yaw-rate scale':>14} {'changes':>7}")
+    calibrated = {}
     for name, log in logs.items():
-        late = delayed(log, DELAY)
-        sub, keep = one_hz(late)
-        w = prediction_windows(late, starts=keep)
-        idd = prediction_errors(late, w, model_twist(get_model("idd"), [], b)).position
-        ekf = slip_errors(late, sub, w, cfg, late.terrain)[0]
-        slip_p, icr_p = fit_slip_constant([late], model), fit_icr_slip([late])
-        ss = prediction_errors(late, w, constant_twist(model, slip_p))
-        is_ = prediction_errors(late, w, model_twist(get_model("icr-slip"), icr_p))
-        for key, value in zip(pooled, (idd, ekf, ss.position, is_.position), strict=True):
+        calibrated[name], timing = calibrate_pose_delay(log, "auto", b)
+        e = timing.estimate
+        print(f"   {name:<34} {e.delay:7.3f} {e.std:6.3f} {e.yaw_rate_scale:14.3f} {e.pairs:7d}")
+    print(
+        "\n   With each log's pose delay applied (wheel speeds delayed; idd on the same windows):"
+    )
+    filter_table(calibrated, cfg, title=False)
+    print("\n   Constant models with the delay applied, fitted on the same log (in-sample):")
+    print("   2-s position error reduction vs idd (%)")
+    print(f"   {'log':<34} {'slip model':>10} {'icr-slip':>8}")
+    pooled = {k: [] for k in ("idd", "ss", "is")}
+    for name, log in calibrated.items():
+        _, keep = one_hz(log)
+        w = prediction_windows(log, starts=keep)
+        idd = prediction_errors(log, w, model_twist(get_model("idd"), [], b)).position
+        slip_p, icr_p = fit_slip_constant([log], model), fit_icr_slip([log])
+        ss = prediction_errors(log, w, constant_twist(model, slip_p)).position
+        is_ = prediction_errors(log, w, model_twist(get_model("icr-slip"), icr_p)).position
+        for key, value in zip(pooled, (idd, ss, is_), strict=True):
             pooled[key].append((len(w), value))
-        red = [100 * (1 - e / idd) for e in (ekf, ss.position, is_.position)]
-        print(f"   {name:<34} {pose_latency(log, b):9.2f} | {idd:6.3f} {red[0]:11.0f}"
-              f" {red[1]:18.0f} {red[2]:16.0f}")  # fmt: skip
+        print(f"   {name:<34} {100 * (1 - ss / idd):10.0f} {100 * (1 - is_ / idd):8.0f}")
     mean = {k: np.average([v for _, v in r], weights=[n for n, _ in r]) for k, r in pooled.items()}
-    red = [100 * (1 - mean[k] / mean["idd"]) for k in ("ekf", "ss", "is")]
-    print(f"   {'all six, pooled':<34} {'':>9} | {mean['idd']:6.3f} {red[0]:11.1f}"
-          f" {red[1]:18.1f} {red[2]:16.1f}")  # fmt: skip
+    red = [100 * (1 - mean[k] / mean["idd"]) for k in ("ss", "is")]
+    print(f"   {'all six, pooled':<34} {red[0]:10.1f} {red[1]:8.1f}")
 
 
 def real(data: Path):
@@ -430,7 +403,7 @@ def real(data: Path):
     reachable(logs, cfg, rows, runs)
     where_the_gain_is(logs, cfg, runs)
     residual_spread(logs, cfg)
-    latency_table(logs, cfg)
+    calibrated_table(logs, cfg)
 
 
 def line(name, n, idd, slip, ho, icr):

@@ -8,7 +8,14 @@ from typing import Literal
 
 import pytest
 
-from terrain_odom.config import SIGNED, Config, IcrSigmas, build_section, load_config
+from terrain_odom.config import (
+    SIGNED,
+    Config,
+    IcrSigmas,
+    build_section,
+    load_config,
+    with_pose_delay,
+)
 from terrain_odom.errors import ConfigError
 
 REPO = Path(__file__).resolve().parents[1]
@@ -64,6 +71,9 @@ def test_per_terrain_pb_falls_back_to_sigma_pb(tmp_path):
         ("ekf:\n  initial: {y_r: 0.2}\n", r"ekf\.initial needs y_l > 0 > y_r"),
         ("ekf:\n  initial: {alpha: 2.0}\n", r"alpha must lie in \[alpha_min, alpha_max\]"),
         ("format_version: 2\n", r"format_version 2 is not supported"),
+        ("time: {pose_delay: soon}\n", r"time\.pose_delay: must be a finite number or 'auto'"),
+        ("time: {pose_delay: .inf}\n", r"time\.pose_delay: must be a finite number or 'auto'"),
+        ("time: {pose_delay: 200}\n", r"time\.pose_delay: 200 s is not a stamp delay"),
         ("robot: 3\n", r"robot: expected a mapping"),
         ("robot: [\n", r"line \d+: not valid YAML"),
     ],
@@ -73,6 +83,23 @@ def test_invalid_config_names_file_and_key(tmp_path, text, message):
         load_config(_write(tmp_path, text))
     assert "cfg.yaml" in str(info.value)
     assert "\n" not in str(info.value)
+
+
+@pytest.mark.parametrize(("text", "value"), [("auto", "auto"), ("0.15", 0.15), ("-0.2", -0.2)])
+def test_pose_delay_from_file_and_command_line(tmp_path, text, value):
+    assert Config().time.pose_delay == 0.0
+    assert load_config(_write(tmp_path, f"time: {{pose_delay: {text}}}\n")).time.pose_delay == value
+    assert with_pose_delay(Config(), text).time.pose_delay == value
+    assert with_pose_delay(Config(), None) == Config()
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [("x", "must be auto or seconds, got 'x'"), ("nan", "finite"), ("-7", "not a stamp delay")],
+)
+def test_bad_pose_delay_option(text, message):
+    with pytest.raises(ConfigError, match=f"--pose-delay: .*{message}"):
+        with_pose_delay(Config(), text)
 
 
 def test_missing_config_file(tmp_path):

@@ -11,6 +11,7 @@ over a step of ``dt`` seconds is ``sigma_q**2 * dt``).
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
@@ -39,12 +40,17 @@ __all__ = [
     "SlipSigmas",
     "PoseChangeSigmas",
     "SlipEkfConfig",
+    "TimeConfig",
+    "MAX_POSE_DELAY",
     "Config",
     "load_config",
     "config_to_dict",
+    "with_pose_delay",
 ]
 
 FORMAT_VERSION = 1
+MAX_POSE_DELAY = 5.0
+"""Largest ``time.pose_delay`` accepted, s (beyond it a value is a unit mistake, not a latency)."""
 
 
 @dataclass(frozen=True)
@@ -271,6 +277,11 @@ class SlipEkfConfig:
         its prediction; 0: since the previous measurement.
     sigma_r : PoseChangeSigmas
         Noise of the measured pose change between two pose measurements.
+    robust : bool
+        Take a pose change whose normalised innovation squared exceeds the
+        99 % chi-square bound as an outlier: its noise is inflated by the
+        ratio, so it moves the parameters no more than a change at the bound
+        (for pose sensors with heavy-tailed errors, e.g. ICP stamp jitter).
     sigma_pb : SlipSigmas
         Standard deviations ``P`` is reset to on a confirmed terrain change.
     limits : IcrLimits
@@ -291,6 +302,7 @@ class SlipEkfConfig:
         )
     )
     sigma_r: PoseChangeSigmas = field(default_factory=PoseChangeSigmas)
+    robust: bool = False
     sigma_pb: SlipSigmas = field(default_factory=SlipSigmas)
     limits: IcrLimits = field(default_factory=IcrLimits)
 
@@ -314,6 +326,24 @@ class EvaluationConfig:
 
 
 @dataclass(frozen=True)
+class TimeConfig:
+    """Temporal calibration of the pose stamps against the wheel speeds.
+
+    Attributes
+    ----------
+    pose_delay : float or "auto"
+        ``d``, s: a pose stamped ``t`` was measured at wheel time ``t - d``;
+        the wheel speeds are delayed by ``d`` when the log is read
+        (:func:`~terrain_odom.estimation.time_offset.delay_wheel_speeds`).
+        ``auto``: estimated offline from the whole log's heading changes
+        (:func:`~terrain_odom.estimation.time_offset.estimate_pose_delay`).
+        0 (default): the stamps are taken as they are.
+    """
+
+    pose_delay: float | Literal["auto"] = field(default=0.0, metadata=SIGNED)
+
+
+@dataclass(frozen=True)
 class Config:
     """The whole configuration of a run."""
 
@@ -323,8 +353,51 @@ class Config:
     terrain: TerrainConfig = field(default_factory=TerrainConfig)
     evaluation: EvaluationConfig = field(default_factory=EvaluationConfig)
     slip_ekf: SlipEkfConfig = field(default_factory=SlipEkfConfig)
+    time: TimeConfig = field(default_factory=TimeConfig)
     camera: CameraConfig = field(default_factory=CameraConfig)
     roi: RoiConfig = field(default_factory=RoiConfig)
+
+
+def _check_pose_delay(delay: float | Literal["auto"], where: str) -> None:
+    if delay != "auto" and not abs(delay) <= MAX_POSE_DELAY:
+        raise ConfigError(
+            f"{where}: {delay:g} s is not a stamp delay (|d| <= {MAX_POSE_DELAY:g} s); "
+            "give seconds, or auto"
+        )
+
+
+def with_pose_delay(cfg: Config, text: str | None, where: str = "--pose-delay") -> Config:
+    """Return ``cfg`` with ``time.pose_delay`` from a command-line value.
+
+    Parameters
+    ----------
+    cfg : Config
+        The configuration loaded.
+    text : str or None
+        ``"auto"`` or a number of seconds; None keeps ``cfg``'s value.
+    where : str
+        Name of the option, for messages.
+
+    Raises
+    ------
+    ConfigError
+        If ``text`` is neither ``auto`` nor a number of seconds within
+        :data:`MAX_POSE_DELAY`.
+    """
+    if text is None:
+        return cfg
+    value: float | Literal["auto"]
+    if text.strip() == "auto":
+        value = "auto"
+    else:
+        try:
+            value = float(text)
+        except ValueError:
+            raise ConfigError(f"{where}: must be auto or seconds, got {text!r}") from None
+        if not math.isfinite(value):
+            raise ConfigError(f"{where}: must be auto or finite seconds, got {text!r}")
+    _check_pose_delay(value, where)
+    return dataclasses.replace(cfg, time=TimeConfig(pose_delay=value))
 
 
 def _check_consistency(cfg: Config) -> None:
@@ -348,6 +421,7 @@ def _check_consistency(cfg: Config) -> None:
         raise ConfigError("slip_ekf.limits.half_width_min must be < half_width_max")
     if not slip.limits.alpha_min <= slip.initial.alpha <= slip.limits.alpha_max:
         raise ConfigError("slip_ekf.initial.alpha must lie in [limits.alpha_min, alpha_max]")
+    _check_pose_delay(cfg.time.pose_delay, "time.pose_delay")
     if cfg.format_version != FORMAT_VERSION:
         raise ConfigError(
             f"format_version {cfg.format_version} is not supported "

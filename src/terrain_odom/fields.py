@@ -10,6 +10,7 @@ its metadata says otherwise::
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import math
 import types
@@ -70,11 +71,25 @@ def _check_value(hint: Any, raw: Any, key: str, allowed: str) -> Any:
             return None
         (inner,) = [a for a in args if a is not type(None)]
         return _check_value(inner, raw, key, allowed)
+    if origin in (typing.Union, types.UnionType):  # e.g. float | Literal["auto"]
+        for option in args:
+            with contextlib.suppress(ConfigError):
+                return _check_value(option, raw, key, allowed)
+        raise ConfigError(f"{key}: must be {' or '.join(map(_describe, args))}, got {raw!r}")
     if origin is tuple and args[-1] is Ellipsis:
         if not isinstance(raw, (list, tuple)):
             raise ConfigError(f"{key}: must be a list of numbers, got {raw!r}")
         return tuple(_check_value(args[0], v, f"{key}[{i}]", allowed) for i, v in enumerate(raw))
     raise TypeError(f"config field {key} has an unsupported type {hint!r}")  # a bug, not input
+
+
+def _describe(hint: Any) -> str:
+    """How a value of one alternative of a union field is described in messages."""
+    if typing.get_origin(hint) is typing.Literal:
+        return " or ".join(repr(a) for a in typing.get_args(hint))
+    return {float: "a finite number", int: "a whole number >= 1", bool: "true or false"}.get(
+        hint, str(hint)
+    )
 
 
 def _build(default: Any, data: Any, where: str) -> Any:

@@ -24,6 +24,7 @@ from terrain_odom.estimation.frames import FRAME_COLUMNS, FramePipeline, FrameRe
 from terrain_odom.estimation.icr_ekf import IcrPriors, state_names
 from terrain_odom.estimation.odometry import OdometryRow, run_icr_ekf
 from terrain_odom.estimation.slip_ekf import OUTPUT_NAMES, SlipModel, param_names, run_slip_ekf
+from terrain_odom.estimation.time_offset import TimeCalibration, calibrate_pose_delay
 from terrain_odom.evaluation import (
     absolute_trajectory_error,
     dead_reckon,
@@ -60,6 +61,7 @@ __all__ = [
     "default_model",
     "default_model_path",
     "images_config",
+    "read_calibrated_log",
 ]
 
 REPORT_FORMAT_VERSION = 1
@@ -118,6 +120,7 @@ class RunSummary:
     rows: int
     seconds: float
     report_md: Path | None = None
+    time_calibration: TimeCalibration | None = None
 
 
 def trajectory_columns(names: tuple[str, ...]) -> list[str]:
@@ -143,6 +146,20 @@ def read_priors(path: str | Path) -> IcrPriors:
         return IcrPriors.from_params(params)
     except ValueError as exc:
         raise InputFileError(f"{path}: {exc}") from None
+
+
+def read_calibrated_log(wheels: str | Path, cfg: Config) -> tuple[WheelLog, TimeCalibration]:
+    """Read a wheel log and apply ``cfg.time.pose_delay`` to it (estimated if ``auto``).
+
+    Raises
+    ------
+    InputFileError
+        If the file is missing or malformed.
+    EstimationError
+        ``auto`` on a log whose delay cannot be estimated.
+    """
+    log = read_wheel_log(wheels, wheel_radius=cfg.robot.wheel_radius)
+    return calibrate_pose_delay(log, cfg.time.pose_delay, cfg.robot.track_width)
 
 
 def _labels(log: WheelLog, source: TerrainSource) -> np.ndarray | None:
@@ -177,7 +194,9 @@ def run(
     Parameters
     ----------
     wheels : str or Path
-        Wheel log (CSV, see the README for the format).
+        Wheel log (CSV, see the README for the format); its wheel speeds are
+        delayed by ``config.time.pose_delay`` (:func:`read_calibrated_log`),
+        recorded in ``report.json`` ``time_calibration``.
     out_dir : str or Path
         Output directory (created): ``trajectory.csv`` (streamed row by row),
         ``trajectory.tum`` and ``report.json``.
@@ -236,7 +255,7 @@ def run(
     if config is None and config_path is None and images is not None:
         config_path = images_config(images)
     cfg = config if config is not None else load_config(config_path)
-    log = read_wheel_log(wheels, wheel_radius=cfg.robot.wheel_radius)
+    log, timing = read_calibrated_log(wheels, cfg)
     gt = _read_groundtruth(groundtruth, log) if groundtruth is not None else None
     use_frames = images is not None and terrain is not TerrainSource.NONE
     labels = None if use_frames else _labels(log, terrain)
@@ -323,6 +342,7 @@ def run(
             "camera" if use_frames else terrain.value if labels is not None else "none"
         ),
         "config": config_to_dict(cfg),
+        "time_calibration": timing.to_dict(),
         "counts": {
             "rows": len(log),
             "pose_measurements": int(np.count_nonzero(np.isfinite(log.pose).any(axis=1))),
@@ -361,7 +381,7 @@ def run(
     write_json(report_path, report)
     md_path = out / "report.md"
     write_text_atomic(md_path, run_markdown(to_jsonable(report), plots))
-    return RunSummary(csv_path, tum_path, report_path, len(log), seconds, md_path)
+    return RunSummary(csv_path, tum_path, report_path, len(log), seconds, md_path, timing)
 
 
 def _read_groundtruth(path: str | Path, log: WheelLog) -> GroundTruth:
@@ -484,7 +504,8 @@ def evaluate(
     wheels : str or Path
         The wheel log with pose measurements.
     config, config_path : optional
-        Configuration (robot geometry, default horizon).
+        Configuration (robot geometry, default horizon, ``time.pose_delay``:
+        give the one the run was made with).
     params : list of str or Path, optional
         Parameter files of constant models (see :mod:`terrain_odom.io.params`).
     horizon : float, optional
@@ -499,7 +520,7 @@ def evaluate(
         and dead-reckoning ATE (m).
     """
     cfg = config if config is not None else load_config(config_path)
-    log = read_wheel_log(wheels, wheel_radius=cfg.robot.wheel_radius)
+    log, timing = read_calibrated_log(wheels, cfg)
     h_e = cfg.evaluation.horizon if horizon is None else float(horizon)
     windows = spatial_windows(log, h_e)
     if len(windows) == 0:
@@ -557,6 +578,7 @@ def evaluate(
         "command": "evaluate",
         "log": str(Path(wheels).resolve()),
         "run": _path_or_none(run_dir),
+        "time_calibration": timing.to_dict(),
         "horizon_m": h_e,
         "windows": len(windows),
         "models": models,

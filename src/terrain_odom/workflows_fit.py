@@ -19,6 +19,7 @@ import numpy as np
 from terrain_odom import __version__
 from terrain_odom.config import Config, load_config
 from terrain_odom.errors import ConfigError, InputFileError
+from terrain_odom.estimation.time_offset import calibrate_pose_delay
 from terrain_odom.evaluation import (
     ErrorSummary,
     WindowErrors,
@@ -80,15 +81,22 @@ class FitReport:
     evaluation : dict
         With evaluation logs: error statistics of the fitted model and of the
         ideal differential drive, per group (terrain or ``"all"``).
+    time_calibration : dict of str to dict
+        Per log (its ``source``): the pose delay applied
+        (``TimeCalibration.to_dict()``, see ``config.time.pose_delay``).
     """
 
     params: ModelParams
     seconds: dict[str, float]
     skipped: tuple[str, ...] = ()
     evaluation: dict[str, Any] = field(default_factory=dict)
+    time_calibration: dict[str, dict[str, Any]] = field(default_factory=dict)
 
 
-def _load(sources: Sequence[LogSource], cfg: Config, role: str) -> list[WheelLog]:
+def _load(
+    sources: Sequence[LogSource], cfg: Config, role: str, timing: dict[str, dict[str, Any]]
+) -> list[WheelLog]:
+    """Read the logs and apply ``cfg.time.pose_delay`` to each; record it in ``timing``."""
     logs = []
     for src in sources:
         log = (
@@ -100,6 +108,8 @@ def _load(sources: Sequence[LogSource], cfg: Config, role: str) -> list[WheelLog
             raise InputFileError(
                 f"{log.source}: no pose measurements (x, y, yaw); a {role} log needs them"
             )
+        log, calibration = calibrate_pose_delay(log, cfg.time.pose_delay, cfg.robot.track_width)
+        timing[log.source] = calibration.to_dict()
         logs.append(log)
     if not logs:
         raise InputFileError(f"no {role} log given")
@@ -270,8 +280,9 @@ def fit(
     except ValueError as exc:
         raise ConfigError(str(exc)) from None
     h_t = _horizon(horizon)
-    train = _load(logs, cfg, "training")
-    evals = _load(eval_logs, cfg, "evaluation") if eval_logs else []
+    timing: dict[str, dict[str, Any]] = {}
+    train = _load(logs, cfg, "training", timing)
+    evals = _load(eval_logs, cfg, "evaluation", timing) if eval_logs else []
     opt = options or FitOptions()
     b = cfg.robot.track_width
     sets, seconds, skipped = _fit_sets(m.name, train, h_t, by_terrain, opt, b)
@@ -299,7 +310,7 @@ def fit(
         mp = ModelParams(m.name, sets, b, {**info, "evaluation": evaluation})
     if out is not None:
         write_params(out, mp)
-    return FitReport(mp, seconds, skipped, evaluation)
+    return FitReport(mp, seconds, skipped, evaluation, timing)
 
 
 def _fmt_stats(s: ErrorSummary) -> tuple[str, str]:
@@ -356,8 +367,9 @@ def compare(
         if name not in MODELS:
             raise ConfigError(f"unknown kinematic model {name!r}; choose from {sorted(MODELS)}")
     h_t = _horizon(horizon)
-    train = _load(logs, cfg, "training")
-    evals = _load(eval_logs, cfg, "evaluation")
+    timing: dict[str, dict[str, Any]] = {}
+    train = _load(logs, cfg, "training", timing)
+    evals = _load(eval_logs, cfg, "evaluation", timing)
     target = None if out_dir is None else Path(out_dir)
     if target is not None:
         target.mkdir(parents=True, exist_ok=True)
@@ -387,6 +399,7 @@ def compare(
         "horizon_train": str(h_t),
         "horizon_eval_m": h_e,
         "track_width_m": b,
+        "time_calibration": timing,
         "models": results,
         "markdown": markdown,
     }

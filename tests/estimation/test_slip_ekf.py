@@ -14,6 +14,7 @@ from terrain_odom.config import (
     PoseChangeSigmas,
     RobotConfig,
     SlipEkfConfig,
+    SlipParams,
     SlipSigmas,
     TerrainConfig,
     load_config,
@@ -137,6 +138,26 @@ def test_heading_only_update_moves_the_icr_parameters_but_not_alpha():
     before = ekf.x
     _turn_update(ekf, np.full(3, np.nan))  # nothing measured: nothing changes
     np.testing.assert_array_equal(ekf.x, before)
+
+
+def test_robust_update_limits_outliers_and_leaves_ordinary_changes_alone():
+    v_l, v_r, dt = np.full(10, 2.0), np.full(10, 1.0), np.full(10, 0.1)
+    truth = np.array([1.0, 0.5, 1.2, 0.3, 0.4, 0.2])
+    z = MODEL.pose_change(truth, v_l, v_r, dt)
+    start = SlipEkfConfig(
+        estimate_alpha=False, initial=SlipParams(*truth), sigma_p0=SlipSigmas(*(0.1,) * 7)
+    )
+    for change, same in ((z + [0.05, -0.05, 0.02], True), (z + [1.0, -1.0, 0.5], False)):
+        plain, robust = (SlipEkf(dataclasses.replace(start, robust=r), TRACK_WIDTH) for r in (0, 1))
+        nis = plain.update(change, v_l, v_r, dt)
+        robust.update(change, v_l, v_r, dt)
+        assert (nis > 11.345) is not same  # 99 % chi-square bound with 3 degrees of freedom
+        if same:
+            np.testing.assert_array_equal(robust.x, plain.x)
+        else:  # inflated noise: a smaller step and less shrinking of P
+            step = [np.linalg.norm(f.x - truth) for f in (robust, plain)]
+            assert step[0] < 0.5 * step[1]
+            assert np.trace(robust.P) > np.trace(plain.P)
 
 
 def test_full_update_is_consistent_and_reduces_uncertainty():

@@ -4,7 +4,13 @@ from __future__ import annotations
 
 import argparse
 
-from terrain_odom.cli.fit import MODEL_CHOICES, add_fit_options, fit_options
+from terrain_odom.cli.fit import (
+    MODEL_CHOICES,
+    add_fit_options,
+    fit_config,
+    fit_options,
+    print_pose_delays,
+)
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -34,8 +40,10 @@ def _cmd_compare(args: argparse.Namespace) -> int:
         horizon=args.horizon or DEFAULT_TRAINING_HORIZON,
         by_terrain=args.by_terrain,
         options=fit_options(args),
+        config=fit_config(args),
         config_path=args.config,
     )
+    print_pose_delays(report["time_calibration"])
     print(report["markdown"], end="")
     if args.out:
         print(f"tables, box plot and parameter files in {args.out}")

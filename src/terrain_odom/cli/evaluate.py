@@ -14,7 +14,30 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--config", help="YAML configuration (robot geometry, horizon)")
     p.add_argument("--horizon", type=float, help="evaluation horizon h_e in metres (default 2)")
     p.add_argument("--out", help="JSON output (default RUN/evaluation.json)")
+    add_pose_delay_option(p)
     p.set_defaults(func=_cmd_evaluate)
+
+
+def add_pose_delay_option(p: argparse.ArgumentParser) -> None:
+    """Add ``--pose-delay {auto,SECONDS}`` (overrides the configuration's ``time.pose_delay``)."""
+    p.add_argument(
+        "--pose-delay",
+        metavar="{auto,SECONDS}",
+        help="the pose stamps lag the wheel speeds by this many seconds (the wheel speeds are "
+        "delayed to match), or auto: estimate it from the whole log's heading (offline "
+        "calibration); default: the configuration's time.pose_delay, 0",
+    )
+
+
+def pose_delay_line(timing: dict) -> str:
+    """One line on the pose delay applied (a ``TimeCalibration.to_dict()``)."""
+    line = f"pose delay: {timing['pose_delay_s']:.3f} s"
+    if timing["estimated"]:
+        line += (
+            f" (estimated, +-{timing['std_s']:.3f} s, from {timing['heading_changes']} "
+            "heading changes)"
+        )
+    return line
 
 
 def _format_stats(entry: dict) -> str:
@@ -32,17 +55,22 @@ def _format_stats(entry: dict) -> str:
 
 
 def _cmd_evaluate(args: argparse.Namespace) -> int:
+    from terrain_odom.config import load_config, with_pose_delay
     from terrain_odom.workflows import evaluate
 
     result = evaluate(
         args.run,
         args.log,
+        config=with_pose_delay(load_config(args.config), args.pose_delay),
         config_path=args.config,
         params=args.params,
         horizon=args.horizon,
         out=args.out,
     )
     print(f"{result['windows']} windows of {result['horizon_m']:g} m on {result['log']}")
+    timing = result["time_calibration"]
+    if timing["estimated"] or timing["pose_delay_s"] != 0.0:
+        print(pose_delay_line(timing))
     print(f"{'model':<32} {'m/m median [q25-q75]':>24}  {'deg/m median [q25-q75]':>22}  ATE DR (m)")
     for name, entry in result["models"].items():
         print(f"{name:<32} {_format_stats(entry)}")

@@ -4,9 +4,12 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
+
+from terrain_odom.cli.evaluate import add_pose_delay_option, pose_delay_line
 
 if TYPE_CHECKING:
+    from terrain_odom.config import Config
     from terrain_odom.fitting import FitOptions
 
 MODEL_CHOICES = ("idd", "edd-sym", "edd-asym", "roc", "linear", "icr", "icr-slip")
@@ -39,6 +42,7 @@ def add_fit_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--maxiter", type=int, help="most generations (300)")
     p.add_argument("--seed", type=int, help="seed of the optimiser, for reproducible fits (0)")
     p.add_argument("--config", help="YAML configuration (wheel radius, track width, h_e)")
+    add_pose_delay_option(p)
 
 
 def fit_options(args: argparse.Namespace) -> FitOptions:
@@ -59,6 +63,20 @@ def fit_options(args: argparse.Namespace) -> FitOptions:
     if opt.sigma is not None and not all(s > 0 for s in opt.sigma):
         raise ConfigError(f"--sigma standard deviations must be > 0, got {list(opt.sigma)}")
     return opt
+
+
+def fit_config(args: argparse.Namespace) -> Config:
+    """Return the configuration of ``--config`` with ``--pose-delay`` applied."""
+    from terrain_odom.config import load_config, with_pose_delay
+
+    return with_pose_delay(load_config(args.config), args.pose_delay)
+
+
+def print_pose_delays(timing: dict[str, dict[str, Any]]) -> None:
+    """Print the pose delay applied to each log, unless all are 0 as given."""
+    if any(t["estimated"] or t["pose_delay_s"] != 0.0 for t in timing.values()):
+        for source, t in timing.items():
+            print(f"{source}: {pose_delay_line(t)}")
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -83,8 +101,10 @@ def _cmd_fit(args: argparse.Namespace) -> int:
         eval_logs=args.eval,
         by_terrain=args.by_terrain,
         options=fit_options(args),
+        config=fit_config(args),
         config_path=args.config,
     )
+    print_pose_delays(report.time_calibration)
     mp = report.params
     for terrain, ps in mp.sets.items():
         where = "" if terrain == "*" else f" [{terrain}]"

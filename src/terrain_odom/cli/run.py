@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 
+from terrain_odom.cli.evaluate import add_pose_delay_option, pose_delay_line
+
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     """Register the ``run`` subcommand."""
@@ -53,6 +55,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "filter starts from them and, with --by-terrain sets, takes a terrain's set on "
         "each confirmed change to it (covariance ekf.sigma_prior)",
     )
+    add_pose_delay_option(p)
     terrain = p.add_mutually_exclusive_group()
     terrain.add_argument(
         "--terrain-from-log",
@@ -68,7 +71,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 def _cmd_run(args: argparse.Namespace) -> int:
     import dataclasses
 
-    from terrain_odom.config import load_config
+    from terrain_odom.config import load_config, with_pose_delay
     from terrain_odom.errors import ConfigError
     from terrain_odom.workflows import TerrainSource, default_model, images_config, run
 
@@ -88,7 +91,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     if args.images is not None and not args.no_terrain and model is None:
         model = default_model()
         print(f"model:      {model} (default; --model to change)")
-    cfg = load_config(config)
+    cfg = with_pose_delay(load_config(config), args.pose_delay)
     if args.reset_at is not None:
         cfg = dataclasses.replace(
             cfg, terrain=dataclasses.replace(cfg.terrain, reset_at=args.reset_at)
@@ -106,6 +109,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
         estimator=args.estimator,
         priors=args.priors,
     )
+    timing = summary.time_calibration
+    if timing is not None and (timing.estimate is not None or timing.pose_delay != 0.0):
+        print(pose_delay_line(timing.to_dict()))
     print(f"{summary.rows} rows in {summary.seconds:.2f} s")
     print(f"trajectory: {summary.trajectory_csv}")
     print(f"report:     {summary.report_json}")

@@ -381,11 +381,13 @@ class SlipEkf:
             return res
 
         x_i = x0
-        for _ in range(self.config.iterations):  # Gauss-Newton on the measurement (IEKF)
+        for i in range(self.config.iterations):  # Gauss-Newton on the measurement (IEKF)
             change, jac = self.model.pose_change_with_jacobian(x_i, v_l, v_r, dt)
             h, H = change[rows], jac[rows]  # noqa: N806
             if rows.size == 1:  # heading only: alpha is not observable from it, keep it
                 H = H * (np.arange(H.shape[1]) < 6)  # noqa: N806
+            if i == 0 and self.config.robust:
+                r = r * _outlier_inflation(residual(z[rows], h), H @ p0 @ H.T, r)
             gain = p0 @ H.T @ np.linalg.inv(H @ p0 @ H.T + r)
             x_last, x_i = x_i, x0 + gain @ (residual(z[rows], h) - H @ (x0 - x_i))
         # The final step through filterpy (Joseph form), linearised at the last iterate.
@@ -429,6 +431,22 @@ class SlipEkf:
         logger.info("slip EKF: terrain %s -> %s at t=%.2f s", self.terrain, label, self.t)
         self.set_terrain(label)
         return change
+
+
+def _outlier_inflation(innovation: np.ndarray, hph: np.ndarray, r: np.ndarray) -> float:
+    """Factor (>= 1) on ``R`` that brings the innovation back to the 99 % chi-square bound.
+
+    ``hph`` is ``H P H^T`` and ``r`` the measurement covariance; the
+    normalised innovation squared ``y^T (HPH^T + R)^-1 y`` above the bound of
+    its dimension marks an outlier (ICP stamp jitter), whose noise is then
+    taken as that much larger.
+    """
+    nis = float(innovation @ np.linalg.solve(hph + r, innovation))
+    return max(1.0, nis / _CHI2_99[innovation.size])
+
+
+_CHI2_99 = {1: 6.635, 2: 9.210, 3: 11.345}
+"""99 % quantiles of the chi-square distribution with 1, 2 and 3 degrees of freedom."""
 
 
 class _SlipSteps:

@@ -170,6 +170,10 @@ def run_markdown(report: dict[str, Any], plots: Sequence[str] = ()) -> str:
     priors = report["inputs"].get("priors")
     if priors is not None:
         parts.insert(2, f"- offline priors: `{priors}`")
+    timing = report.get("time_calibration", {})
+    if timing.get("estimated") or timing.get("pose_delay_s", 0.0) != 0.0:
+        how = f"estimated, +-{timing['std_s']:.3f} s" if timing["estimated"] else "given"
+        parts.insert(2, f"- pose delay: {timing['pose_delay_s']:.3f} s ({how})")
     section = report.get("groundtruth")
     if section is not None:
         if "frames" in section:
