@@ -11,7 +11,7 @@ acceptance lines.
 
 Usage::
 
-    python bench/chen2023.py [--seeds 0 1 2] [--work /tmp/chen2023] [--reuse]
+    python bench/chen2023.py [--seeds 0 1 2] [--work /tmp/chen2023] [--reuse] [--pose-noise XY YAW]
 
 About 2 min per seed on one core (60 s runs, 600 frames of 320x240).
 """
@@ -31,10 +31,11 @@ TERRAIN = "ekf (terrain + memory)"
 NO_TERRAIN = "ekf (no terrain)"
 
 
-def _prepare(work: Path, seed: int, reuse: bool) -> Path:
+def _prepare(work: Path, seed: int, reuse: bool, pose_noise: list[str] | None = None) -> Path:
     sim = work / f"seed{seed}"
     if not (reuse and (sim / "model.npz").is_file()):
         args = ["--out", str(sim), "--scenario", "chen2023", "--seed", str(seed)]
+        args += ["--pose-noise", *pose_noise] if pose_noise else []
         assert cli(["simulate", *args, "--frame-format", "jpg"]) == 0
         patches, model = str(sim / "patches"), str(sim / "model.npz")
         train = ["train", "--images", patches, "--out", model, "--jobs", "1", "--tile-size", "32"]
@@ -78,10 +79,13 @@ def main() -> None:
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
     parser.add_argument("--work", type=Path, default=Path("/tmp/chen2023"))
     parser.add_argument("--reuse", action="store_true", help="reuse simulated runs and models")
+    parser.add_argument(
+        "--pose-noise", nargs=2, metavar=("XY_M", "YAW_RAD"), help="simulate --pose-noise"
+    )
     args = parser.parse_args()
     rows = []
     for seed in args.seeds:
-        sim = _prepare(args.work, seed, args.reuse)
+        sim = _prepare(args.work, seed, args.reuse, args.pose_noise)
         for schedule in SCHEDULES:
             summary = _summary(_run(sim, args.work / f"run{seed}-{schedule}", schedule))
             rows.append((seed, schedule, summary))

@@ -151,6 +151,11 @@ class EkfConfig:
     sigma_pb : IcrSigmas
         Standard deviations the ICR block of ``P`` is reset to on a confirmed
         terrain change (``P_B``).
+    sigma_pb_pose : PoseSigmas
+        Added (in quadrature) to the pose's standard deviations on every
+        applied terrain change, m, m, rad: the pose was predicted with the
+        old terrain's model since the robot crossed, a fraction of a second
+        the filter cannot time exactly.
     sigma_pb_per_terrain : dict of str to IcrSigmas
         Optional ``P_B`` per terrain label, overriding ``sigma_pb``.
     sigma_prior : IcrSigmas
@@ -171,6 +176,9 @@ class EkfConfig:
     )
     sigma_r: PoseSigmas = field(default_factory=PoseSigmas)
     sigma_pb: IcrSigmas = field(default_factory=IcrSigmas)
+    sigma_pb_pose: PoseSigmas = field(
+        default_factory=lambda: PoseSigmas(x=0.02, y=0.02, yaw=0.03)
+    )
     sigma_pb_per_terrain: dict[str, IcrSigmas] = field(default_factory=dict)
     sigma_prior: IcrSigmas = field(
         default_factory=lambda: IcrSigmas(y_l=0.05, y_r=0.05, x_icr=0.05, alpha=0.01)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -190,11 +192,13 @@ def test_reset_sets_pb_block_and_clears_correlation():
     ekf.set_terrain("grass")
     t, v_l, v_r, _, z = _simulate((0.9, -0.75, 0.15, 0.92), n=200)
     _run(ekf, t, v_l, v_r, z)
-    params_before = ekf.params
+    params_before, pose_before = ekf.params, ekf.P[:3, :3].copy()
     change = ekf.reset_on_terrain_change("asphalt")
     assert (change.previous, change.label, change.restored) == ("grass", "asphalt", False)
     np.testing.assert_allclose(np.diag(ekf.P)[3:], [0.16, 0.09, 0.04, 0.0025])
     assert np.all(ekf.P[:3, 3:] == 0.0)
+    # the pose variances grow by sigma_pb_pose**2 (default 0.02 m, 0.02 m, 0.03 rad)
+    np.testing.assert_allclose(ekf.P[:3, :3], pose_before + np.diag([4e-4, 4e-4, 9e-4]))
     np.testing.assert_array_equal(ekf.params, params_before)  # estimate itself kept
     ekf.reset_on_terrain_change("sand")
     np.testing.assert_allclose(np.diag(ekf.P)[3:], [1.0, 1.0, 1.0, 0.04])
@@ -253,6 +257,54 @@ def test_reset_speeds_up_reconvergence_after_an_icr_jump():
 
 
 GRASS, GRAVEL = IcrState(0.42, -0.40, 0.05, 0.93), IcrState(0.60, -0.58, 0.10, 0.85)
+
+
+def _late_reset_overshoot(pose_sigma: PoseSigmas, seed: int, late: float = 0.2) -> float:
+    """Largest ``y_l``/``y_r`` error in the first second after a reset ``late`` s late.
+
+    A slalom (+-0.4 m/s differential, 3-s period, 50-Hz wheels, 10-Hz poses of
+    2 cm / 0.01 rad) goes from grass to gravel at 10 s; the filter, settled on
+    grass, learns of it ``late`` s after the robot crossed.
+    """
+    dt, t_change = 0.02, 10.0
+    t = np.arange(0.0, 12.0, dt)
+    diff = 0.8 * np.sin(2.0 * np.pi * t / 3.0)
+    v_l, v_r = 0.5 - diff / 2, 0.5 + diff / 2
+    grass, gravel = (np.array(dataclasses.astuple(p)) for p in (GRASS, GRAVEL))
+    params = np.where((t < t_change)[:, None], grass, gravel)
+    truth = integrate(*(c[:-1] for c in twist_icr(v_l, v_r, *params.T)), np.diff(t))
+    z = truth + np.random.default_rng(seed).normal(0.0, (0.02, 0.02, 0.01), truth.shape)
+    z[np.arange(t.size) % 5 != 0] = np.nan
+    cfg = _config(initial=GRASS, sigma_pb=IcrSigmas(0.5, 0.5, 0.5, 0.1), sigma_pb_pose=pose_sigma)
+    ekf = IcrEkf(cfg)
+    ekf.set_terrain("grass")
+    errors = []
+
+    def step(k: int) -> None:
+        if abs(t[k] - (t_change + late)) < dt / 2:
+            ekf.reset_on_terrain_change("gravel")
+        if t_change + late <= t[k] <= t_change + late + 1.0:
+            errors.append(np.max(np.abs(ekf.params[:2] - gravel[:2])))
+
+    _run(ekf, t, v_l, v_r, z, on_step=step)
+    return max(errors)
+
+
+def test_pose_inflation_stops_a_late_reset_from_overshooting():
+    """A late reset overshoots less with the pose inflated (sigma_pb_pose).
+
+    In the 0.2 s before the reset the grass model turns the pose estimate a
+    few hundredths of a radian wrong, several times its settled deviation;
+    without room in the pose the first updates after the reset read that as
+    ICR error.
+    """
+    seeds = range(6)
+    without = np.array([_late_reset_overshoot(PoseSigmas(1e-6, 1e-6, 1e-6), s) for s in seeds])
+    inflated = np.array([_late_reset_overshoot(EkfConfig().sigma_pb_pose, s) for s in seeds])
+    assert np.all(inflated < 0.75 * without)
+    assert np.mean(inflated / without) < 0.65
+
+
 PRIOR_SIGMA = IcrSigmas(0.04, 0.03, 0.02, 0.01)
 
 

@@ -437,6 +437,11 @@ class IcrEkf:
         cov = np.diag(self._sigmas(self.config.sigma_prior, self.names[3:]) ** 2)
         self._set_icr_block(cov, estimate)
 
+    def _inflate_pose(self) -> None:
+        """Add ``sigma_pb_pose**2`` to the pose variances (kept uncorrelated with the ICRs)."""
+        sig = self.config.sigma_pb_pose
+        self._filter.P[_POSE, _POSE] += np.diag(np.square([sig.x, sig.y, sig.yaw]))
+
     def _pb_variances(self, label: str) -> np.ndarray:
         sig: IcrSigmas = self.config.sigma_pb_per_terrain.get(label, self.config.sigma_pb)
         return self._sigmas(sig, self.names[3:]) ** 2
@@ -446,7 +451,13 @@ class IcrEkf:
 
         Sets the ICR block of ``P`` to ``P_B`` (per terrain if configured) and
         clears its correlation with the pose, so the filter re-converges
-        quickly (Chen et al. 2023, Sec. 3.2). With terrain memory, the ICR
+        quickly (Chen et al. 2023, Sec. 3.2). Chen resets the whole ``P``;
+        here the pose variances grow by ``sigma_pb_pose**2`` instead (they
+        are never made smaller than they are): a change is applied a little
+        after the robot crossed, and the pose error the old terrain's model
+        left meanwhile (a few hundredths of a radian in a sharp turn, many
+        times the settled yaw deviation) would otherwise be read as ICR
+        error by the first updates, which then overshoot. With terrain memory, the ICR
         estimate and covariance of the terrain being left are remembered (if
         the robot stayed there at least ``memory_min_dwell`` s), and those of
         ``label``, if remembered, are restored instead of ``P_B``: the filter
@@ -480,6 +491,7 @@ class IcrEkf:
             self._seed(prior)
         else:
             self._set_icr_block(np.diag(self._pb_variances(label)))
+        self._inflate_pose()
         change = TerrainChange(self.t, previous, label, bool(restored), prior=prior is not None)
         logger.info(
             "terrain %s -> %s at t=%.2f s (restored=%s, prior=%s)",

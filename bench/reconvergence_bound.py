@@ -1,0 +1,107 @@
+"""How fast can the ICRs re-converge after a terrain change? The data's own bound.
+
+For scenario ``chen2023`` (no frames) at two pose-sensor noise levels, per seed:
+
+- **batch**: nonlinear least squares of ``y_l, y_r, x_icr, alpha`` and the start
+  pose on the poses from the true change to ``t_c + T`` (weighted by the true
+  noise, knowing the change time), for ``T = 0.5, 0.6, ... 4 s``; its settling
+  time is the first ``T`` from which every longer span's estimate is within
+  the report's band (``evaluation.icr_tolerance * B``, 5 cm) of the truth. No
+  causal filter fed the same poses can be expected to do better.
+- **filter**: the ICR EKF (the run's ``config.yaml``) with the terrain labels
+  of the ground truth, i.e. reset exactly when the robot enters gravel; its
+  re-convergence time as in ``run --groundtruth``.
+
+Usage::
+
+    python bench/reconvergence_bound.py [--seeds 0 1 2 3 4 5] [--work /tmp/bound]
+
+About 1 min on one core.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from terrain_odom.config import load_config
+from terrain_odom.io import read_wheel_log
+from terrain_odom.io.groundtruth import read_groundtruth
+from terrain_odom.kinematics import integrate, twist_icr, wrap_angle
+from terrain_odom.reporting.run_report import groundtruth_section
+from terrain_odom.sim import get_scenario, simulate, write_simulation
+
+NOISE = {"2 cm / 0.57 deg": (0.02, 0.01), "1 cm / 0.20 deg (RTK)": (0.01, 0.0035)}
+SPANS = np.round(np.arange(0.5, 4.001, 0.1), 2)
+GRASS = (0.42, -0.40, 0.05, 0.93)  # the batch's starting point: the terrain being left
+
+
+def batch_icrs(log, t_from: float, t_to: float, noise: tuple[float, float]) -> np.ndarray:
+    """Least-squares ``y_l, y_r, x_icr, alpha`` from the poses in ``[t_from, t_to]``."""
+    rows = np.flatnonzero(log.has_pose & (log.t >= t_from - 1e-9) & (log.t <= t_to + 1e-9))
+    a, b = rows[0], rows[-1]
+    v_l, v_r, dt = log.v_l[a:b], log.v_r[a:b], np.diff(log.t[a : b + 1])
+    measured = log.pose[rows]
+    scale = np.array([noise[0], noise[0], noise[1]])
+
+    def residual(q):
+        poses = integrate(*twist_icr(v_l, v_r, *q[:4]), dt, start=q[4:])[rows - a]
+        err = poses - measured
+        err[:, 2] = wrap_angle(err[:, 2])
+        return (err / scale).ravel()
+
+    lo = [0.05, -50.0, -10.0, 0.3, -np.inf, -np.inf, -np.inf]
+    hi = [50.0, -0.05, 10.0, 1.5, np.inf, np.inf, np.inf]
+    return least_squares(residual, np.r_[GRASS, measured[0]], bounds=(lo, hi)).x[:3]
+
+
+def batch_settling(log, gt, noise, tolerance: float) -> float | None:
+    """First span from which every longer span's batch estimate is within the band."""
+    t_c = gt.changes()[0][0]
+    truth = gt.icr[np.searchsorted(gt.t, t_c)]
+    inside = np.array(
+        [np.all(np.abs(batch_icrs(log, t_c, t_c + T, noise) - truth) <= tolerance) for T in SPANS]
+    )
+    outside = np.flatnonzero(~inside)
+    if outside.size == 0:
+        return float(SPANS[0])
+    return None if outside[-1] == SPANS.size - 1 else float(SPANS[outside[-1] + 1])
+
+
+def filter_settling(log, gt, config) -> float | None:
+    """Re-convergence of the EKF reset exactly at the true change (first change)."""
+    labels = gt.terrain[np.clip(np.searchsorted(gt.t, log.t - 1e-9), 0, len(gt) - 1)]
+    section = groundtruth_section(log, config, gt, labels=list(labels)).section
+    return section["reconvergence"]["ekf (terrain + memory)"][0]["settling_s"]
+
+
+def _fmt(values) -> str:
+    return ", ".join("never" if v is None else f"{v:.1f}" for v in values)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2, 3, 4, 5])
+    parser.add_argument("--work", type=Path, default=Path("/tmp/bound"))
+    args = parser.parse_args()
+    print(f"first change (grass -> gravel) of chen2023, seeds {args.seeds}, settling s")
+    for name, (xy, yaw) in NOISE.items():
+        scenario = dataclasses.replace(get_scenario("chen2023"), sigma_xy=xy, sigma_yaw=yaw)
+        batch, filtered = [], []
+        for seed in args.seeds:
+            out = args.work / f"{xy}-{yaw}" / f"seed{seed}"
+            write_simulation(simulate(scenario, seed), out, frames=False, patches=False)
+            log, gt = read_wheel_log(out / "log.csv"), read_groundtruth(out / "groundtruth.csv")
+            config = load_config(out / "config.yaml")
+            tolerance = config.evaluation.icr_tolerance * config.robot.track_width
+            batch.append(batch_settling(log, gt, (xy, yaw), tolerance))
+            filtered.append(filter_settling(log, gt, config))
+        print(f"pose noise {name:<22} batch: {_fmt(batch):<32} filter: {_fmt(filtered)}")
+
+
+if __name__ == "__main__":
+    main()
