@@ -176,9 +176,7 @@ class EkfConfig:
     )
     sigma_r: PoseSigmas = field(default_factory=PoseSigmas)
     sigma_pb: IcrSigmas = field(default_factory=IcrSigmas)
-    sigma_pb_pose: PoseSigmas = field(
-        default_factory=lambda: PoseSigmas(x=0.02, y=0.02, yaw=0.03)
-    )
+    sigma_pb_pose: PoseSigmas = field(default_factory=lambda: PoseSigmas(x=0.02, y=0.02, yaw=0.03))
     sigma_pb_per_terrain: dict[str, IcrSigmas] = field(default_factory=dict)
     sigma_prior: IcrSigmas = field(
         default_factory=lambda: IcrSigmas(y_l=0.05, y_r=0.05, x_icr=0.05, alpha=0.01)
