@@ -56,6 +56,7 @@ def _format_stats(entry: dict) -> str:
 
 def _cmd_evaluate(args: argparse.Namespace) -> int:
     from terrain_odom.config import load_config, with_pose_delay
+    from terrain_odom.estimation.time_offset import shows_pose_delay
     from terrain_odom.workflows import evaluate
 
     result = evaluate(
@@ -69,7 +70,7 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
     )
     print(f"{result['windows']} windows of {result['horizon_m']:g} m on {result['log']}")
     timing = result["time_calibration"]
-    if timing["estimated"] or timing["pose_delay_s"] != 0.0:
+    if shows_pose_delay(timing):
         print(pose_delay_line(timing))
     print(f"{'model':<32} {'m/m median [q25-q75]':>24}  {'deg/m median [q25-q75]':>22}  ATE DR (m)")
     for name, entry in result["models"].items():

@@ -74,7 +74,9 @@ def fit_config(args: argparse.Namespace) -> Config:
 
 def print_pose_delays(timing: dict[str, dict[str, Any]]) -> None:
     """Print the pose delay applied to each log, unless all are 0 as given."""
-    if any(t["estimated"] or t["pose_delay_s"] != 0.0 for t in timing.values()):
+    from terrain_odom.estimation.time_offset import shows_pose_delay
+
+    if any(shows_pose_delay(t) for t in timing.values()):
         for source, t in timing.items():
             print(f"{source}: {pose_delay_line(t)}")
 

@@ -73,6 +73,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
     from terrain_odom.config import load_config, with_pose_delay
     from terrain_odom.errors import ConfigError
+    from terrain_odom.estimation.time_offset import shows_pose_delay
     from terrain_odom.workflows import TerrainSource, default_model, images_config, run
 
     if args.no_terrain:
@@ -110,7 +111,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
         priors=args.priors,
     )
     timing = summary.time_calibration
-    if timing is not None and (timing.estimate is not None or timing.pose_delay != 0.0):
+    if timing is not None and shows_pose_delay(timing.to_dict()):
         print(pose_delay_line(timing.to_dict()))
     print(f"{summary.rows} rows in {summary.seconds:.2f} s")
     print(f"trajectory: {summary.trajectory_csv}")

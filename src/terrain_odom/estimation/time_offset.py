@@ -28,6 +28,7 @@ are those the recorded speeds give over the delayed interval, exactly.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -43,6 +44,7 @@ __all__ = [
     "estimate_pose_delay",
     "delay_wheel_speeds",
     "calibrate_pose_delay",
+    "shows_pose_delay",
 ]
 
 MIN_PAIRS = 20
@@ -261,6 +263,11 @@ class TimeCalibration:
             e = self.estimate
             out.update(std_s=e.std, yaw_rate_scale=e.yaw_rate_scale, heading_changes=e.pairs)
         return out
+
+
+def shows_pose_delay(timing: Mapping[str, Any]) -> bool:
+    """Whether a :meth:`TimeCalibration.to_dict` is worth reporting: estimated, or not 0."""
+    return bool(timing["estimated"]) or timing["pose_delay_s"] != 0.0
 
 
 def calibrate_pose_delay(

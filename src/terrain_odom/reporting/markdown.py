@@ -5,6 +5,8 @@ from __future__ import annotations
 from collections.abc import Iterable, Sequence
 from typing import Any
 
+from terrain_odom.estimation.time_offset import shows_pose_delay
+
 __all__ = ["table", "run_markdown"]
 
 
@@ -170,8 +172,8 @@ def run_markdown(report: dict[str, Any], plots: Sequence[str] = ()) -> str:
     priors = report["inputs"].get("priors")
     if priors is not None:
         parts.insert(2, f"- offline priors: `{priors}`")
-    timing = report.get("time_calibration", {})
-    if timing.get("estimated") or timing.get("pose_delay_s", 0.0) != 0.0:
+    timing = report.get("time_calibration")
+    if timing is not None and shows_pose_delay(timing):
         how = f"estimated, +-{timing['std_s']:.3f} s" if timing["estimated"] else "given"
         parts.insert(2, f"- pose delay: {timing['pose_delay_s']:.3f} s ({how})")
     section = report.get("groundtruth")
