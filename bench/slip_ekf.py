@@ -66,23 +66,30 @@ TUNING_LOGS = (  # config/warthog.yaml slip_ekf was chosen on these; the others 
 
 
 # ---------------------------------------------------------------- 1. Sec. 4.1
-def batch_icrs(log, t_from: float, t_to: float, start_icr) -> np.ndarray:
-    """Least-squares ICRs from the noisy poses in ``[t_from, t_to]`` (start pose free)."""
+def batch_icrs(
+    log, t_from: float, t_to: float, start_icr, scale=(0.02, 0.02, 0.0087)
+) -> np.ndarray:
+    """Least-squares ICRs from the noisy poses in ``[t_from, t_to]`` (start pose free).
+
+    ``start_icr`` is ``(y_l, y_r, x_icr)``, or with ``alpha`` to fit the slip
+    factor too (in [0.3, 1.5]); ``scale`` the pose noise (m, m, rad) that
+    weights the residuals. Returns the fitted ``y_l, y_r, x_icr``.
+    """
     t = log.t
     rows = np.flatnonzero(log.has_pose & (t >= t_from - 1e-9) & (t <= t_to + 1e-9))
     a, b = rows[0], rows[-1]
     v_l, v_r, dt = log.v_l[a:b], log.v_r[a:b], np.diff(t[a : b + 1])
     measured = log.pose[rows]
-    scale = np.array([0.02, 0.02, 0.0087])
+    n = len(start_icr)
 
     def residual(q):
-        poses = integrate(*twist_icr(v_l, v_r, *q[:3]), dt, start=q[3:])[rows - a]
+        poses = integrate(*twist_icr(v_l, v_r, *q[:n]), dt, start=q[n:])[rows - a]
         err = poses - measured
         err[:, 2] = wrap_angle(err[:, 2])
-        return (err / scale).ravel()
+        return (err / np.asarray(scale)).ravel()
 
-    lo = [0.05, -50.0, -10.0, -np.inf, -np.inf, -np.inf]  # y_l > 0 > y_r
-    hi = [50.0, -0.05, 10.0, np.inf, np.inf, np.inf]
+    lo = [0.05, -50.0, -10.0, 0.3][:n] + [-np.inf] * 3  # y_l > 0 > y_r
+    hi = [50.0, -0.05, 10.0, 1.5][:n] + [np.inf] * 3
     return least_squares(residual, np.r_[start_icr, measured[0]], bounds=(lo, hi)).x[:3]
 
 
