@@ -12,7 +12,7 @@ Prints every figure of the README's "Accuracy on real logs" section:
    the stitched log, with and without the P_B reset.
 
 Constant models are fitted with the offline identification of ``terrain-odom fit``
-(terrain_odom.workflows_fit.fit: differential evolution + least-squares polish of
+(terrain_odom.app.fit.fit: differential evolution + least-squares polish of
 Baril eq. 13 with Sigma = I on distinct 2 m segments).
 
 Usage::
@@ -31,6 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
+from terrain_odom.app.fit import fit
 from terrain_odom.config import IcrState, load_config
 from terrain_odom.estimation.odometry import run_icr_ekf
 from terrain_odom.evaluation import (
@@ -42,7 +43,6 @@ from terrain_odom.evaluation import (
 )
 from terrain_odom.io import read_wheel_log
 from terrain_odom.kinematics import get_model
-from terrain_odom.workflows_fit import fit
 
 REPO = Path(__file__).resolve().parents[1]
 

@@ -30,12 +30,12 @@ from pathlib import Path
 
 import numpy as np
 
+from terrain_odom.app.fit import compare, fit
 from terrain_odom.config import load_config
 from terrain_odom.evaluation import model_twist, spatial_windows, summarize, window_errors
 from terrain_odom.io import read_wheel_log
 from terrain_odom.kinematics import MODELS, get_model
-from terrain_odom.types import WheelLog
-from terrain_odom.workflows_fit import compare, fit
+from terrain_odom.records import WheelLog
 
 REPO = Path(__file__).resolve().parents[1]
 

@@ -33,16 +33,17 @@ from pathlib import Path
 
 import numpy as np
 
+from terrain_odom.app.fit import fit
+from terrain_odom.app.groundtruth import groundtruth_section
 from terrain_odom.config import Config, load_config
 from terrain_odom.estimation import IcrPriors
 from terrain_odom.estimation.odometry import run_icr_ekf
 from terrain_odom.evaluation import icr_twist_from_rows, spatial_windows, window_errors
 from terrain_odom.io import read_wheel_log
 from terrain_odom.io.groundtruth import read_groundtruth
-from terrain_odom.reporting.run_report import groundtruth_section
+from terrain_odom.io.params import icr_priors
+from terrain_odom.records import WheelLog
 from terrain_odom.sim import get_scenario, simulate, write_simulation
-from terrain_odom.types import WheelLog
-from terrain_odom.workflows_fit import fit
 
 REPO = Path(__file__).resolve().parents[1]
 VARIANTS = ("ekf (terrain)", "ekf (terrain + memory)")
@@ -54,7 +55,7 @@ def fitted_priors(logs: list[WheelLog], cfg: Config) -> IcrPriors:
     for label, ps in params.sets.items():
         values = ", ".join(f"{k}={v:.3f}" for k, v in ps.params.items())
         print(f"  prior {label:<8} {values}  ({ps.fit['segments']:.0f} segments)")
-    return IcrPriors.from_params(params)
+    return icr_priors(params)
 
 
 def simulated(work: Path, scenario: str, seed: int) -> Path:

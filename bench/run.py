@@ -9,7 +9,7 @@ then times on one core, pinned, with one thread:
 
 - **decode**: ``cv2.imread`` of every frame (the pure decoding baseline);
 - **run**: the Python API behind ``terrain-odom run --images ... --wheels ...``
-  (:func:`terrain_odom.workflows.run`): reading the log and frames list,
+  (:func:`terrain_odom.app.run.run`): reading the log and frames list,
   decoding, region of interest, SFTA + KNN, terrain tracking, the ICR EKF
   over every wheel row and pose measurement, streaming ``trajectory.csv`` and
   ``frames.csv``, ``report.json`` and ``report.md`` (no ground truth, so no
@@ -37,10 +37,10 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from terrain_odom.app.frames import one_thread
+from terrain_odom.app.run import TerrainSource, run
 from terrain_odom.cli.main import main as cli
-from terrain_odom.estimation.frames import one_thread
 from terrain_odom.io.frames import read_frames
-from terrain_odom.workflows import TerrainSource, run
 
 CAMERA_640 = """\
 robot:

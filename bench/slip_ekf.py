@@ -52,7 +52,13 @@ from terrain_odom.evaluation.prediction import (
     prediction_windows,
     slip_twist_from_rows,
 )
-from terrain_odom.fitting import FitOptions, Horizon, fit_model, segment_set, training_windows
+from terrain_odom.fitting.identify import (
+    FitOptions,
+    Horizon,
+    fit_model,
+    segment_set,
+    training_windows,
+)
 from terrain_odom.io import read_wheel_log
 from terrain_odom.kinematics import get_model, integrate, relative_pose, twist_icr, wrap_angle
 from terrain_odom.sim.slip_scenario import TRACK_WIDTH, feature_slip_scenario, icr_switch_scenario

@@ -18,7 +18,7 @@ import cv2
 import numpy as np
 import pytest
 
-from terrain_odom import workflows
+from terrain_odom.app import run as workflows
 from terrain_odom.cli.main import main
 from terrain_odom.vision.classifier import TerrainClassifier
 

@@ -12,12 +12,13 @@ import cv2
 import numpy as np
 import pytest
 
-from terrain_odom import workflows
+from terrain_odom.app import run as workflows
+from terrain_odom.app.frames import FRAME_COLUMNS
 from terrain_odom.cli.main import main
 from terrain_odom.config import load_config
-from terrain_odom.estimation.frames import FRAME_COLUMNS
-from terrain_odom.estimation.odometry import Sighting, run_icr_ekf
+from terrain_odom.estimation.odometry import run_icr_ekf
 from terrain_odom.io import read_wheel_log
+from terrain_odom.records import Sighting
 
 DURATION_S = 45
 FRAME_RATE_HZ = 5

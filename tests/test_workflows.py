@@ -1,4 +1,4 @@
-"""Tests of :mod:`terrain_odom.workflows`, the Python API behind the command line."""
+"""Tests of :mod:`terrain_odom.app.run`, the Python API behind the command line."""
 
 from __future__ import annotations
 
@@ -9,13 +9,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import terrain_odom.workflows as workflows
+import terrain_odom.app.run as workflows
+from terrain_odom.app.evaluate import evaluate
+from terrain_odom.app.run import RunSummary, TerrainSource, run
 from terrain_odom.config import Config, load_config
 from terrain_odom.errors import ConfigError, InputFileError
 from terrain_odom.estimation.odometry import OdometryRow
 from terrain_odom.io import read_trajectory_csv
 from terrain_odom.kinematics import integrate, twist_icr
-from terrain_odom.workflows import RunSummary, TerrainSource, evaluate, run
 
 N_ROWS = 200
 RATE_HZ = 20.0

@@ -461,7 +461,7 @@ def test_run_interrupted_keeps_rows_and_exits_130(
     capsys: pytest.CaptureFixture[str],
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
-    import terrain_odom.workflows as workflows
+    import terrain_odom.app.run as workflows
 
     real = workflows.run_icr_ekf
 

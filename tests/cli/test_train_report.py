@@ -19,9 +19,9 @@ import numpy as np
 import pytest
 import skimage.data
 
-from terrain_odom import training
+from terrain_odom.app import train as training
+from terrain_odom.app.train import cross_validate, report_accuracy, train
 from terrain_odom.cli.main import main
-from terrain_odom.training import cross_validate, report_accuracy, train
 from terrain_odom.vision.classifier import ClassifierConfig, TerrainClassifier, paper_config
 from terrain_odom.vision.dataset import (
     LabelledFeatures,

@@ -17,7 +17,6 @@ from terrain_odom.config import (
 )
 from terrain_odom.errors import EstimationError
 from terrain_odom.estimation import IcrEkf, IcrPriors, icr_step, icr_step_jacobian
-from terrain_odom.io.params import ANY_TERRAIN, ModelParams, ParamSet
 from terrain_odom.kinematics import integrate, twist_icr, wrap_angle
 
 
@@ -372,20 +371,3 @@ def test_remembered_estimate_wins_over_the_prior(memory):
         np.testing.assert_array_equal(ekf.params, online)
     else:
         _prior_block(ekf, GRASS)
-
-
-def _param_file(model: str, sets: dict[str, dict[str, float]]) -> ModelParams:
-    return ModelParams(model, {k: ParamSet(v) for k, v in sets.items()})
-
-
-def test_priors_from_parameter_files():
-    slip = {"y_l": 0.42, "y_r": -0.40, "x_icr": 0.05, "alpha": 0.93}
-    per_terrain = IcrPriors.from_params(_param_file("icr-slip", {"grass": slip}))
-    assert per_terrain == IcrPriors(terrains={"grass": GRASS})
-    icr = {"y_l": 0.6, "y_r": -0.58, "x_icr": 0.1}
-    single = IcrPriors.from_params(_param_file("icr", {ANY_TERRAIN: icr}))
-    assert single == IcrPriors(start=IcrState(0.6, -0.58, 0.1, 1.0))
-    with pytest.raises(ValueError, match="no ICR state; fit 'icr' or 'icr-slip'"):
-        IcrPriors.from_params(_param_file("edd-sym", {ANY_TERRAIN: {"alpha": 1, "b_hat": 1}}))
-    with pytest.raises(ValueError, match="terrain 'grass' needs y_l > 0 > y_r"):
-        IcrPriors.from_params(_param_file("icr", {"grass": {**icr, "y_r": 0.2}}))

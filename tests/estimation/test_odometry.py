@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from terrain_odom.config import Config
-from terrain_odom.estimation.odometry import Sighting, run_icr_ekf
-from terrain_odom.types import WheelLog
+from terrain_odom.estimation.odometry import run_icr_ekf
+from terrain_odom.records import Sighting, WheelLog
 
 SPEED = 0.5  # m/s on both tracks: straight line
 

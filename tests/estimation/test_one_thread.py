@@ -1,4 +1,4 @@
-"""Tests of the per-frame helpers of terrain_odom.estimation.frames."""
+"""Tests of the per-frame helpers of terrain_odom.app.frames."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import cv2
 import pytest
 from threadpoolctl import threadpool_info
 
-from terrain_odom.estimation.frames import one_thread
+from terrain_odom.app.frames import one_thread
 
 
 def test_one_thread_limits_every_pool_and_restores_them():

@@ -23,12 +23,12 @@ from terrain_odom.errors import ConfigError, EstimationError
 from terrain_odom.estimation.slip_ekf import SlipEkf, SlipModel, run_slip_ekf
 from terrain_odom.evaluation import settling_time
 from terrain_odom.kinematics import integrate, twist_idd, wrap_angle
+from terrain_odom.records import WheelLog
 from terrain_odom.sim.slip_scenario import (
     TRACK_WIDTH,
     feature_slip_scenario,
     icr_switch_scenario,
 )
-from terrain_odom.types import WheelLog
 
 MODEL = SlipModel(TRACK_WIDTH, 1e-3, True, True, IcrLimits())
 # Sec. 4.1 tuning: pose at 10 Hz with RTK-GPS noise; the paper's model has no alpha.

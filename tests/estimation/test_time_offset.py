@@ -13,8 +13,8 @@ from terrain_odom.estimation.time_offset import (
     delay_wheel_speeds,
     estimate_pose_delay,
 )
+from terrain_odom.records import WheelLog
 from terrain_odom.sim.slip_scenario import simulate_log
-from terrain_odom.types import WheelLog
 
 FINE = 0.01  # s, rows of the simulation
 WHEEL_PERIOD = 0.05  # s, rows of the log handed to the estimator (20 Hz)

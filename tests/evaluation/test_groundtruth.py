@@ -18,9 +18,9 @@ from terrain_odom.evaluation.groundtruth import (
     reconvergence,
 )
 from terrain_odom.evaluation.metrics import model_twist, spatial_windows
-from terrain_odom.io.groundtruth import GroundTruth, read_groundtruth
+from terrain_odom.io.groundtruth import read_groundtruth
 from terrain_odom.kinematics import get_model
-from terrain_odom.types import WheelLog
+from terrain_odom.records import GroundTruth, WheelLog
 
 
 def _straight_gt(n: int = 101, speed: float = 1.0, dt: float = 0.1) -> GroundTruth:

@@ -24,7 +24,7 @@ from terrain_odom.evaluation import (
 )
 from terrain_odom.evaluation import metrics as metrics_module
 from terrain_odom.kinematics import get_model, integrate, twist_icr
-from terrain_odom.types import WheelLog
+from terrain_odom.records import WheelLog
 
 DRIVE_DIR = Path(__file__).resolve().parents[3] / "shared" / "data" / "drive"
 GRASS_LOG = DRIVE_DIR / "warthog_wheels_grass.csv"

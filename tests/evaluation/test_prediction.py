@@ -7,7 +7,7 @@ import pytest
 
 from terrain_odom.config import Config, EkfConfig, IcrState, RobotConfig, SlipEkfConfig
 from terrain_odom.estimation.odometry import run_icr_ekf
-from terrain_odom.estimation.slip_ekf import SlipModel, run_slip_ekf
+from terrain_odom.estimation.slip_ekf import run_slip_ekf
 from terrain_odom.evaluation import icr_twist_from_rows, model_twist
 from terrain_odom.evaluation.prediction import (
     prediction_errors,
@@ -15,8 +15,9 @@ from terrain_odom.evaluation.prediction import (
     slip_twist_from_rows,
 )
 from terrain_odom.kinematics import get_model
+from terrain_odom.kinematics.slip import SlipModel
+from terrain_odom.records import WheelLog
 from terrain_odom.sim.slip_scenario import TRACK_WIDTH, feature_slip_scenario
-from terrain_odom.types import WheelLog
 
 
 def _line_log(n: int = 9) -> WheelLog:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from terrain_odom.kinematics import get_model, integrate
-from terrain_odom.types import WheelLog
+from terrain_odom.records import WheelLog
 
 RATE = 20.0  # Hz, wheel rows
 POSE_EVERY = 2  # a pose measurement every 2nd row (10 Hz)

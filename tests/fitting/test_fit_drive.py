@@ -6,11 +6,11 @@ from pathlib import Path
 
 import pytest
 
+from terrain_odom.app.fit import fit
 from terrain_odom.config import load_config
 from terrain_odom.evaluation import model_twist, spatial_windows, summarize, window_errors
 from terrain_odom.io import read_wheel_log
 from terrain_odom.kinematics import get_model
-from terrain_odom.workflows_fit import fit
 
 REPO = Path(__file__).resolve().parents[2]
 DRIVE = REPO.parent / "shared" / "data" / "drive"

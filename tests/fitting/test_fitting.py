@@ -1,4 +1,4 @@
-"""Tests of offline model identification (terrain_odom.fitting) on simulated logs."""
+"""Tests of offline model identification (terrain_odom.fitting.identify) on simulated logs."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import pytest
 from sim_logs import simulated_log
 
 from terrain_odom.evaluation import spatial_windows
-from terrain_odom.fitting import (
+from terrain_odom.fitting.identify import (
     FitOptions,
     Horizon,
     fit_model,
@@ -19,7 +19,7 @@ from terrain_odom.fitting import (
     training_windows,
 )
 from terrain_odom.kinematics import get_model
-from terrain_odom.types import WheelLog
+from terrain_odom.records import WheelLog
 
 H2 = Horizon(2.0, "m")
 FAST = FitOptions(popsize=8, maxiter=200)
@@ -180,7 +180,7 @@ def test_sigma_weights_the_loss():
     m = get_model("edd-sym")
     p = np.array([[0.8, 2.0]])
     base = residuals(m, p, segs)
-    from terrain_odom.fitting import _whitener
+    from terrain_odom.fitting.identify import _whitener
 
     scaled = residuals(m, p, segs, whitener=_whitener([2.0, 2.0, 0.5]))
     np.testing.assert_allclose(scaled, base * [0.5, 0.5, 2.0])

@@ -18,8 +18,8 @@ from terrain_odom.evaluation import (
     window_errors,
 )
 from terrain_odom.io import read_wheel_log
-from terrain_odom.types import WheelLog
-from terrain_odom.workflows import read_priors
+from terrain_odom.io.params import read_priors
+from terrain_odom.records import WheelLog
 
 TRUTH = {"grass": (0.55, -0.50, 0.05, 0.93), "gravel": (0.80, -0.72, 0.15, 0.85)}
 TOLERANCE = 0.05  # m: evaluation.icr_tolerance (10 %) of the default 0.5-m track width

@@ -12,7 +12,7 @@ import pytest
 
 from terrain_odom.errors import InputFileError
 from terrain_odom.io import read_wheel_log
-from terrain_odom.types import WheelLog
+from terrain_odom.records import WheelLog
 
 DRIVE_DIR = Path(__file__).resolve().parents[3] / "shared" / "data" / "drive"
 """Real DRIVE logs in ``../shared`` beside the repository (see its README.md)."""

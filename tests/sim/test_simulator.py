@@ -10,7 +10,7 @@ import cv2
 import numpy as np
 import pytest
 
-from terrain_odom.config import RobotConfig, load_config
+from terrain_odom.config import CameraConfig, RobotConfig, load_config
 from terrain_odom.io import read_trajectory_csv, read_wheel_log
 from terrain_odom.kinematics import integrate, twist_icr, wrap_angle
 from terrain_odom.sim import (
@@ -26,7 +26,7 @@ from terrain_odom.sim import (
     write_simulation,
 )
 from terrain_odom.sim.scenarios import SIM_CAMERA
-from terrain_odom.vision.camera import CameraConfig, GroundCamera
+from terrain_odom.vision.camera import GroundCamera
 
 SMALL_CAMERA = dataclasses.replace(
     SIM_CAMERA, width=160, height=120, fx=100.0, fy=100.0, cx=79.5, cy=59.5

@@ -9,12 +9,10 @@ import cv2
 import numpy as np
 import pytest
 
-from terrain_odom.config import NON_NEGATIVE, SIGNED, build_section
+from terrain_odom.config import NON_NEGATIVE, SIGNED, CameraConfig, RoiConfig, build_section
 from terrain_odom.errors import ConfigError
 from terrain_odom.vision.camera import (
-    CameraConfig,
     GroundCamera,
-    RoiConfig,
     RoiResult,
     RoiStatus,
     crop,

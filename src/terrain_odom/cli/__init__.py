@@ -1,1 +1,1 @@
-"""Command-line interface of terrain-odom (a thin layer over terrain_odom.workflows)."""
+"""Command-line interface of terrain-odom (a thin layer over terrain_odom.app.run)."""

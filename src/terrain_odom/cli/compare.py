@@ -29,8 +29,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def _cmd_compare(args: argparse.Namespace) -> int:
-    from terrain_odom.fitting import DEFAULT_TRAINING_HORIZON
-    from terrain_odom.workflows_fit import compare
+    from terrain_odom.app.fit import compare
+    from terrain_odom.fitting.identify import DEFAULT_TRAINING_HORIZON
 
     report = compare(
         args.log,

@@ -55,9 +55,9 @@ def _format_stats(entry: dict) -> str:
 
 
 def _cmd_evaluate(args: argparse.Namespace) -> int:
+    from terrain_odom.app.evaluate import evaluate
     from terrain_odom.config import load_config, with_pose_delay
     from terrain_odom.estimation.time_offset import shows_pose_delay
-    from terrain_odom.workflows import evaluate
 
     result = evaluate(
         args.run,

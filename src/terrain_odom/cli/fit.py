@@ -10,7 +10,7 @@ from terrain_odom.cli.evaluate import add_pose_delay_option, pose_delay_line
 
 if TYPE_CHECKING:
     from terrain_odom.config import Config
-    from terrain_odom.fitting import FitOptions
+    from terrain_odom.fitting.identify import FitOptions
 
 MODEL_CHOICES = ("idd", "edd-sym", "edd-asym", "roc", "linear", "icr", "icr-slip")
 
@@ -48,7 +48,7 @@ def add_fit_options(p: argparse.ArgumentParser) -> None:
 def fit_options(args: argparse.Namespace) -> FitOptions:
     """Build the :class:`FitOptions` of the command-line arguments (defaults for the rest)."""
     from terrain_odom.errors import ConfigError
-    from terrain_odom.fitting import FitOptions
+    from terrain_odom.fitting.identify import FitOptions
 
     given = {
         k: getattr(args, k) for k in ("popsize", "maxiter", "seed") if getattr(args, k) is not None
@@ -92,8 +92,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def _cmd_fit(args: argparse.Namespace) -> int:
-    from terrain_odom.fitting import DEFAULT_TRAINING_HORIZON
-    from terrain_odom.workflows_fit import fit
+    from terrain_odom.app.fit import fit
+    from terrain_odom.fitting.identify import DEFAULT_TRAINING_HORIZON
 
     report = fit(
         args.log,

@@ -1,7 +1,7 @@
 """Entry point of the ``terrain-odom`` command.
 
 Argument parsing only: each subcommand unpacks its arguments and calls a
-function of :mod:`terrain_odom.workflows`. Errors raised on purpose by the
+function of :mod:`terrain_odom.app.run`. Errors raised on purpose by the
 package (bad input files, invalid configuration) are printed as one line and
 exit with code 2; real bugs keep their traceback.
 """

@@ -13,7 +13,7 @@ from terrain_odom.cli.train import (
 )
 
 if TYPE_CHECKING:
-    from terrain_odom.training import CrossValidation
+    from terrain_odom.app.train import CrossValidation
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -57,7 +57,7 @@ def format_table(cv: CrossValidation, feature_ms: dict[str, dict[str, float]]) -
 
 
 def _cmd_accuracy(args: argparse.Namespace) -> int:
-    from terrain_odom.training import report_accuracy
+    from terrain_odom.app.train import report_accuracy
 
     report = report_accuracy(
         args.images, classifier_config(args), folds=args.folds, out_dir=args.out, jobs=args.jobs

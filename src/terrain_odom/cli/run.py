@@ -71,10 +71,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 def _cmd_run(args: argparse.Namespace) -> int:
     import dataclasses
 
+    from terrain_odom.app.run import TerrainSource, default_model, images_config, run
     from terrain_odom.config import load_config, with_pose_delay
     from terrain_odom.errors import ConfigError
     from terrain_odom.estimation.time_offset import shows_pose_delay
-    from terrain_odom.workflows import TerrainSource, default_model, images_config, run
 
     if args.no_terrain:
         source = TerrainSource.NONE

@@ -93,7 +93,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def _cmd_train(args: argparse.Namespace) -> int:
-    from terrain_odom.training import train
+    from terrain_odom.app.train import train
 
     summary = train(args.images, args.out, classifier_config(args), jobs=args.jobs)
     print(describe(summary.cfg))

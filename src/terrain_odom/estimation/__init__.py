@@ -4,13 +4,13 @@ from terrain_odom.estimation.icr_ekf import (
     STATE_NAMES,
     IcrEkf,
     IcrPriors,
-    TerrainChange,
     icr_step,
     icr_step_jacobian,
     icr_step_with_jacobian,
     state_names,
 )
 from terrain_odom.estimation.terrain import TerrainTracker
+from terrain_odom.records import TerrainChange
 
 __all__ = [
     "STATE_NAMES",

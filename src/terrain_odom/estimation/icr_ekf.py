@@ -30,7 +30,6 @@ from __future__ import annotations
 import logging
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
 
 import numpy as np
 from filterpy.kalman import ExtendedKalmanFilter
@@ -44,15 +43,12 @@ from terrain_odom.kinematics import (
     twist_icr_jacobian,
     wrap_angle,
 )
-
-if TYPE_CHECKING:
-    from terrain_odom.io.params import ModelParams
+from terrain_odom.records import TerrainChange
 
 __all__ = [
     "state_names",
     "IcrEkf",
     "IcrPriors",
-    "TerrainChange",
     "icr_step",
     "icr_step_jacobian",
     "STATE_NAMES",
@@ -134,38 +130,6 @@ def icr_step_jacobian(state: ArrayLike, v_l: float, v_r: float, dt: float) -> np
 
 
 @dataclass(frozen=True)
-class TerrainChange:
-    """A confirmed terrain change applied to the filter.
-
-    Attributes
-    ----------
-    t : float
-        Filter time of the reset, s.
-    previous, label : str or None
-        Terrain before and after.
-    restored : bool
-        Whether a remembered ICR estimate of ``label`` was restored.
-    reset : bool
-        Whether the ICR covariance was reset to ``P_B`` (False when terrain
-        adaptation is off and the change is only recorded).
-    t_confirmed : float or None
-        When the change was confirmed, s, if earlier than ``t`` (a reset
-        scheduled for the robot's arrival on ground seen ahead).
-    prior : bool
-        Whether the ICR estimate was set to the offline prior of ``label``
-        (:class:`IcrPriors`) instead of keeping it with ``P_B``.
-    """
-
-    t: float
-    previous: str | None
-    label: str
-    restored: bool
-    reset: bool = True
-    t_confirmed: float | None = None
-    prior: bool = False
-
-
-@dataclass(frozen=True)
 class IcrPriors:
     """Offline ICR parameters that seed the filter (``terrain-odom run --priors``).
 
@@ -188,27 +152,6 @@ class IcrPriors:
 
     terrains: Mapping[str, IcrState] = field(default_factory=dict)
     start: IcrState | None = None
-
-    @classmethod
-    def from_params(cls, params: ModelParams) -> IcrPriors:
-        """Priors from a parameter file of ``terrain-odom fit --model icr|icr-slip``.
-
-        A per-terrain file (``--by-terrain``) gives :attr:`terrains`, a file
-        with one set :attr:`start`. ``alpha`` is 1 for the ``icr`` model.
-
-        Raises
-        ------
-        ValueError
-            If the model has no ICR state, or a set has not ``y_l > 0 > y_r``.
-        """
-        states = {label: IcrState(*params.icr(label)) for label in params.sets}
-        for label, s in states.items():
-            if not s.y_l > 0.0 > s.y_r:
-                where = f"terrain {label!r}" if params.per_terrain else "the parameter set"
-                raise ValueError(f"{where} needs y_l > 0 > y_r, got y_l={s.y_l}, y_r={s.y_r}")
-        if params.per_terrain:
-            return cls(terrains=states)
-        return cls(start=next(iter(states.values())))
 
 
 class _Filter(ExtendedKalmanFilter):

@@ -24,14 +24,13 @@ from typing import Protocol
 import numpy as np
 
 from terrain_odom.config import Config
-from terrain_odom.estimation.icr_ekf import IcrEkf, IcrPriors, TerrainChange
+from terrain_odom.estimation.icr_ekf import IcrEkf, IcrPriors
 from terrain_odom.estimation.terrain import TerrainTracker
 from terrain_odom.kinematics import twist_icr
-from terrain_odom.types import WheelLog
+from terrain_odom.records import Sighting, TerrainChange, WheelLog
 
 __all__ = [
     "FrameObserver",
-    "Sighting",
     "OdometryRow",
     "OdometryResult",
     "RowFilter",
@@ -64,23 +63,6 @@ class OdometryRow:
     state: np.ndarray
     std: np.ndarray
     terrain: str
-
-
-@dataclass(frozen=True)
-class Sighting:
-    """A terrain label seen by the camera.
-
-    Attributes
-    ----------
-    label : str
-        Terrain class of the classified region.
-    ahead : float
-        Distance along the path from the robot to that region, m (0: under
-        the robot).
-    """
-
-    label: str
-    ahead: float = 0.0
 
 
 class FrameObserver(Protocol):

@@ -36,7 +36,7 @@ import numpy as np
 
 from terrain_odom.errors import EstimationError
 from terrain_odom.kinematics import wrap_angle
-from terrain_odom.types import WheelLog
+from terrain_odom.records import WheelLog
 
 __all__ = [
     "PoseDelayEstimate",

@@ -31,9 +31,8 @@ from terrain_odom.evaluation.metrics import (
     summarize,
     window_errors,
 )
-from terrain_odom.io.groundtruth import GroundTruth
 from terrain_odom.kinematics import wrap_angle
-from terrain_odom.types import WheelLog
+from terrain_odom.records import GroundTruth, WheelLog
 
 __all__ = [
     "path_length",

@@ -36,7 +36,7 @@ from numpy.typing import ArrayLike
 
 from terrain_odom.kinematics.integration import integrate, wrap_angle
 from terrain_odom.kinematics.models import KinematicModel, twist_icr
-from terrain_odom.types import WheelLog
+from terrain_odom.records import WheelLog
 
 __all__ = [
     "DEFAULT_HORIZON",

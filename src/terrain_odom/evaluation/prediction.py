@@ -19,7 +19,6 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from terrain_odom.estimation.slip_ekf import SlipModel
 from terrain_odom.evaluation.metrics import (
     TwistFn,
     Windows,
@@ -27,7 +26,8 @@ from terrain_odom.evaluation.metrics import (
     _segment_runs,
     window_errors,
 )
-from terrain_odom.types import WheelLog
+from terrain_odom.kinematics.slip import SlipModel
+from terrain_odom.records import WheelLog
 
 __all__ = [
     "PREDICTION_HORIZON",

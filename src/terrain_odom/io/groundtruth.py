@@ -17,56 +17,16 @@ Examples
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 
 from terrain_odom.io._csv import Source, read_csv, shown
+from terrain_odom.records import GroundTruth
 
-__all__ = ["GroundTruth", "read_groundtruth", "GROUNDTRUTH_COLUMNS"]
+__all__ = ["read_groundtruth", "GROUNDTRUTH_COLUMNS"]
 
 GROUNDTRUTH_COLUMNS = ("t", "x", "y", "yaw", "y_l", "y_r", "x_icr", "terrain")
 """Required columns of a ground-truth file."""
-
-
-@dataclass(frozen=True)
-class GroundTruth:
-    """True state of a run.
-
-    Attributes
-    ----------
-    t : ndarray, shape (N,)
-        Times, s, strictly increasing.
-    pose : ndarray, shape (N, 3)
-        ``x, y, yaw`` (m, m, rad).
-    icr : ndarray, shape (N, 3)
-        ``y_l, y_r, x_icr``, m.
-    alpha : ndarray, shape (N,), or None
-        Longitudinal slip factor, if the file has it.
-    terrain : ndarray of str, shape (N,)
-        Terrain under the robot.
-    source : str
-        File name, for messages.
-    """
-
-    t: np.ndarray
-    pose: np.ndarray
-    icr: np.ndarray
-    alpha: np.ndarray | None
-    terrain: np.ndarray
-    source: str
-
-    def __len__(self) -> int:
-        return int(self.t.size)
-
-    def covers(self, t: np.ndarray) -> bool:
-        """Whether the ground truth spans the times ``t`` (s; 1 ns slack)."""
-        return bool(t.size == 0 or (t[0] >= self.t[0] - 1e-9 and t[-1] <= self.t[-1] + 1e-9))
-
-    def changes(self) -> list[tuple[float, str, str]]:
-        """Return the true terrain changes ``(t, previous, new)`` (t: first row on the new one)."""
-        rows = np.flatnonzero(self.terrain[1:] != self.terrain[:-1]) + 1
-        return [(float(self.t[k]), str(self.terrain[k - 1]), str(self.terrain[k])) for k in rows]
 
 
 def _finite(cell: str) -> float:

@@ -37,10 +37,12 @@ from typing import Any, BinaryIO
 import numpy as np
 import yaml
 
+from terrain_odom.config import IcrState
 from terrain_odom.errors import InputFileError
+from terrain_odom.estimation.icr_ekf import IcrPriors
 from terrain_odom.io.atomic import write_atomic
 from terrain_odom.kinematics import eccentricity, get_model, steering_efficiency
-from terrain_odom.types import WheelLog
+from terrain_odom.records import WheelLog
 
 __all__ = [
     "ANY_TERRAIN",
@@ -50,6 +52,8 @@ __all__ = [
     "read_params",
     "write_params",
     "derived_quantities",
+    "icr_priors",
+    "read_priors",
 ]
 
 PARAMS_FORMAT_VERSION = 2
@@ -307,3 +311,41 @@ def write_params(path: str | Path, mp: ModelParams) -> None:
         handle.write(text.encode("utf-8"))
 
     write_atomic(path, write)
+
+
+def icr_priors(params: ModelParams) -> IcrPriors:
+    """Priors of the ICR EKF from a parameter file of ``terrain-odom fit --model icr|icr-slip``.
+
+    A per-terrain file (``--by-terrain``) gives
+    :attr:`~terrain_odom.estimation.icr_ekf.IcrPriors.terrains`, a file with
+    one set :attr:`~terrain_odom.estimation.icr_ekf.IcrPriors.start`.
+    ``alpha`` is 1 for the ``icr`` model.
+
+    Raises
+    ------
+    ValueError
+        If the model has no ICR state, or a set has not ``y_l > 0 > y_r``.
+    """
+    states = {label: IcrState(*params.icr(label)) for label in params.sets}
+    for label, s in states.items():
+        if not s.y_l > 0.0 > s.y_r:
+            where = f"terrain {label!r}" if params.per_terrain else "the parameter set"
+            raise ValueError(f"{where} needs y_l > 0 > y_r, got y_l={s.y_l}, y_r={s.y_r}")
+    if params.per_terrain:
+        return IcrPriors(terrains=states)
+    return IcrPriors(start=next(iter(states.values())))
+
+
+def read_priors(path: str | Path) -> IcrPriors:
+    """Read a parameter file of ``terrain-odom fit --model icr|icr-slip`` as EKF priors.
+
+    Raises
+    ------
+    InputFileError
+        If the file is missing or malformed, or its model has no ICR state.
+    """
+    params = read_params(path)
+    try:
+        return icr_priors(params)
+    except ValueError as exc:
+        raise InputFileError(f"{path}: {exc}") from None

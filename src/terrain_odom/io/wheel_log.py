@@ -36,7 +36,7 @@ import numpy as np
 
 from terrain_odom.io._csv import CsvTable, Source, floats_or_nan, read_csv, shown
 from terrain_odom.kinematics.integration import wrap_angle
-from terrain_odom.types import WheelLog
+from terrain_odom.records import WheelLog
 
 __all__ = ["read_wheel_log"]
 

@@ -1,13 +1,13 @@
 """Reports of runs against ground truth: scores, Markdown and plots."""
 
-from terrain_odom.reporting.markdown import run_markdown, table
-from terrain_odom.reporting.run_report import (
+from terrain_odom.app.groundtruth import (
     VARIANTS,
     GroundTruthReport,
     Variant,
     groundtruth_section,
     run_variants,
 )
+from terrain_odom.reporting.markdown import run_markdown, table
 
 __all__ = [
     "VARIANTS",

@@ -154,7 +154,7 @@ def run_markdown(report: dict[str, Any], plots: Sequence[str] = ()) -> str:
     Parameters
     ----------
     report : dict
-        The report (see :func:`terrain_odom.workflows.run`).
+        The report (see :func:`terrain_odom.app.run.run`).
     plots : sequence of str
         Relative paths of PNG plots to show.
     """

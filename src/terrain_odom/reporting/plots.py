@@ -12,7 +12,7 @@ from typing import Any, BinaryIO
 import numpy as np
 
 from terrain_odom.estimation.odometry import OdometryResult
-from terrain_odom.io.groundtruth import GroundTruth
+from terrain_odom.records import GroundTruth
 
 __all__ = ["new_figure", "plot_trajectory", "plot_icr", "plot_frames"]
 

@@ -17,12 +17,12 @@ Examples
 (100, 'grass')
 """
 
+from terrain_odom.app.simulate import SimOutput, write_simulation
 from terrain_odom.sim.render import Lighting, Renderer, frame_homography
 from terrain_odom.sim.robot import Motion, TerrainParams, drive
 from terrain_odom.sim.scenarios import SCENARIOS, TERRAIN_TABLE, Scenario, get_scenario
 from terrain_odom.sim.simulation import Patch, Simulation, iter_frames, sample_patches, simulate
 from terrain_odom.sim.world import GroundMap, MapSpec, Region, build_map
-from terrain_odom.sim.writer import SimOutput, write_simulation
 
 __all__ = [
     "SCENARIOS",

@@ -24,13 +24,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from terrain_odom.config import RobotConfig
+from terrain_odom.config import CameraConfig, RobotConfig
 from terrain_odom.errors import ConfigError
 from terrain_odom.kinematics import wrap_angle
 from terrain_odom.sim.render import Lighting
 from terrain_odom.sim.robot import Driver, TerrainParams
 from terrain_odom.sim.world import MapSpec, Region
-from terrain_odom.vision.camera import CameraConfig
 
 __all__ = [
     "TERRAIN_TABLE",

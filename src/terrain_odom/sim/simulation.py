@@ -15,12 +15,12 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from terrain_odom.config import RobotConfig
+from terrain_odom.config import CameraConfig, RobotConfig
 from terrain_odom.sim.render import Renderer
 from terrain_odom.sim.robot import Motion, drive, encoder_speeds, pose_measurements
 from terrain_odom.sim.scenarios import Scenario
 from terrain_odom.sim.world import GroundMap, build_map
-from terrain_odom.vision.camera import CameraConfig, GroundCamera
+from terrain_odom.vision.camera import GroundCamera
 
 __all__ = ["Simulation", "Patch", "simulate", "frame_rows", "iter_frames", "sample_patches"]
 

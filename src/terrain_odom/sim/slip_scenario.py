@@ -29,9 +29,9 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from terrain_odom.config import IcrLimits
-from terrain_odom.estimation.slip_ekf import SlipModel
 from terrain_odom.kinematics import integrate, twist_icr, wrap_angle
-from terrain_odom.types import WheelLog
+from terrain_odom.kinematics.slip import SlipModel
+from terrain_odom.records import WheelLog
 
 __all__ = [
     "TRACK_WIDTH",

@@ -61,8 +61,8 @@ from sklearn.pipeline import Pipeline
 from sklearn.preprocessing import StandardScaler
 
 from terrain_odom import __version__
+from terrain_odom.config.fields import build_section
 from terrain_odom.errors import ConfigError, InputFileError
-from terrain_odom.fields import build_section
 from terrain_odom.io.atomic import write_atomic
 from terrain_odom.vision.sfta import sfta_features
 

@@ -3,7 +3,7 @@
 :func:`fit` fits one constant kinematic model (one set, or one per terrain)
 on training logs and writes a parameter file; :func:`compare` fits every
 model and writes Baril-style tables (Markdown, JSON) and a box plot. The
-computation lives in :mod:`terrain_odom.fitting` and
+computation lives in :mod:`terrain_odom.fitting.identify` and
 :mod:`terrain_odom.evaluation`.
 """
 
@@ -29,7 +29,7 @@ from terrain_odom.evaluation import (
     summarize,
     window_errors,
 )
-from terrain_odom.fitting import (
+from terrain_odom.fitting.identify import (
     DEFAULT_TRAINING_HORIZON,
     FitOptions,
     Horizon,
@@ -49,8 +49,8 @@ from terrain_odom.io.params import (
 )
 from terrain_odom.io.report import write_json
 from terrain_odom.kinematics import MODELS, get_model
+from terrain_odom.records import WheelLog
 from terrain_odom.reporting.markdown import table
-from terrain_odom.types import WheelLog
 
 __all__ = [
     "LogSource",

@@ -53,7 +53,7 @@ from terrain_odom.evaluation.metrics import (
 )
 from terrain_odom.kinematics.integration import integrate, relative_pose, wrap_angle
 from terrain_odom.kinematics.models import KinematicModel, get_model
-from terrain_odom.types import WheelLog
+from terrain_odom.records import WheelLog
 
 __all__ = [
     "DEFAULT_TRAINING_HORIZON",

@@ -17,8 +17,8 @@ from typing import Any
 
 import numpy as np
 
+from terrain_odom.app.frames import FrameRecord, ReplayedFrames
 from terrain_odom.config import Config
-from terrain_odom.estimation.frames import FrameRecord, ReplayedFrames
 from terrain_odom.estimation.icr_ekf import IcrPriors
 from terrain_odom.estimation.odometry import OdometryResult, run_icr_ekf
 from terrain_odom.evaluation.groundtruth import (
@@ -30,9 +30,8 @@ from terrain_odom.evaluation.groundtruth import (
     reconvergence,
 )
 from terrain_odom.evaluation.metrics import icr_twist_from_rows, model_twist
-from terrain_odom.io.groundtruth import GroundTruth
 from terrain_odom.kinematics import get_model
-from terrain_odom.types import WheelLog
+from terrain_odom.records import GroundTruth, WheelLog
 
 __all__ = ["VARIANTS", "Variant", "GroundTruthReport", "run_variants", "groundtruth_section"]
 

@@ -28,10 +28,11 @@ import cv2
 import numpy as np
 from threadpoolctl import threadpool_limits
 
+from terrain_odom.config import RoiConfig
 from terrain_odom.errors import InputFileError
-from terrain_odom.estimation.odometry import Sighting
 from terrain_odom.io.frames import FrameList
-from terrain_odom.vision.camera import GroundCamera, RoiConfig, crop, region_of_interest
+from terrain_odom.records import Sighting
+from terrain_odom.vision.camera import GroundCamera, crop, region_of_interest
 from terrain_odom.vision.classifier import TerrainClassifier, image_features
 from terrain_odom.vision.dataset import read_image_rgb
 

@@ -1,0 +1,133 @@
+"""Load a YAML configuration into :class:`~terrain_odom.config.sections.Config`, validated."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path
+from typing import Any, Literal
+
+import yaml
+
+from terrain_odom.config.fields import _build
+from terrain_odom.config.sections import FORMAT_VERSION, MAX_POSE_DELAY, Config, TimeConfig
+from terrain_odom.errors import ConfigError
+
+__all__ = ["load_config", "config_to_dict", "with_pose_delay"]
+
+
+def _check_pose_delay(delay: float | Literal["auto"], where: str) -> None:
+    if delay != "auto" and not abs(delay) <= MAX_POSE_DELAY:
+        raise ConfigError(
+            f"{where}: {delay:g} s is not a stamp delay (|d| <= {MAX_POSE_DELAY:g} s); "
+            "give seconds, or auto"
+        )
+
+
+def with_pose_delay(cfg: Config, text: str | None, where: str = "--pose-delay") -> Config:
+    """Return ``cfg`` with ``time.pose_delay`` from a command-line value.
+
+    Parameters
+    ----------
+    cfg : Config
+        The configuration loaded.
+    text : str or None
+        ``"auto"`` or a number of seconds; None keeps ``cfg``'s value.
+    where : str
+        Name of the option, for messages.
+
+    Raises
+    ------
+    ConfigError
+        If ``text`` is neither ``auto`` nor a number of seconds within
+        :data:`MAX_POSE_DELAY`.
+    """
+    if text is None:
+        return cfg
+    value: float | Literal["auto"]
+    if text.strip() == "auto":
+        value = "auto"
+    else:
+        try:
+            value = float(text)
+        except ValueError:
+            raise ConfigError(f"{where}: must be auto or seconds, got {text!r}") from None
+        if not math.isfinite(value):
+            raise ConfigError(f"{where}: must be auto or finite seconds, got {text!r}")
+    _check_pose_delay(value, where)
+    return dataclasses.replace(cfg, time=TimeConfig(pose_delay=value))
+
+
+def _check_consistency(cfg: Config) -> None:
+    ini, lim = cfg.ekf.initial, cfg.ekf.limits
+    if not ini.y_l > 0.0 > ini.y_r:
+        raise ConfigError(
+            f"ekf.initial needs y_l > 0 > y_r (left ICR left of the body), "
+            f"got y_l={ini.y_l}, y_r={ini.y_r}"
+        )
+    if not lim.half_width_min < lim.half_width_max:
+        raise ConfigError("ekf.limits.half_width_min must be < half_width_max")
+    if not lim.alpha_min <= ini.alpha <= lim.alpha_max:
+        raise ConfigError("ekf.initial.alpha must lie in [alpha_min, alpha_max]")
+    slip = cfg.slip_ekf
+    if not (slip.lateral_acceleration or slip.curvature):
+        raise ConfigError(
+            "slip_ekf: lateral_acceleration and curvature are both false; "
+            "the ICRs need at least one feature"
+        )
+    if not slip.limits.half_width_min < slip.limits.half_width_max:
+        raise ConfigError("slip_ekf.limits.half_width_min must be < half_width_max")
+    if not slip.limits.alpha_min <= slip.initial.alpha <= slip.limits.alpha_max:
+        raise ConfigError("slip_ekf.initial.alpha must lie in [limits.alpha_min, alpha_max]")
+    _check_pose_delay(cfg.time.pose_delay, "time.pose_delay")
+    if cfg.format_version != FORMAT_VERSION:
+        raise ConfigError(
+            f"format_version {cfg.format_version} is not supported "
+            f"(this version of terrain-odom reads {FORMAT_VERSION})"
+        )
+
+
+def load_config(path: str | Path | None = None) -> Config:
+    """Load and validate a YAML configuration.
+
+    Parameters
+    ----------
+    path : str or Path, optional
+        YAML file. Keys left out take the defaults of :class:`Config` (which
+        are those of ``config/default.yaml``); ``None`` returns the defaults.
+
+    Returns
+    -------
+    Config
+
+    Raises
+    ------
+    ConfigError
+        Naming the file and the key of the first invalid or unknown entry.
+    """
+    if path is None:
+        return Config()
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ConfigError(f"{path}: config file not found") from None
+    except OSError as exc:
+        raise ConfigError(f"{path}: cannot read config file ({exc.strerror})") from None
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        line = f", line {mark.line + 1}" if mark is not None else ""
+        raise ConfigError(f"{path}{line}: not valid YAML") from None
+    try:
+        cfg = _build(Config(), data or {}, "")
+        _check_consistency(cfg)
+    except ConfigError as exc:
+        raise ConfigError(f"{path}: {exc}") from None
+    return cfg
+
+
+def config_to_dict(cfg: Config) -> dict[str, Any]:
+    """Return the configuration as plain data (for reports and YAML)."""
+    return dataclasses.asdict(cfg)

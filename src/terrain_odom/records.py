@@ -1,0 +1,154 @@
+"""Typed records shared by every layer of terrain-odom (pure data, no behaviour beyond masks).
+
+All arrays follow the package convention: x forward, y left, yaw
+counter-clockwise in radians wrapped to (-pi, pi], SI units.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["WheelLog", "Sighting", "TerrainChange", "GroundTruth"]
+
+
+@dataclass(frozen=True)
+class WheelLog:
+    """A wheel log: track surface speeds with optional pose measurements.
+
+    Row ``k`` holds the speeds commanded/measured at ``t[k]``; they are held
+    constant until ``t[k+1]`` (zero-order hold) when integrating.
+
+    Attributes
+    ----------
+    t : ndarray, shape (N,)
+        Time, s; strictly increasing within each segment.
+    v_l, v_r : ndarray, shape (N,)
+        Left and right track (wheel) surface speeds, m/s, forward positive.
+    pose : ndarray, shape (N, 3)
+        Measured pose ``x, y, yaw`` (m, m, rad) or NaN on rows without a
+        measurement. ``yaw`` may be present while ``x, y`` are NaN
+        (heading-only measurement).
+    terrain : ndarray of str, shape (N,), or None
+        True terrain label per row, if the log has one.
+    segment : ndarray of int, shape (N,)
+        Segment id per row; integration and comparison never cross a change.
+    source : str
+        Where the log came from (file name), for messages and reports.
+    """
+
+    t: np.ndarray
+    v_l: np.ndarray
+    v_r: np.ndarray
+    pose: np.ndarray
+    terrain: np.ndarray | None
+    segment: np.ndarray
+    source: str = "<memory>"
+
+    def __len__(self) -> int:
+        return int(self.t.shape[0])
+
+    @property
+    def has_position(self) -> np.ndarray:
+        """Boolean mask, shape (N,): rows with a measured ``x, y``."""
+        return np.isfinite(self.pose[:, 0]) & np.isfinite(self.pose[:, 1])
+
+    @property
+    def has_yaw(self) -> np.ndarray:
+        """Boolean mask, shape (N,): rows with a measured ``yaw``."""
+        return np.isfinite(self.pose[:, 2])
+
+    @property
+    def has_pose(self) -> np.ndarray:
+        """Boolean mask, shape (N,): rows with a full ``x, y, yaw`` measurement."""
+        return self.has_position & self.has_yaw
+
+
+@dataclass(frozen=True)
+class Sighting:
+    """A terrain label seen by the camera.
+
+    Attributes
+    ----------
+    label : str
+        Terrain class of the classified region.
+    ahead : float
+        Distance along the path from the robot to that region, m (0: under
+        the robot).
+    """
+
+    label: str
+    ahead: float = 0.0
+
+
+@dataclass(frozen=True)
+class TerrainChange:
+    """A confirmed terrain change applied to the filter.
+
+    Attributes
+    ----------
+    t : float
+        Filter time of the reset, s.
+    previous, label : str or None
+        Terrain before and after.
+    restored : bool
+        Whether a remembered ICR estimate of ``label`` was restored.
+    reset : bool
+        Whether the ICR covariance was reset to ``P_B`` (False when terrain
+        adaptation is off and the change is only recorded).
+    t_confirmed : float or None
+        When the change was confirmed, s, if earlier than ``t`` (a reset
+        scheduled for the robot's arrival on ground seen ahead).
+    prior : bool
+        Whether the ICR estimate was set to the offline prior of ``label``
+        (:class:`~terrain_odom.estimation.icr_ekf.IcrPriors`) instead of keeping it with ``P_B``.
+    """
+
+    t: float
+    previous: str | None
+    label: str
+    restored: bool
+    reset: bool = True
+    t_confirmed: float | None = None
+    prior: bool = False
+
+
+@dataclass(frozen=True)
+class GroundTruth:
+    """True state of a run.
+
+    Attributes
+    ----------
+    t : ndarray, shape (N,)
+        Times, s, strictly increasing.
+    pose : ndarray, shape (N, 3)
+        ``x, y, yaw`` (m, m, rad).
+    icr : ndarray, shape (N, 3)
+        ``y_l, y_r, x_icr``, m.
+    alpha : ndarray, shape (N,), or None
+        Longitudinal slip factor, if the file has it.
+    terrain : ndarray of str, shape (N,)
+        Terrain under the robot.
+    source : str
+        File name, for messages.
+    """
+
+    t: np.ndarray
+    pose: np.ndarray
+    icr: np.ndarray
+    alpha: np.ndarray | None
+    terrain: np.ndarray
+    source: str
+
+    def __len__(self) -> int:
+        return int(self.t.size)
+
+    def covers(self, t: np.ndarray) -> bool:
+        """Whether the ground truth spans the times ``t`` (s; 1 ns slack)."""
+        return bool(t.size == 0 or (t[0] >= self.t[0] - 1e-9 and t[-1] <= self.t[-1] + 1e-9))
+
+    def changes(self) -> list[tuple[float, str, str]]:
+        """Return the true terrain changes ``(t, previous, new)`` (t: first row on the new one)."""
+        rows = np.flatnonzero(self.terrain[1:] != self.terrain[:-1]) + 1
+        return [(float(self.t[k]), str(self.terrain[k - 1]), str(self.terrain[k])) for k in rows]
