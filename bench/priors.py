@@ -35,6 +35,7 @@ import numpy as np
 
 from terrain_odom.app.fit import fit
 from terrain_odom.app.groundtruth import groundtruth_section
+from terrain_odom.app.simulate import write_simulation
 from terrain_odom.config import Config, load_config
 from terrain_odom.estimation import IcrPriors
 from terrain_odom.estimation.odometry import run_icr_ekf
@@ -43,7 +44,7 @@ from terrain_odom.io import read_wheel_log
 from terrain_odom.io.groundtruth import read_groundtruth
 from terrain_odom.io.params import icr_priors
 from terrain_odom.records import WheelLog
-from terrain_odom.sim import get_scenario, simulate, write_simulation
+from terrain_odom.sim import get_scenario, simulate
 
 REPO = Path(__file__).resolve().parents[1]
 VARIANTS = ("ekf (terrain)", "ekf (terrain + memory)")

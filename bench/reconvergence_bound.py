@@ -35,10 +35,11 @@ import numpy as np
 from slip_ekf import batch_icrs  # bench/ is on the path when this script runs
 
 from terrain_odom.app.groundtruth import groundtruth_section
+from terrain_odom.app.simulate import write_simulation
 from terrain_odom.config import PoseSigmas, load_config
 from terrain_odom.io import read_wheel_log
 from terrain_odom.io.groundtruth import read_groundtruth
-from terrain_odom.sim import get_scenario, simulate, write_simulation
+from terrain_odom.sim import get_scenario, simulate
 
 NOISE = {"2 cm / 0.57 deg": (0.02, 0.01), "1 cm / 0.20 deg (RTK)": (0.01, 0.0035)}
 SPANS = np.round(np.arange(0.5, 4.001, 0.1), 2)

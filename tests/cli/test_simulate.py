@@ -132,7 +132,8 @@ def test_unknown_frame_format_is_refused(tmp_path, capsys):
 
 
 def test_write_simulation_checks_the_frame_format(tmp_path):
-    from terrain_odom.sim import get_scenario, simulate, write_simulation
+    from terrain_odom.app.simulate import write_simulation
+    from terrain_odom.sim import get_scenario, simulate
 
     sim = simulate(dataclasses.replace(get_scenario("chen2023"), duration=0.1), seed=0)
     with pytest.raises(ValueError, match="frame_format"):

@@ -10,6 +10,7 @@ import cv2
 import numpy as np
 import pytest
 
+from terrain_odom.app.simulate import write_simulation
 from terrain_odom.config import CameraConfig, RobotConfig, load_config
 from terrain_odom.io import read_trajectory_csv, read_wheel_log
 from terrain_odom.kinematics import integrate, twist_icr, wrap_angle
@@ -23,7 +24,6 @@ from terrain_odom.sim import (
     build_map,
     get_scenario,
     simulate,
-    write_simulation,
 )
 from terrain_odom.sim.scenarios import SIM_CAMERA
 from terrain_odom.vision.camera import GroundCamera

@@ -19,6 +19,7 @@ from tqdm import tqdm
 
 from terrain_odom import __version__
 from terrain_odom.app.frames import FRAME_COLUMNS, FramePipeline, FrameRecord, one_thread
+from terrain_odom.app.groundtruth import GroundTruthReport, groundtruth_section
 from terrain_odom.config import Config, config_to_dict, load_config
 from terrain_odom.errors import ConfigError, InputFileError
 from terrain_odom.estimation.icr_ekf import state_names
@@ -33,7 +34,7 @@ from terrain_odom.io.params import read_priors
 from terrain_odom.io.report import to_jsonable, write_json
 from terrain_odom.kinematics.slip import param_names
 from terrain_odom.records import GroundTruth, WheelLog
-from terrain_odom.reporting import GroundTruthReport, groundtruth_section, run_markdown
+from terrain_odom.reporting import run_markdown
 from terrain_odom.vision.camera import GroundCamera
 from terrain_odom.vision.classifier import TerrainClassifier
 

@@ -46,9 +46,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 def _cmd_simulate(args: argparse.Namespace) -> int:
     import dataclasses
 
+    from terrain_odom.app.simulate import write_simulation
     from terrain_odom.config import load_config
     from terrain_odom.errors import ConfigError
-    from terrain_odom.sim import get_scenario, simulate, write_simulation
+    from terrain_odom.sim import get_scenario, simulate
 
     scenario = get_scenario(args.scenario)
     changes = {

@@ -4,7 +4,7 @@ A ground map of terrain regions textured with real photos (scikit-image's
 grass, gravel and brick), a skid-steer robot whose true motion follows
 terrain-dependent ICRs and slip, noisy encoders and GPS-like poses, and a
 ground camera rendered by warping the map through the camera model. See
-:func:`simulate` and :func:`write_simulation`; scenarios in
+:func:`simulate` (written to disk by :func:`terrain_odom.app.simulate.write_simulation`); scenarios in
 :mod:`terrain_odom.sim.scenarios`.
 
 Examples
@@ -17,7 +17,6 @@ Examples
 (100, 'grass')
 """
 
-from terrain_odom.app.simulate import SimOutput, write_simulation
 from terrain_odom.sim.render import Lighting, Renderer, frame_homography
 from terrain_odom.sim.robot import Motion, TerrainParams, drive
 from terrain_odom.sim.scenarios import SCENARIOS, TERRAIN_TABLE, Scenario, get_scenario
@@ -35,7 +34,6 @@ __all__ = [
     "Region",
     "Renderer",
     "Scenario",
-    "SimOutput",
     "Simulation",
     "TerrainParams",
     "build_map",
@@ -45,5 +43,4 @@ __all__ = [
     "iter_frames",
     "sample_patches",
     "simulate",
-    "write_simulation",
 ]
