@@ -94,27 +94,6 @@ def test_run_without_alpha_has_no_alpha_columns(log_path: Path, tmp_path: Path) 
     assert report["config"]["ekf"]["estimate_alpha"] is False
 
 
-def test_trajectory_columns() -> None:
-    assert workflows.trajectory_columns(("x", "y", "yaw", "y_l", "y_r", "x_icr", "alpha")) == [
-        "t",
-        "x",
-        "y",
-        "yaw",
-        "y_l",
-        "y_r",
-        "x_icr",
-        "terrain",
-        "alpha",
-        "std_x",
-        "std_y",
-        "std_yaw",
-        "std_y_l",
-        "std_y_r",
-        "std_x_icr",
-        "std_alpha",
-    ]
-
-
 def test_interrupted_run_keeps_streamed_rows(
     log_path: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:

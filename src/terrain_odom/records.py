@@ -49,6 +49,38 @@ class WheelLog:
     def __len__(self) -> int:
         return int(self.t.shape[0])
 
+    def segment_runs(self) -> np.ndarray:
+        """Run id per row, shape (N,): 0 on the first row, +1 at every change of ``segment``.
+
+        The one definition of where a log breaks: integration, windows,
+        fits and the row loop never cross from one run to the next (a
+        ``segment`` id that comes back later starts a new run).
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> log = WheelLog(np.arange(5.0), np.ones(5), np.ones(5), np.full((5, 3), np.nan),
+        ...                None, np.array([0, 0, 1, 1, 0]))
+        >>> log.segment_runs().tolist(), log.n_runs, log.run_starts().tolist()
+        ([0, 0, 1, 1, 2], 3, [0, 2, 4])
+        """
+        seg = np.asarray(self.segment)
+        if seg.size == 0:
+            return np.zeros(0, dtype=int)
+        return np.concatenate([[0], np.cumsum(seg[1:] != seg[:-1])]).astype(int)
+
+    def run_starts(self) -> np.ndarray:
+        """First row of every run (see :meth:`segment_runs`), shape (R,)."""
+        seg = np.asarray(self.segment)
+        if seg.size == 0:
+            return np.zeros(0, dtype=int)
+        return np.flatnonzero(np.r_[True, seg[1:] != seg[:-1]])
+
+    @property
+    def n_runs(self) -> int:
+        """Number of runs (see :meth:`segment_runs`); 0 for an empty log."""
+        return int(self.run_starts().size)
+
     @property
     def has_position(self) -> np.ndarray:
         """Boolean mask, shape (N,): rows with a measured ``x, y``."""

@@ -15,6 +15,7 @@ import pytest
 import terrain_odom
 from terrain_odom.errors import InputFileError
 from terrain_odom.io import TrajectoryWriter, read_trajectory_csv, write_tum
+from terrain_odom.io.trajectory import trajectory_columns
 
 TRICKY_FLOATS = [0.1, 1.0 / 3.0, -2.5e-300, 1.7e9 + 0.123456789, 5e-324, 1e308, -0.0, float("inf")]
 
@@ -288,3 +289,24 @@ def test_write_tum_rejects_bad_arrays_and_keeps_the_old_file(
 
     assert path.read_text() == "old content\n"
     assert [p.name for p in tmp_path.iterdir()] == ["trajectory.tum"]
+
+
+def test_trajectory_columns() -> None:
+    assert trajectory_columns(("x", "y", "yaw", "y_l", "y_r", "x_icr", "alpha")) == [
+        "t",
+        "x",
+        "y",
+        "yaw",
+        "y_l",
+        "y_r",
+        "x_icr",
+        "terrain",
+        "alpha",
+        "std_x",
+        "std_y",
+        "std_yaw",
+        "std_y_l",
+        "std_y_r",
+        "std_x_icr",
+        "std_alpha",
+    ]

@@ -32,6 +32,7 @@ from terrain_odom.io.frames import read_frames
 from terrain_odom.io.groundtruth import read_groundtruth
 from terrain_odom.io.params import read_priors
 from terrain_odom.io.report import to_jsonable, write_json
+from terrain_odom.io.trajectory import trajectory_columns
 from terrain_odom.kinematics.slip import param_names
 from terrain_odom.records import GroundTruth, WheelLog
 from terrain_odom.reporting import run_markdown
@@ -42,7 +43,6 @@ __all__ = [
     "TerrainSource",
     "RunSummary",
     "run",
-    "trajectory_columns",
     "default_model",
     "default_model_path",
     "images_config",
@@ -106,16 +106,6 @@ class RunSummary:
     seconds: float
     report_md: Path | None = None
     time_calibration: TimeCalibration | None = None
-
-
-def trajectory_columns(names: tuple[str, ...]) -> list[str]:
-    """Column order of ``trajectory.csv`` for a filter with these states."""
-    extra = [n for n in names if n not in ("x", "y", "yaw", "y_l", "y_r", "x_icr")]
-    return (
-        ["t", "x", "y", "yaw", "y_l", "y_r", "x_icr", "terrain"]
-        + extra
-        + [f"std_{n}" for n in names]
-    )
 
 
 def read_calibrated_log(wheels: str | Path, cfg: Config) -> tuple[WheelLog, TimeCalibration]:

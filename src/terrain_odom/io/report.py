@@ -11,7 +11,32 @@ import numpy as np
 
 from terrain_odom.io.atomic import write_text_atomic
 
-__all__ = ["write_json", "to_jsonable"]
+__all__ = ["REPORT_FORMAT_VERSION", "report_header", "write_json", "to_jsonable"]
+
+REPORT_FORMAT_VERSION = 1
+"""Version of the JSON reports (``report.json``, ``evaluation.json``, ``compare.json`` ...)."""
+
+
+def report_header(command: str) -> dict[str, Any]:
+    """Return the fields every JSON report starts with.
+
+    Parameters
+    ----------
+    command : str
+        The subcommand that wrote the report (``run``, ``evaluate`` ...).
+
+    Examples
+    --------
+    >>> sorted(report_header("run"))
+    ['command', 'format_version', 'terrain_odom_version']
+    """
+    from terrain_odom import __version__
+
+    return {
+        "format_version": REPORT_FORMAT_VERSION,
+        "terrain_odom_version": __version__,
+        "command": command,
+    }
 
 
 def to_jsonable(value: Any) -> Any:

@@ -27,7 +27,7 @@ import numpy as np
 from terrain_odom.io._csv import CsvTable, floats_or_nan, read_csv
 from terrain_odom.io.atomic import write_text_atomic
 
-__all__ = ["TrajectoryWriter", "read_trajectory_csv", "write_tum"]
+__all__ = ["TrajectoryWriter", "read_trajectory_csv", "trajectory_columns", "write_tum"]
 
 StrPath = str | os.PathLike[str]
 """A file path."""
@@ -297,4 +297,14 @@ def _tum_columns(t: np.ndarray, x: np.ndarray, y: np.ndarray, yaw: np.ndarray) -
     zero = np.zeros_like(half)
     return np.stack(
         [arrays["t"], arrays["x"], arrays["y"], zero, zero, zero, np.sin(half), np.cos(half)]
+    )
+
+
+def trajectory_columns(names: tuple[str, ...]) -> list[str]:
+    """Column order of ``trajectory.csv`` for a filter with these states."""
+    extra = [n for n in names if n not in ("x", "y", "yaw", "y_l", "y_r", "x_icr")]
+    return (
+        ["t", "x", "y", "yaw", "y_l", "y_r", "x_icr", "terrain"]
+        + extra
+        + [f"std_{n}" for n in names]
     )
