@@ -313,37 +313,23 @@ def run(
     )
     root = None if images is None else Path(images)
     result, pipeline, records = _stream(inputs, odometry, out, root, progress)
-    log, cfg = inputs.log, inputs.cfg
-    states = result.states
+    log, states = inputs.log, result.states
     tum_path = out / "trajectory.tum"
-    write_tum(tum_path, log.t, states[:, 0], states[:, 1], states[:, 2])
+    write_tum(tum_path, log.t, *states[:, :3].T)
     seconds = time.perf_counter() - started
     report = _report(inputs, result, wheels, estimator, terrain, priors, seconds)
     if root is not None:
-        report["inputs"]["images"] = str(root.resolve())
-        report["inputs"]["model"] = _path_or_none(inputs.model)
-        report["frames"] = _frames_report(result, pipeline, use_roi)
-        if pipeline is not None:
-            report["frame_problems"] = pipeline.problems
-            report["outputs"]["frames_csv"] = FRAMES_CSV
+        _add_frames_report(report, root, inputs, result, pipeline, use_roi)
     plots: list[str] = []
     if inputs.gt is not None and groundtruth is not None:
-        scored = groundtruth_section(
-            log,
-            cfg,
-            inputs.gt,
-            labels=inputs.labels,
-            records=records if pipeline is not None else None,
-            use_roi=use_roi,
-            priors=inputs.priors,
-        )
+        frames = records if pipeline is not None else None
+        plots = _score(out, inputs, inputs.gt, report, frames, use_roi)
         report["inputs"]["groundtruth"] = str(Path(groundtruth).resolve())
-        report["groundtruth"] = scored.section
-        plots = _write_plots(out, inputs.gt, log, scored, records)
     report_path = out / "report.json"
     write_json(report_path, report)
     md_path = out / "report.md"
     write_text_atomic(md_path, run_markdown(to_jsonable(report), plots))
+    frames_csv = None if pipeline is None else out / FRAMES_CSV
     return RunSummary(
         out / TRAJECTORY_CSV,
         tum_path,
@@ -352,10 +338,32 @@ def run(
         seconds,
         md_path,
         inputs.timing,
-        frames_csv=None if pipeline is None else out / FRAMES_CSV,
+        frames_csv=frames_csv,
         updates=result.n_updates,
         terrain_changes=len(result.changes),
     )
+
+
+def _score(
+    out: Path,
+    inputs: _Inputs,
+    gt: GroundTruth,
+    report: dict[str, Any],
+    records: list[FrameRecord] | None,
+    use_roi: bool,
+) -> list[str]:
+    """Score the run against ground truth into ``report``; write the plots, return their paths."""
+    scored = groundtruth_section(
+        inputs.log,
+        inputs.cfg,
+        gt,
+        labels=inputs.labels,
+        records=records,
+        use_roi=use_roi,
+        priors=inputs.priors,
+    )
+    report["groundtruth"] = scored.section
+    return _write_plots(out, gt, inputs.log, scored, records or [])
 
 
 def _stream(
@@ -452,6 +460,23 @@ def _read_groundtruth(path: str | Path, log: WheelLog) -> GroundTruth:
             f"spans {log.t[0]:g}-{log.t[-1]:g} s (is it the ground truth of this run?)"
         )
     return gt
+
+
+def _add_frames_report(
+    report: dict[str, Any],
+    images: Path,
+    inputs: _Inputs,
+    result: OdometryResult,
+    pipeline: FramePipeline | None,
+    use_roi: bool,
+) -> None:
+    """Add the frames of a run with ``--images`` to its ``report``."""
+    report["inputs"]["images"] = str(images.resolve())
+    report["inputs"]["model"] = _path_or_none(inputs.model)
+    report["frames"] = _frames_report(result, pipeline, use_roi)
+    if pipeline is not None:
+        report["frame_problems"] = pipeline.problems
+        report["outputs"]["frames_csv"] = FRAMES_CSV
 
 
 def _write_plots(
