@@ -6,13 +6,11 @@ counter-clockwise, SI units, angles wrapped to (-pi, pi].
 
 from __future__ import annotations
 
+import importlib
 import logging
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from terrain_odom.errors import ConfigError, EstimationError, InputFileError, TerrainOdomError
-
-if TYPE_CHECKING:
-    from terrain_odom.estimation.online import OnlineOdometry
 
 __version__ = "0.1.0"
 
@@ -29,12 +27,11 @@ __all__ = [
 def __getattr__(name: str) -> Any:
     """Import :class:`~terrain_odom.estimation.online.OnlineOdometry` on first use.
 
-    ``import terrain_odom`` stays light (no filterpy, scikit-learn or SciPy).
+    ``import terrain_odom`` stays light (no filterpy, scikit-learn or SciPy), and
+    the package root imports no layer (the layers import it for ``__version__``).
     """
     if name == "OnlineOdometry":
-        from terrain_odom.estimation.online import OnlineOdometry
-
-        return OnlineOdometry
+        return importlib.import_module("terrain_odom.estimation.online").OnlineOdometry
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
