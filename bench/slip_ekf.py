@@ -34,8 +34,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from terrain_odom.config import Config, EkfConfig, IcrState, RobotConfig, load_config
-from terrain_odom.estimation.odometry import run_icr_ekf
-from terrain_odom.estimation.slip_ekf import SlipModel, run_slip_ekf
+from terrain_odom.estimation.odometry import run_icr_ekf, run_slip_ekf
 from terrain_odom.estimation.time_offset import calibrate_pose_delay
 from terrain_odom.evaluation import (
     Windows,
@@ -61,6 +60,7 @@ from terrain_odom.fitting.identify import (
 )
 from terrain_odom.io import read_wheel_log
 from terrain_odom.kinematics import get_model, integrate, relative_pose, twist_icr, wrap_angle
+from terrain_odom.kinematics.slip import SlipModel
 from terrain_odom.sim.slip_scenario import TRACK_WIDTH, feature_slip_scenario, icr_switch_scenario
 
 REPO = Path(__file__).resolve().parents[1]

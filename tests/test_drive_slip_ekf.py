@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from terrain_odom.config import load_config
-from terrain_odom.estimation.slip_ekf import SlipModel, run_slip_ekf
+from terrain_odom.estimation.odometry import run_slip_ekf
 from terrain_odom.estimation.time_offset import calibrate_pose_delay
 from terrain_odom.evaluation import model_twist
 from terrain_odom.evaluation.prediction import (
@@ -19,6 +19,7 @@ from terrain_odom.evaluation.prediction import (
 )
 from terrain_odom.io import read_wheel_log
 from terrain_odom.kinematics import get_model
+from terrain_odom.kinematics.slip import SlipModel
 
 REPO = Path(__file__).resolve().parents[1]
 # One of the three logs config/warthog.yaml's slip_ekf section was not tuned on.

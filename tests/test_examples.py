@@ -46,3 +46,20 @@ def test_quick_start_recovers_the_simulated_terrain_parameters(tmp_path, capsys)
     ekf = models["ekf (online)"]["translation_m_per_m"]["median"]
     idd = models["idd (B=0.5 m)"]["translation_m_per_m"]["median"]
     assert ekf < 0.1 * idd
+
+
+def test_online_example_streams_the_demo_log_to_the_cli_result(tmp_path, capsys):
+    out = tmp_path / "out"
+    log, cfg = str(EXAMPLES / "demo_log.csv"), str(EXAMPLES / "demo.yaml")
+    assert main(["run", "--wheels", log, "--out", str(out), "--config", cfg]) == 0
+    with (out / "trajectory.csv").open(newline="") as handle:
+        last = list(csv.DictReader(handle))[-1]
+    spec = importlib.util.spec_from_file_location("online_example", EXAMPLES / "online.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    capsys.readouterr()
+    state = module.main()
+    assert "terrain: gravel" in capsys.readouterr().out
+    assert state["terrain"] == last["terrain"] == "gravel"
+    for name in ("t", "x", "y", "yaw", "y_l", "y_r", "x_icr", "alpha", "std_x", "std_alpha"):
+        assert state[name] == float(last[name]), name

@@ -17,6 +17,7 @@ from terrain_odom.app.frames import FRAME_COLUMNS
 from terrain_odom.cli.main import main
 from terrain_odom.config import load_config
 from terrain_odom.estimation.odometry import run_icr_ekf
+from terrain_odom.estimation.online import OnlineOdometry
 from terrain_odom.io import read_wheel_log
 from terrain_odom.records import Sighting
 
@@ -278,12 +279,11 @@ class _Recorder:
         self.calls: list[tuple[float, int]] = []
         self.confirmed_labels: list[str] = []
 
-    def observe(self, index, t, v_l, v_r, icr_params):
+    def feed(self, index: int, odometry: OnlineOdometry) -> None:
+        t = float(self.times[index])
         self.calls.append((t, len(self.rows_seen)))
-        return Sighting("grass" if t < 0.5 else "sand")
-
-    def confirmed(self, index, label):
-        self.confirmed_labels.append(label)
+        odometry.sighting(t, Sighting("grass" if t < 0.5 else "sand"))
+        self.confirmed_labels.append(odometry.seen_terrain)
 
 
 def test_frames_are_observed_after_the_rows_up_to_their_time(sim):

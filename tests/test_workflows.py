@@ -12,6 +12,7 @@ import pytest
 import terrain_odom.app.run as workflows
 from terrain_odom.app.evaluate import evaluate
 from terrain_odom.app.run import RunSummary, TerrainSource, run
+from terrain_odom.cli.main import main
 from terrain_odom.config import Config, load_config
 from terrain_odom.errors import ConfigError, InputFileError
 from terrain_odom.estimation.odometry import OdometryRow
@@ -103,10 +104,10 @@ def test_interrupted_run_keeps_streamed_rows(
     context manager, whose exit flushes and closes: exactly the rows handed to
     ``on_row`` before the interrupt are on disk.
     """
-    real = workflows.run_icr_ekf
+    real = workflows.run_odometry
     seen: list[OdometryRow] = []
 
-    def interrupted(log, config, *, on_row=None, **kw):  # type: ignore[no-untyped-def]
+    def interrupted(log, odometry, *, on_row=None, **kw):  # type: ignore[no-untyped-def]
         assert on_row is not None  # run() streams through on_row
 
         def forward(row: OdometryRow) -> None:
@@ -115,9 +116,9 @@ def test_interrupted_run_keeps_streamed_rows(
             if len(seen) == INTERRUPT_AFTER:
                 raise KeyboardInterrupt
 
-        return real(log, config, on_row=forward, **kw)
+        return real(log, odometry, on_row=forward, **kw)
 
-    monkeypatch.setattr(workflows, "run_icr_ekf", interrupted)
+    monkeypatch.setattr(workflows, "run_odometry", interrupted)
     out_dir = tmp_path / "out"
 
     with pytest.raises(KeyboardInterrupt):
@@ -149,17 +150,17 @@ def test_interrupt_does_not_clobber_previous_report(
     out_dir = tmp_path / "out"
     first = run(log_path, out_dir, progress=False)
     before = first.report_json.read_text(encoding="utf-8")
-    real = workflows.run_icr_ekf
+    real = workflows.run_odometry
 
-    def interrupted(log, config, *, on_row=None, **kw):  # type: ignore[no-untyped-def]
+    def interrupted(log, odometry, *, on_row=None, **kw):  # type: ignore[no-untyped-def]
         def forward(row: OdometryRow) -> None:
             on_row(row)
             if row.index == 9:
                 raise KeyboardInterrupt
 
-        return real(log, config, on_row=forward, **kw)
+        return real(log, odometry, on_row=forward, **kw)
 
-    monkeypatch.setattr(workflows, "run_icr_ekf", interrupted)
+    monkeypatch.setattr(workflows, "run_odometry", interrupted)
     with pytest.raises(KeyboardInterrupt):
         run(log_path, out_dir, progress=False)
 
@@ -244,3 +245,33 @@ def test_evaluate_returns_and_writes_result(log_path: Path, tmp_path: Path) -> N
 
 def test_load_config_default_is_builtin() -> None:
     assert load_config(None) == Config()
+
+
+def test_cli_run_interrupted_keeps_rows_and_exits_130(
+    log_path: Path,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """``terrain-odom run`` interrupted: exit code 130, one line, the streamed rows kept."""
+    real = workflows.run_odometry
+
+    def interrupted(log, odometry, *, on_row=None, **kw):  # type: ignore[no-untyped-def]
+        def forward(row: OdometryRow) -> None:
+            on_row(row)
+            if row.index == 149:
+                raise KeyboardInterrupt
+
+        return real(log, odometry, on_row=forward, **kw)
+
+    monkeypatch.setattr(workflows, "run_odometry", interrupted)
+    out_dir = tmp_path / "out"
+
+    code = main(["run", "--wheels", str(log_path), "--out", str(out_dir)])
+    out, err = capsys.readouterr()
+
+    assert code == 130
+    assert out == ""
+    assert err.splitlines() == ["terrain-odom: interrupted; outputs written so far are kept"]
+    assert len(read_trajectory_csv(out_dir / "trajectory.csv")["t"]) == 150
+    assert not (out_dir / "report.json").exists()

@@ -6,7 +6,9 @@ counter-clockwise, SI units, angles wrapped to (-pi, pi].
 
 from __future__ import annotations
 
+import importlib
 import logging
+from typing import Any
 
 from terrain_odom.errors import ConfigError, EstimationError, InputFileError, TerrainOdomError
 
@@ -18,6 +20,19 @@ __all__ = [
     "InputFileError",
     "ConfigError",
     "EstimationError",
+    "OnlineOdometry",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    """Import :class:`~terrain_odom.estimation.online.OnlineOdometry` on first use.
+
+    ``import terrain_odom`` stays light (no filterpy, scikit-learn or SciPy), and
+    the package root imports no layer (the layers import it for ``__version__``).
+    """
+    if name == "OnlineOdometry":
+        return importlib.import_module("terrain_odom.estimation.online").OnlineOdometry
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
 
 logging.getLogger(__name__).addHandler(logging.NullHandler())

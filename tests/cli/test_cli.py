@@ -455,36 +455,6 @@ def test_run_no_terrain(log_path: Path, tmp_path: Path, capsys: pytest.CaptureFi
     assert report["terrain_source"] == "none"
 
 
-def test_run_interrupted_keeps_rows_and_exits_130(
-    log_path: Path,
-    tmp_path: Path,
-    capsys: pytest.CaptureFixture[str],
-    monkeypatch: pytest.MonkeyPatch,
-) -> None:
-    import terrain_odom.app.run as workflows
-
-    real = workflows.run_icr_ekf
-
-    def interrupted(log, config, *, on_row=None, **kw):  # type: ignore[no-untyped-def]
-        def forward(row):  # type: ignore[no-untyped-def]
-            on_row(row)
-            if row.index == 149:
-                raise KeyboardInterrupt
-
-        return real(log, config, on_row=forward, **kw)
-
-    monkeypatch.setattr(workflows, "run_icr_ekf", interrupted)
-    out_dir = tmp_path / "out"
-
-    code, out, err = run_main(capsys, "run", "--wheels", log_path, "--out", out_dir)
-
-    assert code == 130
-    assert out == ""
-    assert err.splitlines() == ["terrain-odom: interrupted; outputs written so far are kept"]
-    assert len(read_trajectory_csv(out_dir / "trajectory.csv")["t"]) == 150
-    assert not (out_dir / "report.json").exists()
-
-
 def _table(out: str) -> dict[str, str]:
     """Model name -> its line of the evaluate table."""
     rows = {}

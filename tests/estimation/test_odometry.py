@@ -9,6 +9,7 @@ import pytest
 
 from terrain_odom.config import Config
 from terrain_odom.estimation.odometry import run_icr_ekf
+from terrain_odom.estimation.online import OnlineOdometry
 from terrain_odom.records import Sighting, WheelLog
 
 SPEED = 0.5  # m/s on both tracks: straight line
@@ -30,12 +31,10 @@ class _Script:
         self._sightings = sightings
         self.confirmed_labels: list[str] = []
 
-    def observe(self, index, t, v_l, v_r, icr_params):
-        _, label, ahead = self._sightings[index]
-        return Sighting(label, ahead)
-
-    def confirmed(self, index, label):
-        self.confirmed_labels.append(label)
+    def feed(self, index: int, odometry: OnlineOdometry) -> None:
+        t, label, ahead = self._sightings[index]
+        odometry.sighting(t, Sighting(label, ahead))
+        self.confirmed_labels.append(odometry.seen_terrain)
 
 
 def _config(reset_at: str) -> Config:

@@ -20,9 +20,11 @@ from terrain_odom.config import (
     load_config,
 )
 from terrain_odom.errors import ConfigError, EstimationError
-from terrain_odom.estimation.slip_ekf import SlipEkf, SlipModel, run_slip_ekf
+from terrain_odom.estimation.odometry import run_slip_ekf
+from terrain_odom.estimation.slip_ekf import SlipEkf
 from terrain_odom.evaluation import settling_time
 from terrain_odom.kinematics import integrate, twist_idd, wrap_angle
+from terrain_odom.kinematics.slip import SlipModel
 from terrain_odom.records import WheelLog
 from terrain_odom.sim.slip_scenario import (
     TRACK_WIDTH,

@@ -6,8 +6,7 @@ import numpy as np
 import pytest
 
 from terrain_odom.config import Config, EkfConfig, IcrState, RobotConfig, SlipEkfConfig
-from terrain_odom.estimation.odometry import run_icr_ekf
-from terrain_odom.estimation.slip_ekf import run_slip_ekf
+from terrain_odom.estimation.odometry import run_icr_ekf, run_slip_ekf
 from terrain_odom.evaluation import icr_twist_from_rows, model_twist
 from terrain_odom.evaluation.prediction import (
     prediction_errors,

@@ -17,26 +17,23 @@ from typing import Any
 import numpy as np
 from tqdm import tqdm
 
-from terrain_odom import __version__
 from terrain_odom.app.frames import FRAME_COLUMNS, FramePipeline, FrameRecord, one_thread
 from terrain_odom.app.groundtruth import GroundTruthReport, groundtruth_section
 from terrain_odom.config import Config, config_to_dict, load_config
 from terrain_odom.errors import ConfigError, InputFileError
-from terrain_odom.estimation.icr_ekf import state_names
-from terrain_odom.estimation.odometry import OdometryRow, run_icr_ekf
-from terrain_odom.estimation.slip_ekf import OUTPUT_NAMES, run_slip_ekf
+from terrain_odom.estimation.icr_ekf import IcrPriors
+from terrain_odom.estimation.odometry import OdometryResult, OdometryRow, run_odometry
+from terrain_odom.estimation.online import ESTIMATORS, Estimator, OnlineOdometry
 from terrain_odom.estimation.time_offset import TimeCalibration, calibrate_pose_delay
 from terrain_odom.io import TrajectoryWriter, read_wheel_log, write_tum
 from terrain_odom.io.atomic import write_atomic, write_text_atomic
-from terrain_odom.io.frames import read_frames
+from terrain_odom.io.frames import FrameList, read_frames
 from terrain_odom.io.groundtruth import read_groundtruth
 from terrain_odom.io.params import read_priors
-from terrain_odom.io.report import to_jsonable, write_json
+from terrain_odom.io.report import report_header, to_jsonable, write_json
 from terrain_odom.io.trajectory import trajectory_columns
-from terrain_odom.kinematics.slip import param_names
 from terrain_odom.records import GroundTruth, WheelLog
 from terrain_odom.reporting import run_markdown
-from terrain_odom.vision.camera import GroundCamera
 from terrain_odom.vision.classifier import TerrainClassifier
 
 __all__ = [
@@ -49,8 +46,8 @@ __all__ = [
     "read_calibrated_log",
 ]
 
-REPORT_FORMAT_VERSION = 1
-ESTIMATORS = ("icr-ekf", "slip-ekf")
+TRAJECTORY_CSV = "trajectory.csv"
+FRAMES_CSV = "frames.csv"
 
 
 def default_model_path() -> Path:
@@ -97,7 +94,27 @@ class TerrainSource(enum.Enum):
 
 @dataclass(frozen=True)
 class RunSummary:
-    """Paths and figures of a finished run."""
+    """Paths and figures of a finished run (what ``terrain-odom run`` prints).
+
+    Attributes
+    ----------
+    trajectory_csv, trajectory_tum, report_json : Path
+        Files written.
+    rows : int
+        Log rows processed.
+    seconds : float
+        Wall time of the run, s.
+    report_md : Path or None
+        ``report.md``.
+    time_calibration : TimeCalibration or None
+        The pose delay applied to the log.
+    frames_csv : Path or None
+        ``frames.csv``, when frames were classified.
+    updates : int
+        Pose measurements fused.
+    terrain_changes : int
+        Confirmed terrain changes applied.
+    """
 
     trajectory_csv: Path
     trajectory_tum: Path
@@ -106,6 +123,9 @@ class RunSummary:
     seconds: float
     report_md: Path | None = None
     time_calibration: TimeCalibration | None = None
+    frames_csv: Path | None = None
+    updates: int = 0
+    terrain_changes: int = 0
 
 
 def read_calibrated_log(wheels: str | Path, cfg: Config) -> tuple[WheelLog, TimeCalibration]:
@@ -122,7 +142,7 @@ def read_calibrated_log(wheels: str | Path, cfg: Config) -> tuple[WheelLog, Time
     return calibrate_pose_delay(log, cfg.time.pose_delay, cfg.robot.track_width)
 
 
-def _labels(log: WheelLog, source: TerrainSource) -> np.ndarray | None:
+def _labels(log: WheelLog, source: TerrainSource) -> list[str] | None:
     if source is TerrainSource.NONE:
         return None
     if log.terrain is None:
@@ -131,7 +151,79 @@ def _labels(log: WheelLog, source: TerrainSource) -> np.ndarray | None:
                 f"{log.source}: --terrain-from-log needs a 'terrain' column, the log has none"
             )
         return None
-    return log.terrain
+    return [str(label) for label in log.terrain]
+
+
+@dataclass(frozen=True)
+class _Inputs:
+    """Everything a run reads before its loop."""
+
+    cfg: Config
+    config_path: str | Path | None
+    log: WheelLog
+    timing: TimeCalibration
+    gt: GroundTruth | None
+    labels: list[str] | None
+    priors: IcrPriors | None
+    frames: FrameList | None
+    classifier: TerrainClassifier | None
+    model: str | Path | None
+
+
+def _read_inputs(
+    wheels: str | Path,
+    config: Config | None,
+    config_path: str | Path | None,
+    terrain: TerrainSource,
+    images: str | Path | None,
+    model: str | Path | None,
+    groundtruth: str | Path | None,
+    estimator: str,
+    priors: str | Path | None,
+) -> _Inputs:
+    """Check the options and read the inputs of :func:`run` (its parameters)."""
+    if estimator not in ESTIMATORS:
+        raise ConfigError(f"unknown estimator {estimator!r}; choose one of {list(ESTIMATORS)}")
+    slip = estimator == "slip-ekf"
+    if slip and priors is not None:
+        raise ConfigError(
+            "--priors seeds the ICR EKF (--estimator icr-ekf); the slip EKF's parameters "
+            "l1 .. l6 are not ICRs"
+        )
+    icr_priors = None if priors is None else read_priors(priors)
+    if config is None and config_path is None and images is not None:
+        config_path = images_config(images)
+    cfg = config if config is not None else load_config(config_path)
+    log, timing = read_calibrated_log(wheels, cfg)
+    gt = _read_groundtruth(groundtruth, log) if groundtruth is not None else None
+    use_frames = images is not None and terrain is not TerrainSource.NONE
+    labels = None if use_frames else _labels(log, terrain)
+    if icr_priors is not None and icr_priors.terrains and labels is None and not use_frames:
+        raise ConfigError(
+            f"{priors}: per-terrain priors ({', '.join(sorted(icr_priors.terrains))}) need "
+            f"terrain labels, but this run has none (--no-terrain, or no terrain column in "
+            f"{log.source}); fit without --by-terrain for one prior"
+        )
+    frame_list = classifier = None
+    if use_frames and images is not None:
+        if model is None:
+            model = default_model()
+        frame_list = read_frames(images)
+        classifier = TerrainClassifier.load(model)
+    if slip and not np.any(log.has_yaw):
+        raise InputFileError(f"{log.source}: --estimator slip-ekf needs a 'yaw' column with values")
+    return _Inputs(
+        cfg, config_path, log, timing, gt, labels, icr_priors, frame_list, classifier, model
+    )
+
+
+def _output_dir(out_dir: str | Path) -> Path:
+    """Create the output directory ``out_dir``; refuse a file of that name."""
+    out = Path(out_dir)
+    if out.exists() and not out.is_dir():
+        raise InputFileError(f"{out}: --out must be a directory, but a file of that name exists")
+    out.mkdir(parents=True, exist_ok=True)
+    return out
 
 
 def run(
@@ -146,10 +238,14 @@ def run(
     model: str | Path | None = None,
     use_roi: bool = True,
     groundtruth: str | Path | None = None,
-    estimator: str = "icr-ekf",
+    estimator: Estimator = "icr-ekf",
     priors: str | Path | None = None,
 ) -> RunSummary:
     """Run the terrain-adaptive ICR EKF (or slip EKF) over a wheel log; write the results.
+
+    The log is streamed row by row through
+    :class:`~terrain_odom.estimation.online.OnlineOdometry`
+    (:func:`~terrain_odom.estimation.odometry.run_odometry`).
 
     Parameters
     ----------
@@ -203,145 +299,156 @@ def run(
     RunSummary
     """
     started = time.perf_counter()
-    if estimator not in ESTIMATORS:
-        raise ConfigError(f"unknown estimator {estimator!r}; choose one of {list(ESTIMATORS)}")
-    slip = estimator == "slip-ekf"
-    if slip and priors is not None:
-        raise ConfigError(
-            "--priors seeds the ICR EKF (--estimator icr-ekf); the slip EKF's parameters "
-            "l1 .. l6 are not ICRs"
-        )
-    icr_priors = None if priors is None else read_priors(priors)
-    if config is None and config_path is None and images is not None:
-        config_path = images_config(images)
-    cfg = config if config is not None else load_config(config_path)
-    log, timing = read_calibrated_log(wheels, cfg)
-    gt = _read_groundtruth(groundtruth, log) if groundtruth is not None else None
-    use_frames = images is not None and terrain is not TerrainSource.NONE
-    labels = None if use_frames else _labels(log, terrain)
-    if icr_priors is not None and icr_priors.terrains and labels is None and not use_frames:
-        raise ConfigError(
-            f"{priors}: per-terrain priors ({', '.join(sorted(icr_priors.terrains))}) need "
-            f"terrain labels, but this run has none (--no-terrain, or no terrain column in "
-            f"{log.source}); fit without --by-terrain for one prior"
-        )
-    frame_list = classifier = None
-    if use_frames:
-        if model is None:
-            model = default_model()
-        frame_list = read_frames(images)  # type: ignore[arg-type]
-        classifier = TerrainClassifier.load(model)
-    out = Path(out_dir)
-    if out.exists() and not out.is_dir():
-        raise InputFileError(f"{out}: --out must be a directory, but a file of that name exists")
-    out.mkdir(parents=True, exist_ok=True)
-    if slip and not np.any(log.has_yaw):
-        raise InputFileError(f"{log.source}: --estimator slip-ekf needs a 'yaw' column with values")
-    names = (
-        OUTPUT_NAMES + param_names(cfg.slip_ekf.estimate_alpha)
-        if slip
-        else state_names(cfg.ekf.estimate_alpha)
+    inputs = _read_inputs(
+        wheels, config, config_path, terrain, images, model, groundtruth, estimator, priors
     )
-    columns = trajectory_columns(names)
-    csv_path = out / "trajectory.csv"
-    bar = tqdm(total=len(log), unit="row", disable=None if progress is None else not progress)
-    frames_csv = out / "frames.csv"
+    out = _output_dir(out_dir)
+    odometry = OnlineOdometry(
+        inputs.cfg,
+        inputs.classifier,
+        estimator=estimator,
+        priors=inputs.priors,
+        use_roi=use_roi,
+        time_full_frame=inputs.gt is not None,
+    )
+    root = None if images is None else Path(images)
+    result, pipeline, records = _stream(inputs, odometry, out, root, progress)
+    log, states = inputs.log, result.states
+    tum_path = out / "trajectory.tum"
+    write_tum(tum_path, log.t, *states[:, :3].T)
+    seconds = time.perf_counter() - started
+    report = _report(inputs, result, wheels, estimator, terrain, priors, seconds)
+    if root is not None:
+        _add_frames_report(report, root, inputs, result, pipeline, use_roi)
+    plots: list[str] = []
+    if inputs.gt is not None and groundtruth is not None:
+        frames = records if pipeline is not None else None
+        plots = _score(out, inputs, inputs.gt, report, frames, use_roi)
+        report["inputs"]["groundtruth"] = str(Path(groundtruth).resolve())
+    report_path = out / "report.json"
+    write_json(report_path, report)
+    md_path = out / "report.md"
+    write_text_atomic(md_path, run_markdown(to_jsonable(report), plots))
+    frames_csv = None if pipeline is None else out / FRAMES_CSV
+    return RunSummary(
+        out / TRAJECTORY_CSV,
+        tum_path,
+        report_path,
+        len(log),
+        seconds,
+        md_path,
+        inputs.timing,
+        frames_csv=frames_csv,
+        updates=result.n_updates,
+        terrain_changes=len(result.changes),
+    )
+
+
+def _score(
+    out: Path,
+    inputs: _Inputs,
+    gt: GroundTruth,
+    report: dict[str, Any],
+    records: list[FrameRecord] | None,
+    use_roi: bool,
+) -> list[str]:
+    """Score the run against ground truth into ``report``; write the plots, return their paths."""
+    scored = groundtruth_section(
+        inputs.log,
+        inputs.cfg,
+        gt,
+        labels=inputs.labels,
+        records=records,
+        use_roi=use_roi,
+        priors=inputs.priors,
+    )
+    report["groundtruth"] = scored.section
+    return _write_plots(out, gt, inputs.log, scored, records or [])
+
+
+def _stream(
+    inputs: _Inputs,
+    odometry: OnlineOdometry,
+    out: Path,
+    images: Path | None,
+    progress: bool | None,
+) -> tuple[OdometryResult, FramePipeline | None, list[FrameRecord]]:
+    """Stream the log through ``odometry``, writing ``trajectory.csv`` (and ``frames.csv``)."""
+    log = inputs.log
+    names = odometry.names
     records: list[FrameRecord] = []
+    bar = tqdm(total=len(log), unit="row", disable=None if progress is None else not progress)
     with contextlib.ExitStack() as stack:
-        writer = stack.enter_context(TrajectoryWriter(csv_path, columns))
+        writer = stack.enter_context(
+            TrajectoryWriter(out / TRAJECTORY_CSV, trajectory_columns(names))
+        )
         stack.enter_context(bar)
         stack.enter_context(one_thread())  # camera-rate work on one core (see one_thread)
         pipeline = None
-        if frame_list is not None and classifier is not None:
-            frame_writer = stack.enter_context(TrajectoryWriter(frames_csv, FRAME_COLUMNS))
-            root = Path(images)  # type: ignore[arg-type]
+        if inputs.frames is not None and images is not None:
+            frame_writer = stack.enter_context(TrajectoryWriter(out / FRAMES_CSV, FRAME_COLUMNS))
 
             def on_frame(record: FrameRecord) -> None:
                 frame_writer.write(record.row())
                 records.append(record)
 
+            root = images
             pipeline = FramePipeline(
-                frame_list,
-                classifier,
-                GroundCamera(cfg.camera),
-                cfg.roi,
-                use_roi=use_roi,
+                inputs.frames,
                 on_frame=on_frame,
-                names=lambda path: _relative(path, root),  # type: ignore[arg-type]
-                time_full_frame=gt is not None,
+                names=lambda path: _relative(path, root),
             )
 
         def on_row(row: OdometryRow) -> None:
-            values: dict[str, Any] = {"t": row.t, "terrain": row.terrain}
+            values: dict[str, float | str] = {"t": row.t, "terrain": row.terrain}
             values.update(zip(names, row.state.tolist(), strict=True))
             values.update((f"std_{n}", s) for n, s in zip(names, row.std.tolist(), strict=True))
             writer.write(values)
             bar.update(1)
 
-        if slip:
-            result = run_slip_ekf(log, cfg, labels=labels, on_row=on_row, frames=pipeline)
-        else:
-            result = run_icr_ekf(
-                log, cfg, labels=labels, on_row=on_row, frames=pipeline, priors=icr_priors
-            )
-    states = result.states
-    tum_path = out / "trajectory.tum"
-    write_tum(tum_path, log.t, states[:, 0], states[:, 1], states[:, 2])
-    seconds = time.perf_counter() - started
-    report = {
-        "format_version": REPORT_FORMAT_VERSION,
-        "terrain_odom_version": __version__,
-        "command": "run",
+        result = run_odometry(log, odometry, labels=inputs.labels, on_row=on_row, frames=pipeline)
+    return result, pipeline, records
+
+
+def _report(
+    inputs: _Inputs,
+    result: OdometryResult,
+    wheels: str | Path,
+    estimator: str,
+    terrain: TerrainSource,
+    priors: str | Path | None,
+    seconds: float,
+) -> dict[str, Any]:
+    """Return ``report.json`` of a run (``seconds`` long), without its frames and ground truth."""
+    log, names = inputs.log, result.names
+    if inputs.frames is not None:
+        source = "camera"
+    else:
+        source = terrain.value if inputs.labels is not None else "none"
+    return {
+        **report_header("run"),
         "estimator": estimator,
         "inputs": {
             "wheels": str(Path(wheels).resolve()),
-            "config": _path_or_none(config_path),
+            "config": _path_or_none(inputs.config_path),
             "priors": _path_or_none(priors),
         },
-        "terrain_source": (
-            "camera" if use_frames else terrain.value if labels is not None else "none"
-        ),
-        "config": config_to_dict(cfg),
-        "time_calibration": timing.to_dict(),
+        "terrain_source": source,
+        "config": config_to_dict(inputs.cfg),
+        "time_calibration": inputs.timing.to_dict(),
         "counts": {
             "rows": len(log),
             "pose_measurements": int(np.count_nonzero(np.isfinite(log.pose).any(axis=1))),
             "updates": result.n_updates,
-            "segments": int(np.count_nonzero(np.diff(log.segment)) + 1) if len(log) else 0,
+            "segments": log.n_runs,
             "terrain_changes": len(result.changes),
         },
         "terrain_changes": [asdict(c) for c in result.changes],
-        "final_state": dict(zip(names, states[-1].tolist(), strict=True)),
+        "final_state": dict(zip(names, result.states[-1].tolist(), strict=True)),
         "final_std": dict(zip(names, result.stds[-1].tolist(), strict=True)),
-        "outputs": {"trajectory_csv": csv_path.name, "trajectory_tum": tum_path.name},
+        "outputs": {"trajectory_csv": TRAJECTORY_CSV, "trajectory_tum": "trajectory.tum"},
         "run_time_s": seconds,
     }
-    if images is not None:
-        report["inputs"]["images"] = str(Path(images).resolve())
-        report["inputs"]["model"] = _path_or_none(model)
-        report["frames"] = _frames_report(result, pipeline, use_roi)
-        if pipeline is not None:
-            report["frame_problems"] = pipeline.problems
-            report["outputs"]["frames_csv"] = frames_csv.name
-    plots: list[str] = []
-    if gt is not None:
-        scored = groundtruth_section(
-            log,
-            cfg,
-            gt,
-            labels=labels,
-            records=records if pipeline is not None else None,
-            use_roi=use_roi,
-            priors=icr_priors,
-        )
-        report["inputs"]["groundtruth"] = str(Path(groundtruth).resolve())  # type: ignore[arg-type]
-        report["groundtruth"] = scored.section
-        plots = _write_plots(out, gt, log, scored, records)
-    report_path = out / "report.json"
-    write_json(report_path, report)
-    md_path = out / "report.md"
-    write_text_atomic(md_path, run_markdown(to_jsonable(report), plots))
-    return RunSummary(csv_path, tum_path, report_path, len(log), seconds, md_path, timing)
 
 
 def _read_groundtruth(path: str | Path, log: WheelLog) -> GroundTruth:
@@ -355,8 +462,29 @@ def _read_groundtruth(path: str | Path, log: WheelLog) -> GroundTruth:
     return gt
 
 
+def _add_frames_report(
+    report: dict[str, Any],
+    images: Path,
+    inputs: _Inputs,
+    result: OdometryResult,
+    pipeline: FramePipeline | None,
+    use_roi: bool,
+) -> None:
+    """Add the frames of a run with ``--images`` to its ``report``."""
+    report["inputs"]["images"] = str(images.resolve())
+    report["inputs"]["model"] = _path_or_none(inputs.model)
+    report["frames"] = _frames_report(result, pipeline, use_roi)
+    if pipeline is not None:
+        report["frame_problems"] = pipeline.problems
+        report["outputs"]["frames_csv"] = FRAMES_CSV
+
+
 def _write_plots(
-    out: Path, gt: GroundTruth, log: WheelLog, scored: GroundTruthReport, records: list
+    out: Path,
+    gt: GroundTruth,
+    log: WheelLog,
+    scored: GroundTruthReport,
+    records: list[FrameRecord],
 ) -> list[str]:
     """Write the PNG plots of a scored run into ``out/plots``; return their relative paths."""
     from terrain_odom.reporting import plots
@@ -372,7 +500,8 @@ def _write_plots(
     if scored.frame_truth is not None:
         t = np.array([r.t for r in records], dtype=float)
         labels = [r.label for r in records]
-        jobs["frames.png"] = lambda h: plots.plot_frames(h, t, labels, scored.frame_truth)
+        truth = scored.frame_truth.tolist()
+        jobs["frames.png"] = lambda h: plots.plot_frames(h, t, labels, truth)
     for name, draw in jobs.items():
         write_atomic(folder / name, draw)
     return [f"plots/{name}" for name in jobs]
@@ -385,7 +514,9 @@ def _relative(path: Path, root: Path) -> str:
         return str(path)
 
 
-def _frames_report(result: Any, pipeline: FramePipeline | None, use_roi: bool) -> dict[str, Any]:
+def _frames_report(
+    result: OdometryResult, pipeline: FramePipeline | None, use_roi: bool
+) -> dict[str, Any]:
     """Return the ``frames`` section of a run's report.json."""
     if pipeline is None:
         return {"classification": "skipped (--no-terrain: frames not read)"}

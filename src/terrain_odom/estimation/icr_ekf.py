@@ -157,6 +157,9 @@ class IcrPriors:
 class _Filter(ExtendedKalmanFilter):
     """filterpy EKF whose prediction is the ICR step with a fresh Jacobian."""
 
+    x: np.ndarray  # state, shape (n, 1) (filterpy is untyped)
+    F: np.ndarray  # noqa: N815 - filterpy's name of the process Jacobian
+
     def predict_x(self, u: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> None:
         v_l, v_r, dt = u
         state = self.x[:, 0]

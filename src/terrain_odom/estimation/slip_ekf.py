@@ -44,34 +44,18 @@ References
 from __future__ import annotations
 
 import logging
-from collections import deque
-from collections.abc import Callable, Sequence
 
 import numpy as np
 from filterpy.kalman import ExtendedKalmanFilter
 from numpy.typing import ArrayLike
 
-from terrain_odom.config import (
-    Config,
-    SlipEkfConfig,
-    SlipSigmas,
-    TerrainConfig,
-)
+from terrain_odom.config import SlipEkfConfig, SlipSigmas, TerrainConfig
 from terrain_odom.errors import EstimationError
-from terrain_odom.estimation.odometry import FrameObserver, OdometryResult, OdometryRow, run_rows
-from terrain_odom.kinematics import (
-    compose,
-    relative_pose,
-    wrap_angle,
-)
+from terrain_odom.kinematics import wrap_angle
 from terrain_odom.kinematics.slip import SlipModel, param_names
-from terrain_odom.records import TerrainChange, WheelLog
+from terrain_odom.records import TerrainChange
 
-__all__ = [
-    "OUTPUT_NAMES",
-    "SlipEkf",
-    "run_slip_ekf",
-]
+__all__ = ["OUTPUT_NAMES", "SlipEkf"]
 
 logger = logging.getLogger(__name__)
 
@@ -270,112 +254,3 @@ def _outlier_inflation(innovation: np.ndarray, hph: np.ndarray, r: np.ndarray) -
 
 _CHI2_99 = {1: 6.635, 2: 9.210, 3: 11.345}
 """99 % quantiles of the chi-square distribution with 1, 2 and 3 degrees of freedom."""
-
-
-class _SlipSteps:
-    """:class:`~terrain_odom.estimation.odometry.RowStepper` of the slip EKF.
-
-    Updates at every row with a measured yaw, with the pose change since the
-    anchor: the latest earlier such row of the same segment at least
-    ``slip_ekf.window`` seconds before (0: the previous one), or the
-    segment's first one while the segment is shorter. The recorded pose
-    (``x, y, yaw``) is dead reckoning with the current parameters from the
-    origin at each segment start, reset to every measured pose component.
-    """
-
-    def __init__(self, ekf: SlipEkf, log: WheelLog) -> None:
-        self.filter = ekf
-        self.names = OUTPUT_NAMES + ekf.names
-        self._log = log
-        self._window = ekf.config.window
-        self._anchors: deque[int] = deque()  # rows with a yaw, oldest first
-        self._pose = np.zeros(3)
-
-    def advance(self, k: int, new_segment: bool) -> None:
-        log = self._log
-        if new_segment:
-            self._anchors.clear()
-            self._pose = np.zeros(3)
-            self.filter.t = float(log.t[k])
-        elif k > 0:
-            dt = float(log.t[k] - log.t[k - 1])
-            self.filter.predict(dt)
-            params = self.filter.x
-            inc = self.filter.model.pose_change(params, log.v_l[k - 1], log.v_r[k - 1], dt)
-            self._pose = compose(self._pose, inc)
-
-    def _anchor(self, t_k: float) -> int | None:
-        """Return the anchor of a measurement at ``t_k`` (s), dropping those never needed again."""
-        t, anchors = self._log.t, self._anchors
-        while len(anchors) > 1 and t[anchors[1]] <= t_k - self._window:
-            anchors.popleft()
-        return anchors[0] if anchors else None
-
-    def measure(self, k: int) -> bool:
-        log = self._log
-        z = log.pose[k]
-        self._pose = np.where(np.isfinite(z), z, self._pose)
-        if not np.isfinite(z[2]):
-            return False
-        j = self._anchor(float(log.t[k]))
-        self._anchors.append(k)
-        if j is None:
-            return False
-        change = relative_pose(log.pose[j], z)  # NaN position if either lacks one
-        dt = np.diff(log.t[j : k + 1])
-        self.filter.update(change, log.v_l[j:k], log.v_r[j:k], dt)
-        return True
-
-    def icr_params(self, k: int) -> np.ndarray:
-        log = self._log
-        icr = self.filter.icrs(log.v_l[k], log.v_r[k])
-        alpha = self.filter.x[6] if len(self.filter.names) > 6 else 1.0
-        return np.array([*map(float, icr), alpha])
-
-    def row(self, k: int) -> tuple[np.ndarray, np.ndarray]:
-        v_l, v_r = self._log.v_l[k], self._log.v_r[k]
-        icr = np.array([float(c) for c in self.filter.icrs(v_l, v_r)])
-        state = np.concatenate([self._pose, icr, self.filter.x])
-        std = np.concatenate([np.full(3, np.nan), self.filter.icr_std(v_l, v_r), self.filter.std])
-        return state, std
-
-
-def run_slip_ekf(
-    log: WheelLog,
-    config: Config,
-    *,
-    labels: Sequence[str] | None = None,
-    on_row: Callable[[OdometryRow], None] | None = None,
-    frames: FrameObserver | None = None,
-) -> OdometryResult:
-    """Estimate the slip parameters over a whole log.
-
-    Parameters
-    ----------
-    log : WheelLog
-        Wheel speeds and pose measurements; rows with a yaw are used (with or
-        without a position).
-    config : Config
-        ``config.slip_ekf``, ``config.robot.track_width`` and ``config.terrain``.
-    labels, on_row, frames
-        As for :func:`~terrain_odom.estimation.odometry.run_icr_ekf`.
-
-    Returns
-    -------
-    OdometryResult
-        ``names`` are ``x, y, yaw`` (dead reckoning from the origin at each
-        segment start, reset to every measured component), ``y_l, y_r,
-        x_icr`` (at the row's track speeds), then the parameters; ``stds``
-        hold NaN for the pose.
-
-    Raises
-    ------
-    EstimationError
-        If the log has no yaw measurement at all.
-    """
-    if len(log) and not np.any(log.has_yaw):
-        raise EstimationError(
-            f"{log.source}: the slip EKF needs yaw measurements (column 'yaw'), the log has none"
-        )
-    ekf = SlipEkf(config.slip_ekf, config.robot.track_width, config.terrain)
-    return run_rows(log, config, _SlipSteps(ekf, log), labels=labels, on_row=on_row, frames=frames)

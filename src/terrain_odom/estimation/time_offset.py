@@ -184,8 +184,8 @@ def _heading_changes(
 
 
 def _segment_rows(log: WheelLog) -> list[np.ndarray]:
-    """Row indices of each segment of at least two rows, in order."""
-    starts = np.flatnonzero(np.r_[True, log.segment[1:] != log.segment[:-1]])
+    """Row indices of each run of at least two rows (``WheelLog.run_starts``), in order."""
+    starts = log.run_starts()
     return [rows for rows in np.split(np.arange(len(log)), starts[1:]) if rows.size > 1]
 
 

@@ -1,0 +1,543 @@
+"""Terrain-adaptive odometry sample by sample: the streaming API a robot runs live.
+
+:class:`OnlineOdometry` takes timestamped samples as they arrive::
+
+    odo = OnlineOdometry.from_config("config/warthog.yaml")
+    odo.terrain(t, "grass")        # a terrain label (log, classifier, operator)
+    odo.wheels(t, v_l, v_r)        # track surface speeds, m/s: predicts to t
+    odo.pose(t, x, y, yaw)         # a pose measurement at t (yaw alone: heading only)
+    odo.frame(t, image)            # a camera frame: ROI -> features -> vote -> tracker
+    odo.state()                    # t, x, y, yaw, y_l, y_r, x_icr(, alpha), terrain, std_*
+
+Wheel speeds given at ``t`` are held until the next :meth:`~OnlineOdometry.wheels`
+call (zero-order hold), which predicts over the interval. The pose is anchored
+at the first full pose measurement of every segment and never propagated across
+a segment break (``wheels(..., new_segment=True)``). Terrain labels pass through
+a :class:`~terrain_odom.estimation.terrain.TerrainTracker`; a confirmed change
+resets the ICR covariance to ``P_B`` (and restores a remembered estimate). With
+``terrain.reset_at: arrival`` a change confirmed from frames is applied once the
+robot has travelled (speed of the current kinematic model, integrated) to where
+the first frame of the new terrain looked; pending changes are applied in order.
+
+:func:`~terrain_odom.estimation.odometry.run_icr_ekf` and the command line's
+``terrain-odom run`` are this API called row by row over a log.
+"""
+
+from __future__ import annotations
+
+import bisect
+from collections import deque
+from dataclasses import replace
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Literal, Protocol
+
+import numpy as np
+
+from terrain_odom.config import Config, load_config
+from terrain_odom.errors import ConfigError, EstimationError
+from terrain_odom.estimation.icr_ekf import IcrEkf, IcrPriors
+from terrain_odom.estimation.slip_ekf import OUTPUT_NAMES, SlipEkf
+from terrain_odom.estimation.terrain import TerrainTracker
+from terrain_odom.kinematics import compose, relative_pose, twist_icr
+from terrain_odom.records import Sighting, TerrainChange
+
+if TYPE_CHECKING:  # the classifier's modules (scikit-learn) load only with a classifier
+    from terrain_odom.vision.classifier import TerrainClassifier
+    from terrain_odom.vision.frame_classifier import FrameClassification, FrameClassifier
+
+__all__ = ["ESTIMATORS", "Estimator", "OnlineOdometry"]
+
+Estimator = Literal["icr-ekf", "slip-ekf"]
+ESTIMATORS: tuple[Estimator, ...] = ("icr-ekf", "slip-ekf")
+"""The estimators :class:`OnlineOdometry` runs."""
+
+
+class OnlineOdometry:
+    """Terrain-adaptive odometry fed one sample at a time.
+
+    Parameters
+    ----------
+    config : Config
+        Filter, terrain, camera and region-of-interest settings.
+    classifier : TerrainClassifier, optional
+        Terrain classifier for :meth:`frame`; without one, frames cannot be
+        given (labels and sightings can).
+    estimator : {"icr-ekf", "slip-ekf"}
+        The ICR EKF over pose and ICRs, or the slip-parameter EKF, whose
+        ``x, y, yaw`` are dead reckoning reset to every measured pose
+        component and whose ``y_l, y_r, x_icr`` are the ICRs at the current
+        track speeds, followed by the parameters ``l1 .. l6(, alpha)``.
+    priors : IcrPriors, optional
+        Offline ICR parameters seeding the ICR EKF (not for ``slip-ekf``).
+    use_roi : bool
+        Classify the region of interest (default) or the whole frame.
+    time_full_frame : bool
+        Also time the whole frame's classification (see
+        :class:`~terrain_odom.vision.frame_classifier.FrameClassifier`).
+
+    Raises
+    ------
+    ConfigError
+        Unknown estimator, or priors with the slip EKF.
+
+    Examples
+    --------
+    >>> from terrain_odom.config import Config, load_config
+    >>> odo = OnlineOdometry(Config())
+    >>> odo.terrain(0.0, "grass")
+    >>> odo.wheels(0.0, 0.5, 0.5)
+    >>> odo.pose(0.0, 0.0, 0.0, 0.0)
+    False
+    >>> odo.wheels(1.0, 0.5, 0.5)
+    >>> round(odo.state()["x"], 3), odo.state()["terrain"]
+    (0.5, 'grass')
+    """
+
+    def __init__(
+        self,
+        config: Config,
+        classifier: TerrainClassifier | None = None,
+        *,
+        estimator: Estimator = "icr-ekf",
+        priors: IcrPriors | None = None,
+        use_roi: bool = True,
+        time_full_frame: bool = False,
+    ) -> None:
+        if estimator not in ESTIMATORS:
+            raise ConfigError(f"unknown estimator {estimator!r}; choose one of {list(ESTIMATORS)}")
+        steps: _IcrSteps | _SlipSteps
+        if estimator == "slip-ekf":
+            if priors is not None:
+                raise ConfigError(
+                    "priors seed the ICR EKF (estimator icr-ekf); the slip EKF's parameters "
+                    "l1 .. l6 are not ICRs"
+                )
+            steps = _SlipSteps(SlipEkf(config.slip_ekf, config.robot.track_width, config.terrain))
+        else:
+            steps = _IcrSteps(IcrEkf(config.ekf, config.terrain, priors=priors))
+        self.config = config
+        self.estimator = estimator
+        self._steps = steps
+        self._flow = _TerrainFlow(steps.filter, config)
+        self._frames: FrameClassifier | None = None
+        if classifier is not None:
+            from terrain_odom.vision.camera import GroundCamera
+            from terrain_odom.vision.frame_classifier import FrameClassifier
+
+            self._frames = FrameClassifier(
+                classifier,
+                GroundCamera(config.camera),
+                config.roi,
+                use_roi=use_roi,
+                time_full_frame=time_full_frame,
+            )
+        self._t: float | None = None  # time of the latest wheel sample, s
+        self._speeds = (float("nan"), float("nan"))  # held track speeds, m/s
+        self._labels: list[tuple[float, str]] = []  # labels not yet reached, by time
+        self._label: str | None = None  # the label source's current label
+        self.n_updates = 0
+        self.n_frames = 0
+
+    @classmethod
+    def from_config(
+        cls, path: str | Path | None, classifier: TerrainClassifier | None = None, **options: Any
+    ) -> OnlineOdometry:
+        """Build from a YAML configuration file (the built-in defaults for ``None``).
+
+        ``options`` are the keyword arguments of :class:`OnlineOdometry`.
+        """
+        return cls(load_config(path), classifier, **options)
+
+    # --------------------------------------------------------------- inputs
+    def terrain(self, t: float, label: str) -> None:
+        """Take a terrain label valid from time ``t`` (s) on, from any source.
+
+        The label is observed by the terrain tracker at every later
+        :meth:`wheels` call whose time is ``>= t`` (after its prediction),
+        until another label replaces it; a change is confirmed after
+        ``terrain.confirm`` consecutive observations.
+        """
+        t = _finite(t, "terrain", "t")
+        bisect.insort(self._labels, (t, str(label)), key=lambda item: item[0])
+
+    def wheels(self, t: float, v_l: float, v_r: float, *, new_segment: bool = False) -> None:
+        """Take the track surface speeds measured at ``t``; predict to ``t``.
+
+        The previous speeds are held from the previous call to ``t``; the new
+        ones are held until the next call. Then the terrain changes whose
+        ground the robot has reached are applied and the current terrain
+        label (see :meth:`terrain`) is observed.
+
+        Parameters
+        ----------
+        t : float
+            Time, s; after the previous call's, unless ``new_segment``.
+        v_l, v_r : float
+            Left and right track surface speeds, m/s.
+        new_segment : bool
+            Start a new segment at ``t`` (time may jump, or restart): nothing
+            is integrated across the break and the pose is anchored again at
+            the next full pose measurement. The first call always starts one.
+
+        Raises
+        ------
+        ValueError
+            A value is not finite.
+        EstimationError
+            ``t`` is not after the previous wheel sample within a segment.
+        """
+        t = _finite(t, "wheels", "t")
+        speeds = (_finite(v_l, "wheels", "v_l", t), _finite(v_r, "wheels", "v_r", t))
+        steps = self._steps
+        if self._t is None or new_segment:
+            steps.restart(t)
+        else:
+            if not t > self._t:
+                raise EstimationError(
+                    f"wheels at t={t!r} s: time does not advance (previous wheel sample at "
+                    f"t={self._t!r} s); pass new_segment=True to start a new segment"
+                )
+            dt = t - self._t
+            held_l, held_r = self._speeds
+            # odometer over the step about to be predicted
+            v_x, v_y, _ = twist_icr(held_l, held_r, *steps.icr_params(held_l, held_r))
+            self._flow.travel(float(np.hypot(v_x, v_y)) * dt)
+            steps.predict(held_l, held_r, dt)
+        self._t, self._speeds = t, speeds
+        steps.sample(t, *speeds)
+        self._flow.apply_reached()
+        reached = bisect.bisect_right(self._labels, t, key=lambda item: item[0])
+        if reached:
+            self._label = self._labels[reached - 1][1]
+            del self._labels[:reached]
+        if self._label is not None:
+            self._flow.observe(Sighting(self._label))
+
+    def pose(self, t: float, x: float = np.nan, y: float = np.nan, yaw: float = np.nan) -> bool:
+        """Fuse a pose measurement taken at the latest wheel sample's time ``t``.
+
+        Parameters
+        ----------
+        t : float
+            Time, s: that of the latest :meth:`wheels` call (give the latest
+            speeds again at a pose's time if it falls between wheel samples).
+        x, y, yaw : float
+            Measured pose (m, m, rad); NaN where not measured (e.g. ``yaw``
+            alone: heading only).
+
+        Returns
+        -------
+        bool
+            Whether the filter was updated (False when the measurement only
+            anchored the pose, or the slip EKF had no earlier heading).
+
+        Raises
+        ------
+        ValueError
+            No component is given.
+        EstimationError
+            ``t`` is not the latest wheel sample's time.
+        """
+        z = np.array([x, y, yaw], dtype=float)
+        if not np.any(np.isfinite(z)):
+            raise ValueError(f"pose at t={t!r} s: no finite component in x={x}, y={y}, yaw={yaw}")
+        if self._check_time(t, "pose") != self._t:
+            raise EstimationError(
+                f"pose at t={t!r} s: the filter is at t={self._t!r} s (the latest wheel "
+                "sample); call wheels(t, v_l, v_r) at the pose's time first"
+            )
+        updated = self._steps.measure(z)
+        self.n_updates += updated
+        return updated
+
+    def frame(self, t: float, image: np.ndarray) -> FrameClassification:
+        """Classify a camera frame and feed its label to the terrain tracker.
+
+        The region of interest follows from the held wheel speeds and the
+        current ICR estimate.
+
+        Parameters
+        ----------
+        t : float
+            Frame time, s (not before the latest wheel sample).
+        image : ndarray, shape (height, width, 3)
+            The frame, RGB, uint8.
+
+        Returns
+        -------
+        FrameClassification
+            Label (``""`` if the region was unusable), distance ahead, timings.
+
+        Raises
+        ------
+        ConfigError
+            No classifier was given, or the image is not the camera's size.
+        EstimationError
+            Before any wheel sample, or ``t`` before the latest one.
+        """
+        if self._frames is None:
+            raise ConfigError("frame() needs a terrain classifier: OnlineOdometry(config, clf)")
+        t = self._check_time(t, "frame")
+        v_l, v_r = self._speeds
+        params = self._steps.icr_params(v_l, v_r)
+        whole_first = self.n_frames % 2 == 0
+        result = self._frames.classify(t, image, v_l, v_r, params, whole_first=whole_first)
+        self.n_frames += 1
+        if result.sighting is not None:
+            self._flow.observe(result.sighting)
+        return result
+
+    def sighting(self, t: float, sighting: Sighting) -> None:
+        """Feed a terrain seen ahead at ``t`` (s), e.g. a frame classified elsewhere."""
+        self._check_time(t, "sighting")
+        self._flow.observe(sighting)
+
+    def _check_time(self, t: float, what: str) -> float:
+        """Return ``t`` as a float if a wheel sample at or before it was given."""
+        t = _finite(t, what, "t")
+        if self._t is None:
+            raise EstimationError(f"{what} at t={t!r} s: no wheel speeds yet, call wheels() first")
+        if t < self._t:
+            raise EstimationError(
+                f"{what} at t={t!r} s: time goes backwards (latest wheel sample at t={self._t!r} s)"
+            )
+        return t
+
+    # --------------------------------------------------------------- output
+    @property
+    def names(self) -> tuple[str, ...]:
+        """Names of the estimated values, in the order of :meth:`estimate`."""
+        return self._steps.names
+
+    @property
+    def t(self) -> float | None:
+        """Time of the latest wheel sample, s (None before the first)."""
+        return self._t
+
+    @property
+    def current_terrain(self) -> str:
+        """Terrain applied to the filter (``""`` before any label)."""
+        return self._steps.filter.terrain or ""
+
+    @property
+    def seen_terrain(self) -> str:
+        """Terrain confirmed by the observations so far (ahead of the robot for a camera)."""
+        return self._flow.seen or ""
+
+    @property
+    def changes(self) -> list[TerrainChange]:
+        """Terrain changes applied so far."""
+        return self._flow.changes
+
+    def estimate(self) -> tuple[np.ndarray, np.ndarray]:
+        """Return the estimate and its standard deviation, in :attr:`names` order."""
+        return self._steps.estimate(*self._speeds)
+
+    def state(self) -> dict[str, float | str | None]:
+        """Return the current estimate as a mapping.
+
+        Keys: ``t`` (s), the :attr:`names` (``x, y, yaw, y_l, y_r, x_icr``
+        and ``alpha`` if estimated, or the slip parameters), ``terrain``
+        (applied, ``""`` before any label) and ``std_<name>`` for each name.
+        """
+        state, std = self.estimate()
+        out: dict[str, float | str | None] = {"t": self._t}
+        out.update(zip(self.names, state.tolist(), strict=True))
+        out["terrain"] = self.current_terrain
+        out.update((f"std_{n}", s) for n, s in zip(self.names, std.tolist(), strict=True))
+        return out
+
+
+def _finite(value: float, what: str, name: str, t: float | None = None) -> float:
+    """Return ``value`` as a float, or raise naming it if it is not finite."""
+    number = float(value)
+    if not np.isfinite(number):
+        at = "" if t is None else f" t={t!r} s:"
+        raise ValueError(f"{what} at{at} {name}={value!r} is not finite")
+    return number
+
+
+class _RowFilter(Protocol):
+    """The part of a filter the terrain flow uses."""
+
+    t: float
+    terrain: str | None
+
+    def set_terrain(self, label: str) -> None:
+        """Name the terrain the filter starts on, without any reset."""
+        ...  # pragma: no cover
+
+    def reset_on_terrain_change(self, label: str) -> TerrainChange:
+        """Apply a confirmed change to terrain ``label``."""
+        ...  # pragma: no cover
+
+
+class _IcrSteps:
+    """The ICR EKF: predict every wheel sample, anchor then update at poses."""
+
+    def __init__(self, ekf: IcrEkf) -> None:
+        self.filter = ekf
+        self.names = ekf.names
+        self._anchored = False
+
+    def restart(self, t: float) -> None:
+        self._anchored = False  # a break: nothing is integrated across it
+        self.filter.t = t
+
+    def predict(self, v_l: float, v_r: float, dt: float) -> None:
+        self.filter.predict(v_l, v_r, dt)
+
+    def sample(self, t: float, v_l: float, v_r: float) -> None:
+        """Nothing to keep: the ICR EKF predicts sample by sample."""
+
+    def measure(self, z: np.ndarray) -> bool:
+        if np.all(np.isfinite(z)) and not self._anchored:
+            self.filter.reset_pose(z)
+            self._anchored = True
+        elif self._anchored:
+            self.filter.update(z)
+            return True
+        return False
+
+    def icr_params(self, v_l: float, v_r: float) -> np.ndarray:
+        return self.filter.params
+
+    def estimate(self, v_l: float, v_r: float) -> tuple[np.ndarray, np.ndarray]:
+        return self.filter.x, self.filter.std
+
+
+class _SlipSteps:
+    """The slip EKF: a windowed pose change at every measured heading.
+
+    Updates at every pose with a yaw, with the pose change since the anchor:
+    the latest earlier such pose of the same segment at least
+    ``slip_ekf.window`` seconds before (0: the previous one), or the
+    segment's first one while the segment is shorter. The wheel samples
+    since the oldest anchor still needed are kept (a bounded buffer: the
+    window plus the gap between headings). The reported pose (``x, y,
+    yaw``) is dead reckoning with the current parameters from the origin at
+    each segment start, reset to every measured pose component.
+    """
+
+    def __init__(self, ekf: SlipEkf) -> None:
+        self.filter = ekf
+        self.names = OUTPUT_NAMES + ekf.names
+        self._window = ekf.config.window
+        self._anchors: deque[tuple[float, np.ndarray, int]] = deque()  # (t, pose, sample)
+        self._samples: deque[tuple[float, float, float]] = deque()  # (t, v_l, v_r)
+        self._first = 0  # number of self._samples[0] in the segment
+        self._pose = np.zeros(3)
+
+    def restart(self, t: float) -> None:
+        self._anchors.clear()
+        self._samples.clear()
+        self._first = 0
+        self._pose = np.zeros(3)
+        self.filter.t = t
+
+    def predict(self, v_l: float, v_r: float, dt: float) -> None:
+        self.filter.predict(dt)
+        inc = self.filter.model.pose_change(self.filter.x, v_l, v_r, dt)
+        self._pose = compose(self._pose, inc)
+
+    def sample(self, t: float, v_l: float, v_r: float) -> None:
+        self._samples.append((t, v_l, v_r))
+        if not self._anchors:  # only the newest sample can become an anchor
+            self._drop_samples(self._first + len(self._samples) - 1)
+
+    def _drop_samples(self, first: int) -> None:
+        """Forget the wheel samples before sample number ``first``."""
+        while self._first < first:
+            self._samples.popleft()
+            self._first += 1
+
+    def measure(self, z: np.ndarray) -> bool:
+        self._pose = np.where(np.isfinite(z), z, self._pose)
+        if not np.isfinite(z[2]):
+            return False
+        t_k = self._samples[-1][0]
+        anchors = self._anchors
+        while len(anchors) > 1 and anchors[1][0] <= t_k - self._window:
+            anchors.popleft()  # never needed again
+        anchor = anchors[0] if anchors else None
+        anchors.append((t_k, z, self._first + len(self._samples) - 1))
+        if anchor is None:
+            return False
+        self._drop_samples(anchors[0][2])
+        samples = np.array(self._samples)
+        t, v_l, v_r = samples[anchor[2] - self._first :].T
+        self.filter.update(relative_pose(anchor[1], z), v_l[:-1], v_r[:-1], np.diff(t))
+        return True
+
+    def icr_params(self, v_l: float, v_r: float) -> np.ndarray:
+        icr = self.filter.icrs(v_l, v_r)
+        alpha = self.filter.x[6] if len(self.filter.names) > 6 else 1.0
+        return np.array([*map(float, icr), alpha])
+
+    def estimate(self, v_l: float, v_r: float) -> tuple[np.ndarray, np.ndarray]:
+        icr = np.array([float(c) for c in self.filter.icrs(v_l, v_r)])
+        state = np.concatenate([self._pose, icr, self.filter.x])
+        std = np.concatenate([np.full(3, np.nan), self.filter.icr_std(v_l, v_r), self.filter.std])
+        return state, std
+
+
+class _TerrainFlow:
+    """Terrain labels into filter resets: confirmation, scheduling, odometer.
+
+    ``seen`` is the terrain confirmed by the observations (ahead of the
+    robot for a camera); ``ekf.terrain`` the one applied to the filter.
+    """
+
+    def __init__(self, ekf: _RowFilter, config: Config) -> None:
+        self.ekf = ekf
+        self.adapt = config.terrain.adapt
+        self.on_arrival = config.terrain.reset_at == "arrival"
+        self.tracker = TerrainTracker(config.terrain.confirm)
+        self.travelled = 0.0  # m, odometer of the model's predicted motion
+        self.pending: deque[tuple[float, str, float]] = deque()  # (odometer target, label, t)
+        self.changes: list[TerrainChange] = []
+
+    @property
+    def seen(self) -> str | None:
+        """Terrain confirmed by the observations so far."""
+        return self.tracker.current
+
+    def travel(self, distance: float) -> None:
+        """Advance the odometer by ``distance`` m."""
+        self.travelled += distance
+
+    def apply_reached(self) -> None:
+        """Apply the pending changes whose ground the robot has reached."""
+        while self.pending and self.travelled >= self.pending[0][0]:
+            _, label, t_confirmed = self.pending.popleft()
+            self._apply(label, t_confirmed)
+
+    def observe(self, sighting: Sighting) -> None:
+        """Feed one label; name the first terrain, apply or schedule a confirmed change."""
+        where = self.travelled + (sighting.ahead if self.on_arrival else 0.0)
+        confirmed = self.tracker.observe(sighting.label, at=where)
+        if self.ekf.terrain is None:
+            self.ekf.set_terrain(self.tracker.current or sighting.label)
+            return
+        if confirmed is None:
+            return
+        target = self.tracker.changed_at
+        if target is not None and target > self.travelled:
+            self.pending.append((target, confirmed, self.ekf.t))
+        elif not self.pending:
+            self._apply(confirmed, None)
+        else:  # reached already, but earlier changes are still pending: keep the order
+            self.pending.append((self.travelled, confirmed, self.ekf.t))
+
+    def _apply(self, label: str, t_confirmed: float | None) -> None:
+        ekf = self.ekf
+        if label == ekf.terrain:
+            return
+        if self.adapt:
+            change = ekf.reset_on_terrain_change(label)
+        else:
+            change = TerrainChange(ekf.t, ekf.terrain, label, restored=False, reset=False)
+            ekf.set_terrain(label)
+        if t_confirmed is not None and t_confirmed < change.t:
+            change = replace(change, t_confirmed=t_confirmed)
+        self.changes.append(change)

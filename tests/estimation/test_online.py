@@ -1,0 +1,182 @@
+"""The streaming API: call by call it is the row loop and ``terrain-odom run``."""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from terrain_odom import OnlineOdometry
+from terrain_odom.app.run import default_model, read_calibrated_log
+from terrain_odom.cli.main import main
+from terrain_odom.config import Config, SlipEkfConfig, load_config
+from terrain_odom.errors import ConfigError, EstimationError
+from terrain_odom.estimation.icr_ekf import IcrPriors
+from terrain_odom.estimation.odometry import run_icr_ekf, run_slip_ekf
+from terrain_odom.io import read_trajectory_csv
+from terrain_odom.io.frames import read_frames
+from terrain_odom.kinematics import integrate, twist_icr
+from terrain_odom.records import WheelLog
+from terrain_odom.vision.classifier import TerrainClassifier
+from terrain_odom.vision.dataset import read_image_rgb
+
+REPO = Path(__file__).resolve().parents[2]
+DRIVE_LOG = REPO.parent / "shared" / "data" / "drive" / "warthog_wheels_grass.csv"
+SAMPLE = REPO / "sample_images" / "chen2023"
+TERRAIN_ICRS = {"grass": (0.42, -0.40, 0.05), "gravel": (0.55, -0.52, -0.03)}
+
+
+def _simulated_log() -> WheelLog:
+    """Three segments (the third restarts the clock), terrain changes, full and heading-only poses."""
+    rng = np.random.default_rng(3)
+    pieces = []
+    for segment, (t0, n, terrains) in enumerate(
+        [(0.0, 300, ("grass", "gravel")), (20.0, 200, ("gravel",)), (5.0, 250, ("gravel", "grass"))]
+    ):
+        t = t0 + np.arange(n) * 0.02
+        v_l = 0.6 + 0.3 * np.sin(t / 1.3 + segment)
+        v_r = 0.6 + 0.3 * np.cos(t / 0.9)
+        terrain = np.where(np.arange(n) < n // 2, terrains[0], terrains[-1])
+        icr = np.array([TERRAIN_ICRS[str(label)] for label in terrain])
+        twist = np.array([twist_icr(a, b, *p) for a, b, p in zip(v_l, v_r, icr, strict=True)])
+        truth = integrate(*twist[:-1].T, np.diff(t))  # shape (n, 3)
+        pose = np.full((n, 3), np.nan)
+        pose[::5] = truth[::5] + rng.normal(0.0, 0.01, (len(truth[::5]), 3))
+        pose[2::10, 2] = truth[2::10, 2]  # heading only
+        pieces.append((t, v_l, v_r, pose, terrain, np.full(n, segment)))
+    t, v_l, v_r, pose, terrain, segment = (np.concatenate(p) for p in zip(*pieces, strict=True))
+    return WheelLog(t, v_l, v_r, pose, terrain.astype(str), segment, "simulated")
+
+
+def _stream(log: WheelLog, odo: OnlineOdometry, labels: bool = True) -> np.ndarray:
+    """Feed a log call by call, as a robot would; return the state after every row."""
+    rows = []
+    label = None
+    for k in range(len(log)):
+        t = float(log.t[k])
+        if labels and log.terrain is not None and log.terrain[k] != label:
+            label = str(log.terrain[k])
+            odo.terrain(t, label)
+        new_segment = k > 0 and log.segment[k] != log.segment[k - 1]
+        odo.wheels(t, float(log.v_l[k]), float(log.v_r[k]), new_segment=new_segment)
+        if np.any(np.isfinite(log.pose[k])):
+            odo.pose(t, *map(float, log.pose[k]))
+        state = odo.state()
+        rows.append([state[n] for n in odo.names] + [state[f"std_{n}"] for n in odo.names])
+    return np.array(rows, dtype=float)
+
+
+def test_calls_reproduce_the_icr_ekf_row_loop_exactly():
+    log = _simulated_log()
+    priors = IcrPriors(terrains={"gravel": load_config().ekf.initial})
+    cfg = load_config()
+    batch = run_icr_ekf(log, cfg, labels=log.terrain, priors=priors)
+    assert len(batch.changes) >= 2  # grass -> gravel, gravel -> grass
+    odo = OnlineOdometry(cfg, priors=priors)
+    np.testing.assert_array_equal(_stream(log, odo), np.hstack([batch.states, batch.stds]))
+    assert odo.changes == batch.changes and odo.n_updates == batch.n_updates
+    assert odo.state()["terrain"] == batch.terrain[-1] == "grass"
+
+
+def test_calls_reproduce_the_slip_ekf_row_loop_exactly():
+    log = _simulated_log()
+    cfg = dataclasses.replace(Config(), slip_ekf=SlipEkfConfig(window=0.3))
+    batch = run_slip_ekf(log, cfg, labels=log.terrain)
+    odo = OnlineOdometry(cfg, estimator="slip-ekf")
+    np.testing.assert_array_equal(_stream(log, odo), np.hstack([batch.states, batch.stds]))
+    assert odo.changes == batch.changes and odo.n_updates == batch.n_updates
+    # the wheel history is a bounded buffer: the 0.3-s window (15 samples) plus the gaps
+    # between headings, not the 750 rows of the log
+    assert len(odo._steps._samples) <= 30
+
+
+@pytest.mark.skipif(not DRIVE_LOG.is_file(), reason="../shared/data/drive not present")
+@pytest.mark.parametrize("estimator", ["icr-ekf", "slip-ekf"])
+def test_calls_reproduce_the_cli_run_on_a_real_log(tmp_path, capsys, estimator):
+    config = REPO / "config" / "warthog.yaml"
+    out = tmp_path / "out"
+    args = ["--wheels", str(DRIVE_LOG), "--config", str(config), "--estimator", estimator]
+    assert main(["run", *args, "--out", str(out)]) == 0
+    capsys.readouterr()
+    written = read_trajectory_csv(out / "trajectory.csv")
+    odo = OnlineOdometry.from_config(config, estimator=estimator)
+    log, _ = read_calibrated_log(DRIVE_LOG, odo.config)
+    streamed = _stream(log, odo)
+    names = odo.names
+    for i, name in enumerate(names):
+        np.testing.assert_array_equal(streamed[:, i], written[name], err_msg=name)
+        np.testing.assert_array_equal(
+            streamed[:, len(names) + i], written[f"std_{name}"], err_msg=name
+        )
+
+
+def test_frames_reproduce_the_cli_frame_labels(tmp_path, capsys):
+    out = tmp_path / "out"
+    args = ["--images", str(SAMPLE), "--wheels", str(SAMPLE / "log.csv"), "--out", str(out)]
+    assert main(["run", *args]) == 0
+    capsys.readouterr()
+    with (out / "frames.csv").open(newline="") as handle:
+        expected = [(r["label"], r["confirmed_label"]) for r in csv.DictReader(handle)]
+    cfg = load_config(SAMPLE / "config.yaml")
+    odo = OnlineOdometry(cfg, TerrainClassifier.load(default_model()))
+    log, _ = read_calibrated_log(SAMPLE / "log.csv", cfg)
+    frames = read_frames(SAMPLE)
+    got = []
+    i = int(np.searchsorted(frames.t, log.t[0]))  # frames before the first row are skipped
+    for k in range(len(log)):
+        t = float(log.t[k])
+        odo.wheels(t, float(log.v_l[k]), float(log.v_r[k]))
+        if np.any(np.isfinite(log.pose[k])):
+            odo.pose(t, *map(float, log.pose[k]))
+        end = float(log.t[k + 1]) if k + 1 < len(log) else np.nextafter(t, np.inf)
+        while i < frames.t.size and frames.t[i] < end:
+            image = read_image_rgb(frames.files[i])
+            assert image is not None
+            result = odo.frame(float(frames.t[i]), image)
+            got.append((result.label, odo.seen_terrain))
+            i += 1
+    assert len(got) == len(expected) > 50
+    assert got == expected
+    assert len({label for label, _ in got}) >= 2  # a terrain change is seen
+
+
+def test_bad_calls_raise_one_line_errors_naming_the_value():
+    odo = OnlineOdometry(Config())
+    with pytest.raises(EstimationError, match="no wheel speeds yet"):
+        odo.pose(0.0, 0.0, 0.0, 0.0)
+    with pytest.raises(ValueError, match=r"v_r=nan is not finite"):
+        odo.wheels(0.0, 0.5, float("nan"))
+    odo.wheels(1.0, 0.5, 0.5)
+    with pytest.raises(EstimationError, match=r"wheels at t=0.5 s: time does not advance"):
+        odo.wheels(0.5, 0.5, 0.5)
+    with pytest.raises(EstimationError, match="the filter is at t=1.0 s"):
+        odo.pose(1.5, yaw=0.1)
+    with pytest.raises(ValueError, match="no finite component"):
+        odo.pose(1.0)
+    with pytest.raises(EstimationError, match="time goes backwards"):
+        odo.sighting(0.9, None)  # type: ignore[arg-type]
+    with pytest.raises(ConfigError, match="needs a terrain classifier"):
+        odo.frame(1.0, np.zeros((2, 2, 3), dtype=np.uint8))
+    with pytest.raises(ConfigError, match="unknown estimator"):
+        OnlineOdometry(Config(), estimator="kalman")  # type: ignore[arg-type]
+    odo.wheels(0.5, 0.5, 0.5, new_segment=True)  # a new segment may restart the clock
+    assert odo.t == 0.5
+    for message in ("no wheel speeds yet", "is not finite", "time does not advance"):
+        assert "\n" not in message
+
+
+def test_a_label_takes_effect_once_the_filter_reaches_its_time():
+    cfg = Config()
+    odo = OnlineOdometry(cfg)
+    odo.wheels(0.0, 0.5, 0.5)
+    odo.terrain(0.1, "grass")  # not reached yet
+    assert odo.state()["terrain"] == ""
+    odo.wheels(0.1, 0.5, 0.5)
+    assert odo.state()["terrain"] == "grass"
+    odo.terrain(0.2, "sand")
+    for t in (0.2, 0.3, 0.4)[: cfg.terrain.confirm]:
+        odo.wheels(t, 0.5, 0.5)
+    assert odo.state()["terrain"] == "sand" and [c.label for c in odo.changes] == ["sand"]
