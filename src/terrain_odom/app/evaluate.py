@@ -7,8 +7,7 @@ from typing import Any
 
 import numpy as np
 
-from terrain_odom import __version__
-from terrain_odom.app.run import _path_or_none, read_calibrated_log
+from terrain_odom.app.run import read_calibrated_log
 from terrain_odom.config import Config, load_config
 from terrain_odom.errors import InputFileError
 from terrain_odom.evaluation import (
@@ -27,7 +26,7 @@ from terrain_odom.evaluation.prediction import (
 )
 from terrain_odom.io import read_trajectory_csv
 from terrain_odom.io.params import ModelParams, read_params
-from terrain_odom.io.report import REPORT_FORMAT_VERSION, write_json
+from terrain_odom.io.report import path_or_none, report_header, write_json
 from terrain_odom.kinematics import get_model, twist_icr
 from terrain_odom.kinematics.slip import SlipModel, param_names
 from terrain_odom.records import WheelLog
@@ -153,11 +152,9 @@ def evaluate(
             tuple(c[:, 0] for c in rows_twist),
         )
     result = {
-        "format_version": REPORT_FORMAT_VERSION,
-        "terrain_odom_version": __version__,
-        "command": "evaluate",
+        **report_header("evaluate"),
         "log": str(Path(wheels).resolve()),
-        "run": _path_or_none(run_dir),
+        "run": path_or_none(run_dir),
         "time_calibration": timing.to_dict(),
         "horizon_m": h_e,
         "windows": len(windows),

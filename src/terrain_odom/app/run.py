@@ -30,7 +30,7 @@ from terrain_odom.io.atomic import write_atomic, write_text_atomic
 from terrain_odom.io.frames import FrameList, read_frames
 from terrain_odom.io.groundtruth import read_groundtruth
 from terrain_odom.io.params import read_priors
-from terrain_odom.io.report import report_header, to_jsonable, write_json
+from terrain_odom.io.report import path_or_none, report_header, to_jsonable, write_json
 from terrain_odom.io.trajectory import trajectory_columns
 from terrain_odom.records import GroundTruth, WheelLog
 from terrain_odom.reporting import run_markdown
@@ -430,8 +430,8 @@ def _report(
         "estimator": estimator,
         "inputs": {
             "wheels": str(Path(wheels).resolve()),
-            "config": _path_or_none(inputs.config_path),
-            "priors": _path_or_none(priors),
+            "config": path_or_none(inputs.config_path),
+            "priors": path_or_none(priors),
         },
         "terrain_source": source,
         "config": config_to_dict(inputs.cfg),
@@ -472,7 +472,7 @@ def _add_frames_report(
 ) -> None:
     """Add the frames of a run with ``--images`` to its ``report``."""
     report["inputs"]["images"] = str(images.resolve())
-    report["inputs"]["model"] = _path_or_none(inputs.model)
+    report["inputs"]["model"] = path_or_none(inputs.model)
     report["frames"] = _frames_report(result, pipeline, use_roi)
     if pipeline is not None:
         report["frame_problems"] = pipeline.problems
@@ -540,7 +540,3 @@ def _frames_report(
             "max": float(ms.max()) if ms.size else None,
         },
     }
-
-
-def _path_or_none(path: str | Path | None) -> str | None:
-    return None if path is None else str(Path(path).resolve())

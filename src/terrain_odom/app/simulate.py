@@ -32,7 +32,7 @@ import numpy as np
 import yaml
 
 from terrain_odom.io import TrajectoryWriter
-from terrain_odom.io.report import write_json
+from terrain_odom.io.report import report_header, write_json
 from terrain_odom.sim.simulation import Simulation, iter_frames, sample_patches
 
 __all__ = ["FRAME_FORMATS", "SimOutput", "write_simulation"]
@@ -181,7 +181,7 @@ def _write_map_preview(sim: Simulation, path: Path, max_side: int = 2000) -> flo
 def _metadata(sim: Simulation, output: SimOutput) -> dict:
     sc = sim.scenario
     return {
-        "format_version": 1,
+        **report_header("simulate"),
         "scenario": sc.name,
         "description": sc.description,
         "seed": sim.seed,

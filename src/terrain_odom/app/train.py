@@ -23,10 +23,9 @@ import numpy as np
 from numpy.typing import NDArray
 from sklearn.model_selection import StratifiedKFold
 
-from terrain_odom import __version__
 from terrain_odom.errors import ConfigError, InputFileError
 from terrain_odom.io.atomic import write_atomic, write_text_atomic
-from terrain_odom.io.report import write_json
+from terrain_odom.io.report import report_header, write_json
 from terrain_odom.vision.classifier import (
     ClassifierConfig,
     TerrainClassifier,
@@ -40,7 +39,6 @@ from terrain_odom.vision.dataset import (
 )
 
 __all__ = [
-    "REPORT_FORMAT_VERSION",
     "CV_SEED",
     "CrossValidation",
     "TrainSummary",
@@ -51,7 +49,6 @@ __all__ = [
     "report_accuracy",
 ]
 
-REPORT_FORMAT_VERSION = 1
 CV_SEED = 0
 """Seed of the fold shuffling: every report uses the same folds."""
 
@@ -277,7 +274,7 @@ class AccuracyReport:
     def to_dict(self) -> dict[str, Any]:
         """Plain data for the JSON report."""
         return {
-            "format_version": REPORT_FORMAT_VERSION,
+            **report_header("train"),
             "images": str(self.images),
             "folds": self.chosen.folds,
             "seed": CV_SEED,
@@ -288,7 +285,6 @@ class AccuracyReport:
                 name: {**cv.to_dict(), "feature_ms": self.feature_ms[name]}
                 for name, cv in (("chosen", self.chosen), ("paper", self.paper))
             },
-            "terrain_odom_version": __version__,
             "created": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
         }
 

@@ -11,7 +11,7 @@ import numpy as np
 
 from terrain_odom.io.atomic import write_text_atomic
 
-__all__ = ["REPORT_FORMAT_VERSION", "report_header", "write_json", "to_jsonable"]
+__all__ = ["REPORT_FORMAT_VERSION", "report_header", "path_or_none", "write_json", "to_jsonable"]
 
 REPORT_FORMAT_VERSION = 1
 """Version of the JSON reports (``report.json``, ``evaluation.json``, ``compare.json`` ...)."""
@@ -37,6 +37,11 @@ def report_header(command: str) -> dict[str, Any]:
         "terrain_odom_version": __version__,
         "command": command,
     }
+
+
+def path_or_none(path: str | Path | None) -> str | None:
+    """Return ``path`` made absolute for a report, or ``None`` when no file was given."""
+    return None if path is None else str(Path(path).resolve())
 
 
 def to_jsonable(value: Any) -> Any:
