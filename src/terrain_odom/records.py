@@ -9,8 +9,41 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
-__all__ = ["WheelLog", "Sighting", "TerrainChange", "GroundTruth"]
+__all__ = ["WheelLog", "Sighting", "TerrainChange", "GroundTruth", "change_runs", "run_starts"]
+
+
+def change_runs(*keys: ArrayLike) -> np.ndarray:
+    """Run id per row, shape (N,): 0 on the first row, +1 wherever any key changes.
+
+    Parameters
+    ----------
+    *keys : array_like, shape (N,)
+        Per-row keys (e.g. ``segment`` ids, terrain labels); at least one.
+
+    Examples
+    --------
+    >>> change_runs([0, 0, 1, 1, 1], ["a", "b", "b", "b", "b"]).tolist()
+    [0, 1, 2, 2, 2]
+    """
+    arrays = [np.asarray(key) for key in keys]
+    if arrays[0].size == 0:
+        return np.zeros(0, dtype=int)
+    changed = np.logical_or.reduce([a[1:] != a[:-1] for a in arrays])
+    return np.concatenate([[0], np.cumsum(changed)]).astype(int)
+
+
+def run_starts(*keys: ArrayLike) -> np.ndarray:
+    """First row of every run of :func:`change_runs`, shape (R,); empty for no rows.
+
+    Examples
+    --------
+    >>> run_starts([3, 3, 5, 3]).tolist()
+    [0, 2, 3]
+    """
+    runs = change_runs(*keys)
+    return np.flatnonzero(np.r_[True, runs[1:] != runs[:-1]]) if runs.size else runs
 
 
 @dataclass(frozen=True)
@@ -54,7 +87,8 @@ class WheelLog:
 
         The one definition of where a log breaks: integration, windows,
         fits and the row loop never cross from one run to the next (a
-        ``segment`` id that comes back later starts a new run).
+        ``segment`` id that comes back later starts a new run). See
+        :func:`change_runs`.
 
         Examples
         --------
@@ -63,18 +97,19 @@ class WheelLog:
         ...                None, np.array([0, 0, 1, 1, 0]))
         >>> log.segment_runs().tolist(), log.n_runs, log.run_starts().tolist()
         ([0, 0, 1, 1, 2], 3, [0, 2, 4])
+        >>> log.run_ranges()
+        [range(0, 2), range(2, 4), range(4, 5)]
         """
-        seg = np.asarray(self.segment)
-        if seg.size == 0:
-            return np.zeros(0, dtype=int)
-        return np.concatenate([[0], np.cumsum(seg[1:] != seg[:-1])]).astype(int)
+        return change_runs(self.segment)
 
     def run_starts(self) -> np.ndarray:
         """First row of every run (see :meth:`segment_runs`), shape (R,)."""
-        seg = np.asarray(self.segment)
-        if seg.size == 0:
-            return np.zeros(0, dtype=int)
-        return np.flatnonzero(np.r_[True, seg[1:] != seg[:-1]])
+        return run_starts(self.segment)
+
+    def run_ranges(self) -> list[range]:
+        """Rows of every run (see :meth:`segment_runs`), in order."""
+        starts = self.run_starts().tolist()
+        return [range(a, b) for a, b in zip(starts, [*starts[1:], len(self)], strict=True)]
 
     @property
     def n_runs(self) -> int:

@@ -184,9 +184,8 @@ def _heading_changes(
 
 
 def _segment_rows(log: WheelLog) -> list[np.ndarray]:
-    """Row indices of each run of at least two rows (``WheelLog.run_starts``), in order."""
-    starts = log.run_starts()
-    return [rows for rows in np.split(np.arange(len(log)), starts[1:]) if rows.size > 1]
+    """Row indices of each run of at least two rows (``WheelLog.run_ranges``), in order."""
+    return [np.arange(run.start, run.stop) for run in log.run_ranges() if len(run) > 1]
 
 
 def _integral(t: np.ndarray, values: np.ndarray, s: np.ndarray) -> np.ndarray:

@@ -230,12 +230,6 @@ def _json_float(value: float) -> float | None:
     return None if math.isnan(value) else float(value)
 
 
-def _segment_runs(segment: np.ndarray) -> np.ndarray:
-    """Run id per row, shape (N,): increments at every change of ``segment``."""
-    seg = np.asarray(segment)
-    return np.concatenate([[0], np.cumsum(seg[1:] != seg[:-1])])
-
-
 def _measured_path(log: WheelLog, runs: np.ndarray) -> np.ndarray:
     """Cumulative measured path length per row, shape (N,), m (NaN without position).
 
@@ -281,7 +275,7 @@ def spatial_windows(log: WheelLog, horizon: float = DEFAULT_HORIZON) -> Windows:
     """
     if not horizon > 0.0:
         raise ValueError(f"window horizon must be > 0 m, got {horizon}")
-    runs = _segment_runs(log.segment)
+    runs = log.segment_runs()
     path = _measured_path(log, runs)
     return _windows_reaching(log, runs, path, path, horizon)
 
@@ -315,7 +309,7 @@ def time_windows(log: WheelLog, duration: float) -> Windows:
     """
     if not duration > 0.0:
         raise ValueError(f"window duration must be > 0 s, got {duration}")
-    runs = _segment_runs(log.segment)
+    runs = log.segment_runs()
     same_run = runs[1:] == runs[:-1]
     clock = np.concatenate([[0.0], np.cumsum(np.where(same_run, np.diff(log.t), 0.0))])
     return _windows_reaching(log, runs, clock, _measured_path(log, runs), duration)
@@ -678,8 +672,8 @@ def dead_reckon(log: WheelLog, v_x: ArrayLike, v_y: ArrayLike, omega: ArrayLike)
     v_x, v_y, omega = (np.asarray(a, dtype=float) for a in (v_x, v_y, omega))
     out = np.full((len(log), 3), np.nan)
     has_pose = log.has_pose
-    breaks = (np.flatnonzero(np.diff(log.segment)) + 1).tolist()
-    for first, stop in zip([0, *breaks], [*breaks, len(log)], strict=True):
+    for run in log.run_ranges():
+        first, stop = run.start, run.stop
         rows = np.flatnonzero(has_pose[first:stop])
         if rows.size == 0:
             continue

@@ -23,7 +23,6 @@ from terrain_odom.evaluation.metrics import (
     TwistFn,
     Windows,
     _measured_path,
-    _segment_runs,
     window_errors,
 )
 from terrain_odom.kinematics.slip import SlipModel
@@ -110,7 +109,7 @@ def prediction_windows(
     rows = np.flatnonzero(log.has_pose)
     cand = rows if starts is None else np.asarray(starts, dtype=int)
     cand = cand[log.has_pose[cand]]
-    runs = _segment_runs(log.segment)
+    runs = log.segment_runs()
     t_rows = log.t[rows]
     target = log.t[cand] + horizon
     j = np.clip(np.searchsorted(t_rows, target), 1, max(rows.size - 1, 1))

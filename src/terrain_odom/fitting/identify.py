@@ -53,7 +53,7 @@ from terrain_odom.evaluation.metrics import (
 )
 from terrain_odom.kinematics.integration import integrate, relative_pose, wrap_angle
 from terrain_odom.kinematics.models import KinematicModel, get_model
-from terrain_odom.records import WheelLog
+from terrain_odom.records import WheelLog, change_runs
 
 __all__ = [
     "DEFAULT_TRAINING_HORIZON",
@@ -143,9 +143,8 @@ def training_windows(log: WheelLog, horizon: Horizon, terrain: str | None = None
     if log.terrain is None:
         raise ValueError(f"{log.source}: no terrain column, cannot select terrain {terrain!r}")
     labels = np.asarray(log.terrain)
-    breaks = (labels[1:] != labels[:-1]) | (log.segment[1:] != log.segment[:-1])
     # split the log at terrain changes as well as at segment changes
-    split = dataclasses.replace(log, segment=np.concatenate([[0], np.cumsum(breaks)]))
+    split = dataclasses.replace(log, segment=change_runs(log.segment, labels))
     w = non_overlapping(horizon.windows(split))
     keep = labels[w.start] == terrain
     return Windows(start=w.start[keep], end=w.end[keep], length=w.length[keep])

@@ -36,7 +36,7 @@ import numpy as np
 
 from terrain_odom.io._csv import CsvTable, Source, floats_or_nan, read_csv, shown
 from terrain_odom.kinematics.integration import wrap_angle
-from terrain_odom.records import WheelLog
+from terrain_odom.records import WheelLog, change_runs, run_starts
 
 __all__ = ["read_wheel_log"]
 
@@ -148,8 +148,8 @@ def _pose_columns(table: CsvTable) -> tuple[str, ...]:
 def _times(table: CsvTable, segment: np.ndarray) -> np.ndarray:
     """Column ``t``, s; finite and strictly increasing within each segment."""
     t = _finite_floats(table, "t")
-    same_segment = segment[1:] == segment[:-1]
-    bad = np.flatnonzero(same_segment & ~(t[1:] > t[:-1]))
+    runs = change_runs(segment)
+    bad = np.flatnonzero((runs[1:] == runs[:-1]) & ~(t[1:] > t[:-1]))
     if bad.size:
         k = int(bad[0])
         raise table.error(
@@ -207,7 +207,7 @@ def _segments(table: CsvTable) -> np.ndarray:
     if "segment" not in table.header:
         return np.zeros(len(table), dtype=np.int64)
     segment = table.convert("segment", int, np.int64, _not_an_integer)
-    starts = np.flatnonzero(np.r_[True, segment[1:] != segment[:-1]])
+    starts = run_starts(segment)
     _, first = np.unique(segment[starts], return_index=True)
     if first.size < starts.size:
         repeat = int(starts[np.setdiff1d(np.arange(starts.size), first)[0]])
