@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from terrain_odom.errors import InputFileError
+from terrain_odom.evaluation import model_twist, spatial_windows
 from terrain_odom.evaluation.groundtruth import (
     feature_times,
     frame_accuracy,
@@ -17,7 +18,6 @@ from terrain_odom.evaluation.groundtruth import (
     path_length,
     reconvergence,
 )
-from terrain_odom.evaluation.metrics import model_twist, spatial_windows
 from terrain_odom.io.groundtruth import read_groundtruth
 from terrain_odom.kinematics import get_model
 from terrain_odom.records import GroundTruth, WheelLog

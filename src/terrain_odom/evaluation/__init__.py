@@ -1,49 +1,15 @@
-"""Evaluation of odometry: model error over spatial windows and ATE."""
+"""Evaluation of odometry: windows, model error per metre, ATE, prediction, frame truth.
 
-from terrain_odom.evaluation.metrics import (
-    DEFAULT_HORIZON,
-    AteResult,
-    ErrorStats,
-    ErrorSummary,
-    SE2Alignment,
-    TwistFn,
-    WindowErrors,
-    Windows,
-    absolute_trajectory_error,
-    align_se2,
-    dead_reckon,
-    icr_twist_from_rows,
-    model_twist,
-    non_overlapping,
-    padded_steps,
-    predict_window_ends,
-    settling_time,
-    spatial_windows,
-    summarize,
-    time_windows,
-    window_errors,
-)
+- :mod:`~terrain_odom.evaluation.windows`: spatial, time and prediction windows.
+- :mod:`~terrain_odom.evaluation.metrics`: per-metre window errors, SE(2)/ATE,
+  dead reckoning, settling time.
+- :mod:`~terrain_odom.evaluation.prediction`: the 2016 paper's prediction error.
+- :mod:`~terrain_odom.evaluation.groundtruth`: scores against a simulated run's truth.
+"""
 
-__all__ = [
-    "DEFAULT_HORIZON",
-    "AteResult",
-    "ErrorStats",
-    "ErrorSummary",
-    "SE2Alignment",
-    "TwistFn",
-    "WindowErrors",
-    "Windows",
-    "absolute_trajectory_error",
-    "align_se2",
-    "dead_reckon",
-    "settling_time",
-    "icr_twist_from_rows",
-    "model_twist",
-    "non_overlapping",
-    "padded_steps",
-    "predict_window_ends",
-    "spatial_windows",
-    "summarize",
-    "time_windows",
-    "window_errors",
-]
+from terrain_odom.evaluation import metrics, prediction, windows
+from terrain_odom.evaluation.metrics import *  # noqa: F403  (re-exports metrics.__all__)
+from terrain_odom.evaluation.prediction import *  # noqa: F403  (re-exports prediction.__all__)
+from terrain_odom.evaluation.windows import *  # noqa: F403  (re-exports windows.__all__)
+
+__all__ = [*windows.__all__, *metrics.__all__, *prediction.__all__]

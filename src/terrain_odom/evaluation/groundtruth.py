@@ -18,19 +18,14 @@
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
 
-from terrain_odom.evaluation.metrics import (
-    TwistFn,
-    settling_time,
-    spatial_windows,
-    summarize,
-    window_errors,
-)
+from terrain_odom.evaluation.metrics import TwistFn, settling_time, summarize, window_errors
+from terrain_odom.evaluation.windows import Windows, spatial_windows
 from terrain_odom.kinematics import wrap_angle
 from terrain_odom.records import GroundTruth, WheelLog
 
@@ -187,7 +182,7 @@ def groundtruth_log(log: WheelLog, gt: GroundTruth) -> WheelLog:
 def model_odometry_error(
     log: WheelLog,
     terrain: ArrayLike,
-    models: Mapping[str, TwistFn | Any],
+    models: Mapping[str, Callable[[Windows], TwistFn]],
     horizon: float,
 ) -> dict[str, dict[str, Any]]:
     """Model-odometry error of several models over ``horizon``-metre windows.

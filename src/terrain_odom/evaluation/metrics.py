@@ -1,12 +1,8 @@
 """Odometry error metrics: model error over spatial windows and ATE.
 
-Spatial-window error (Baril et al., CRV 2020, section IV). A window starts at
-every row with a full pose measurement and ends at the first later full-pose
-row of the same segment whose measured path length from the start is at
-least ``horizon`` (2 m by default); windows that never reach it are dropped.
-The path length is the sum of the distances between consecutive measured
-positions. The kinematic model is integrated from the *measured* start pose
-over the wheel rows ``start .. end - 1`` (row ``k`` held for
+Spatial-window error (Baril et al., CRV 2020, section IV), on the windows of
+:mod:`terrain_odom.evaluation.windows`. The kinematic model is integrated
+from the *measured* start pose over the wheel rows ``start .. end - 1`` (row ``k`` held for
 ``t[k+1] - t[k]``, zero-order hold) and compared with the measured end pose:
 
 - translational error per metre = ``|p_pred - p_meas| / length`` (m/m),
@@ -34,23 +30,18 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
+from terrain_odom.evaluation.windows import Windows, padded_steps
 from terrain_odom.kinematics.integration import integrate, wrap_angle
 from terrain_odom.kinematics.models import KinematicModel, twist_icr
 from terrain_odom.records import WheelLog
 
 __all__ = [
-    "DEFAULT_HORIZON",
     "TwistFn",
-    "Windows",
     "WindowErrors",
     "ErrorStats",
     "ErrorSummary",
     "SE2Alignment",
     "AteResult",
-    "spatial_windows",
-    "time_windows",
-    "non_overlapping",
-    "padded_steps",
     "model_twist",
     "icr_twist_from_rows",
     "predict_window_ends",
@@ -67,33 +58,12 @@ TwistFn = Callable[[np.ndarray, np.ndarray, np.ndarray], Twist]
 """``twist_fn(v_l, v_r, window_index) -> (v_x, v_y, omega)``.
 
 ``v_l, v_r`` have shape ``(W, K)`` (track speeds, m/s, one row per window),
-``window_index`` has shape ``(W,)`` (indices into the :class:`Windows`, so
-per-window parameters are ``params[window_index][:, None]``); the returned
+``window_index`` has shape ``(W,)`` (indices into the
+:class:`~terrain_odom.evaluation.windows.Windows`, so per-window parameters are ``params[window_index][:, None]``); the returned
 twist (m/s, m/s, rad/s) must broadcast to ``(W, K)``.
 """
 
-DEFAULT_HORIZON = 2.0  # m, Baril et al.'s spatial window h_e
 _CHUNK_ELEMENTS = 1 << 16  # max W * K integrated at once (bounds memory)
-
-
-@dataclass(frozen=True)
-class Windows:
-    """Spatial evaluation windows of a log.
-
-    Attributes
-    ----------
-    start, end : ndarray of int, shape (W,)
-        Log rows of the start and end pose measurements (``start < end``).
-    length : ndarray, shape (W,)
-        Measured path length between start and end, m (``>= horizon``).
-    """
-
-    start: np.ndarray
-    end: np.ndarray
-    length: np.ndarray
-
-    def __len__(self) -> int:
-        return int(self.start.shape[0])
 
 
 @dataclass(frozen=True)
@@ -230,141 +200,6 @@ def _json_float(value: float) -> float | None:
     return None if math.isnan(value) else float(value)
 
 
-def _measured_path(log: WheelLog, runs: np.ndarray) -> np.ndarray:
-    """Cumulative measured path length per row, shape (N,), m (NaN without position).
-
-    The distance between consecutive measured positions of different
-    segments counts as zero, so differences within a segment are path lengths.
-    """
-    rows = np.flatnonzero(log.has_position)
-    steps = np.zeros(rows.size)
-    steps[1:] = np.linalg.norm(np.diff(log.pose[rows, :2], axis=0), axis=1)
-    steps[1:][runs[rows][1:] != runs[rows][:-1]] = 0.0
-    path = np.full(len(log), np.nan)
-    path[rows] = np.cumsum(steps)
-    return path
-
-
-def spatial_windows(log: WheelLog, horizon: float = DEFAULT_HORIZON) -> Windows:
-    """Find the spatial evaluation windows of a log.
-
-    Parameters
-    ----------
-    log : WheelLog
-        Log with pose measurements (``N`` rows).
-    horizon : float, optional
-        Minimum measured path length of a window ``h_e``, m (> 0).
-
-    Returns
-    -------
-    Windows
-        One window per full-pose row that reaches ``horizon`` within its
-        segment, in row order.
-
-    Examples
-    --------
-    Poses every 0.5 m along x, a segment change after row 5:
-
-    >>> n = 8
-    >>> pose = np.c_[0.5 * np.arange(n), np.zeros(n), np.zeros(n)]
-    >>> log = WheelLog(np.arange(n, dtype=float), np.ones(n), np.ones(n), pose,
-    ...                None, np.array([0] * 6 + [1] * 2))
-    >>> w = spatial_windows(log, horizon=1.0)
-    >>> w.start.tolist(), w.end.tolist(), w.length.tolist()
-    ([0, 1, 2, 3], [2, 3, 4, 5], [1.0, 1.0, 1.0, 1.0])
-    """
-    if not horizon > 0.0:
-        raise ValueError(f"window horizon must be > 0 m, got {horizon}")
-    runs = log.segment_runs()
-    path = _measured_path(log, runs)
-    return _windows_reaching(log, runs, path, path, horizon)
-
-
-def time_windows(log: WheelLog, duration: float) -> Windows:
-    """Find windows of a minimum duration (the time-horizon variant of :func:`spatial_windows`).
-
-    Parameters
-    ----------
-    log : WheelLog
-        Log with pose measurements (``N`` rows).
-    duration : float
-        Minimum time between the start and end pose measurements, s (> 0).
-
-    Returns
-    -------
-    Windows
-        One window per full-pose row that reaches ``duration`` within its
-        segment, in row order; ``length`` is the measured path length (m,
-        possibly 0 when the robot stood still).
-
-    Examples
-    --------
-    >>> n = 6
-    >>> pose = np.c_[0.5 * np.arange(n), np.zeros(n), np.zeros(n)]
-    >>> log = WheelLog(0.5 * np.arange(n), np.ones(n), np.ones(n), pose,
-    ...                None, np.array([0] * 4 + [1] * 2))
-    >>> w = time_windows(log, duration=1.0)
-    >>> w.start.tolist(), w.end.tolist()
-    ([0, 1], [2, 3])
-    """
-    if not duration > 0.0:
-        raise ValueError(f"window duration must be > 0 s, got {duration}")
-    runs = log.segment_runs()
-    same_run = runs[1:] == runs[:-1]
-    clock = np.concatenate([[0.0], np.cumsum(np.where(same_run, np.diff(log.t), 0.0))])
-    return _windows_reaching(log, runs, clock, _measured_path(log, runs), duration)
-
-
-def _windows_reaching(
-    log: WheelLog, runs: np.ndarray, measure: np.ndarray, path: np.ndarray, horizon: float
-) -> Windows:
-    """Windows from each full-pose row to the first one of its run ``horizon`` further.
-
-    ``measure`` is a per-row quantity that never decreases (path length or
-    time, frozen across segment changes); ``path`` gives the window lengths.
-    """
-    rows = np.flatnonzero(log.has_pose)
-    m = measure[rows]
-    j = np.searchsorted(m, m + horizon, side="left")
-    inside = j < rows.size
-    j_in = np.minimum(j, rows.size - 1)
-    keep = inside & (runs[rows[j_in]] == runs[rows])
-    start, end = rows[keep], rows[j_in[keep]]
-    return Windows(start=start, end=end, length=path[end] - path[start])
-
-
-def non_overlapping(windows: Windows) -> Windows:
-    """Chain windows end to start: the distinct segments of Baril et al.'s training.
-
-    Greedily keeps the first window, then the first window starting at or
-    after the end of the last kept one, and so on.
-
-    Parameters
-    ----------
-    windows : Windows
-        Windows in row order (from :func:`spatial_windows` or :func:`time_windows`).
-
-    Returns
-    -------
-    Windows
-        A subset whose row ranges ``start .. end`` do not overlap (they may
-        share an end/start row).
-
-    Examples
-    --------
-    >>> w = Windows(np.array([0, 1, 2, 3, 4]), np.array([2, 3, 4, 6, 6]), np.ones(5))
-    >>> non_overlapping(w).start.tolist()
-    [0, 2, 4]
-    """
-    keep = []
-    i = 0
-    while i < len(windows):
-        keep.append(i)
-        i = int(np.searchsorted(windows.start, windows.end[i], side="left"))
-    idx = np.asarray(keep, dtype=int)
-    return Windows(start=windows.start[idx], end=windows.end[idx], length=windows.length[idx])
-
-
 def _chunks(n_steps: np.ndarray) -> list[np.ndarray]:
     """Group window indices so that padding stays < 2x and memory is bounded.
 
@@ -372,7 +207,7 @@ def _chunks(n_steps: np.ndarray) -> list[np.ndarray]:
     that ``len(chunk) * 2**bucket <= _CHUNK_ELEMENTS`` (at least one window).
     """
     bucket = np.ceil(np.log2(n_steps)).astype(int)
-    chunks = []
+    chunks: list[np.ndarray] = []
     for b in np.unique(bucket):
         idx = np.flatnonzero(bucket == b)
         per_chunk = max(1, _CHUNK_ELEMENTS >> int(b))
@@ -392,7 +227,7 @@ def predict_window_ends(log: WheelLog, windows: Windows, twist_fn: TwistFn) -> n
     log : WheelLog
         The log the windows belong to.
     windows : Windows
-        Windows from :func:`spatial_windows`.
+        Windows from :func:`~terrain_odom.evaluation.windows.spatial_windows`.
     twist_fn : TwistFn
         ``twist_fn(v_l, v_r, window_index) -> (v_x, v_y, omega)``.
 
@@ -411,37 +246,6 @@ def predict_window_ends(log: WheelLog, windows: Windows, twist_fn: TwistFn) -> n
     return predicted
 
 
-def padded_steps(
-    log: WheelLog, windows: Windows, index: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Wheel rows of some windows as a padded ``(W, K)`` block.
-
-    Parameters
-    ----------
-    log : WheelLog
-        The log the windows belong to.
-    windows : Windows
-        The windows.
-    index : ndarray of int, shape (W,)
-        Which windows to take; ``K`` is the longest one's number of steps.
-
-    Returns
-    -------
-    rows : ndarray of int, shape (W, K)
-        Log row of each step (padding repeats the last real row).
-    valid : ndarray of bool, shape (W, K)
-        False on padding.
-    dt : ndarray, shape (W, K)
-        Duration of each step (``t[k+1] - t[k]``, zero-order hold), s; 0 on padding.
-    """
-    dt_row = np.append(np.diff(log.t), 0.0)
-    k = (windows.end - windows.start)[index, None]
-    step = np.arange(k.max())
-    valid = step < k
-    rows = windows.start[index, None] + np.minimum(step, k - 1)
-    return rows, valid, np.where(valid, dt_row[rows], 0.0)
-
-
 def window_errors(log: WheelLog, windows: Windows, twist_fn: TwistFn) -> WindowErrors:
     """Errors of a model's predicted end poses over spatial windows.
 
@@ -450,7 +254,7 @@ def window_errors(log: WheelLog, windows: Windows, twist_fn: TwistFn) -> WindowE
     log : WheelLog
         The log the windows belong to.
     windows : Windows
-        Windows from :func:`spatial_windows`.
+        Windows from :func:`~terrain_odom.evaluation.windows.spatial_windows`.
     twist_fn : TwistFn
         ``twist_fn(v_l, v_r, window_index) -> (v_x, v_y, omega)``; see
         :func:`model_twist` and :func:`icr_twist_from_rows`.
@@ -465,6 +269,7 @@ def window_errors(log: WheelLog, windows: Windows, twist_fn: TwistFn) -> WindowE
     --------
     Straight line at 1 m/s, measured exactly, a model 10 % too fast:
 
+    >>> from terrain_odom.evaluation.windows import spatial_windows
     >>> from terrain_odom.kinematics.models import get_model
     >>> n = 6
     >>> pose = np.c_[np.arange(n, dtype=float), np.zeros(n), np.zeros(n)]
@@ -506,9 +311,10 @@ def summarize(errors: WindowErrors | Sequence[WindowErrors]) -> ErrorSummary:
         ``translation`` in m/m and ``rotation`` in deg/m.
     """
     parts = [errors] if isinstance(errors, WindowErrors) else list(errors)
+    none = np.zeros(0)
     return ErrorSummary(
-        translation=_stats(np.concatenate([e.translation_per_m for e in parts] or [[]])),
-        rotation=_stats(np.concatenate([e.rotation_per_m for e in parts] or [[]])),
+        translation=_stats(np.concatenate([none, *(e.translation_per_m for e in parts)])),
+        rotation=_stats(np.concatenate([none, *(e.rotation_per_m for e in parts)])),
     )
 
 

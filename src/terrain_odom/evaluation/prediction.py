@@ -19,24 +19,18 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from terrain_odom.evaluation.metrics import (
-    TwistFn,
-    Windows,
-    _measured_path,
-    window_errors,
-)
+from terrain_odom.evaluation.metrics import TwistFn, window_errors
+from terrain_odom.evaluation.windows import PREDICTION_HORIZON as PREDICTION_HORIZON
+from terrain_odom.evaluation.windows import Windows
+from terrain_odom.evaluation.windows import prediction_windows as prediction_windows
 from terrain_odom.kinematics.slip import SlipModel
 from terrain_odom.records import WheelLog
 
-__all__ = [
-    "PREDICTION_HORIZON",
+__all__ = [  # PREDICTION_HORIZON and prediction_windows, re-exported here, are in .windows
     "PredictionSummary",
-    "prediction_windows",
     "prediction_errors",
     "slip_twist_from_rows",
 ]
-
-PREDICTION_HORIZON = 2.0  # s, the paper's prediction horizon
 
 
 @dataclass(frozen=True)
@@ -66,65 +60,6 @@ class PredictionSummary:
             "heading_deg": None if nan(self.heading) else float(np.degrees(self.heading)),
             "count": self.count,
         }
-
-
-def prediction_windows(
-    log: WheelLog,
-    horizon: float = PREDICTION_HORIZON,
-    *,
-    starts: ArrayLike | None = None,
-    tolerance: float = 0.25,
-) -> Windows:
-    """Time windows of ``horizon`` seconds between full pose measurements.
-
-    Parameters
-    ----------
-    log : WheelLog
-        The reference log (its full poses are the ground truth).
-    horizon : float
-        Prediction horizon, s (> 0).
-    starts : array_like of int, optional
-        Candidate start rows (e.g. the rows of a subsampled pose stream);
-        every full-pose row if omitted. Rows without a full pose are skipped.
-    tolerance : float
-        Largest accepted ``|t_end - t_start - horizon|``, s.
-
-    Returns
-    -------
-    Windows
-        ``start``, ``end`` rows and the measured path ``length`` (m).
-
-    Examples
-    --------
-    >>> n = 9
-    >>> log = WheelLog(np.arange(n) * 0.5, np.ones(n), np.ones(n),
-    ...                np.c_[np.arange(n) * 0.5, np.zeros(n), np.zeros(n)],
-    ...                None, np.zeros(n, dtype=int))
-    >>> w = prediction_windows(log, 2.0, starts=[0, 2, 4, 6])
-    >>> w.start.tolist(), w.end.tolist()
-    ([0, 2, 4], [4, 6, 8])
-    """
-    if not horizon > 0.0:
-        raise ValueError(f"prediction horizon must be > 0 s, got {horizon}")
-    rows = np.flatnonzero(log.has_pose)
-    cand = rows if starts is None else np.asarray(starts, dtype=int)
-    cand = cand[log.has_pose[cand]]
-    runs = log.segment_runs()
-    t_rows = log.t[rows]
-    target = log.t[cand] + horizon
-    j = np.clip(np.searchsorted(t_rows, target), 1, max(rows.size - 1, 1))
-    before = np.clip(j - 1, 0, rows.size - 1)
-    j = np.minimum(j, rows.size - 1)
-    nearest = np.where(np.abs(t_rows[before] - target) <= np.abs(t_rows[j] - target), before, j)
-    end = rows[nearest] if rows.size else cand
-    keep = (
-        (end > cand)
-        & (runs[end] == runs[cand])
-        & (np.abs(log.t[end] - target) <= tolerance)
-    )  # fmt: skip
-    path = _measured_path(log, runs)
-    start, end = cand[keep], end[keep]
-    return Windows(start=start, end=end, length=path[end] - path[start])
 
 
 def prediction_errors(log: WheelLog, windows: Windows, twist_fn: TwistFn) -> PredictionSummary:

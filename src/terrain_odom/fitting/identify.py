@@ -44,7 +44,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.optimize import differential_evolution, least_squares
 
-from terrain_odom.evaluation.metrics import (
+from terrain_odom.evaluation.windows import (
     Windows,
     non_overlapping,
     padded_steps,
@@ -300,10 +300,8 @@ def residuals(
     for block in segments.blocks:
         v_x, v_y, omega = model.twist(block.v_l, block.v_r, p, track_width)
         shape = (p.shape[0], *block.dt.shape)  # (S, W, K), also for idd (no parameter)
-        end = integrate(
-            *(np.broadcast_to(c, shape) for c in (v_x, v_y, omega)),
-            np.broadcast_to(block.dt, shape),
-        )[..., -1, :]
+        v_x, v_y, omega, dt = (np.broadcast_to(c, shape) for c in (v_x, v_y, omega, block.dt))
+        end = integrate(v_x, v_y, omega, dt)[..., -1, :]
         err = end - block.target
         err[..., 2] = wrap_angle(err[..., 2])
         out.append(err)

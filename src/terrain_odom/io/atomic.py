@@ -12,7 +12,7 @@ from typing import BinaryIO
 __all__ = ["write_atomic", "write_text_atomic"]
 
 
-def write_atomic(path: str | Path, write: Callable[[BinaryIO], object]) -> None:
+def write_atomic(path: str | os.PathLike[str], write: Callable[[BinaryIO], object]) -> None:
     """Write a file through ``write(handle)`` atomically.
 
     The bytes go to a new temporary file in the same folder (created with the
@@ -39,7 +39,7 @@ def write_atomic(path: str | Path, write: Callable[[BinaryIO], object]) -> None:
         temporary.unlink(missing_ok=True)
 
 
-def write_text_atomic(path: str | Path, text: str) -> None:
+def write_text_atomic(path: str | os.PathLike[str], text: str) -> None:
     """Write ``text`` as UTF-8 atomically (see :func:`write_atomic`)."""
     data = text.encode("utf-8")
     write_atomic(path, lambda handle: handle.write(data))

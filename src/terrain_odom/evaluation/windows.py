@@ -1,0 +1,287 @@
+"""Evaluation windows of a log: spatial (per metre), time and prediction windows.
+
+A window runs from a row with a full pose measurement to a later full-pose
+row of the same run (:meth:`~terrain_odom.records.WheelLog.segment_runs`);
+windows never cross a ``segment`` change.
+
+- :func:`spatial_windows` (Baril et al., CRV 2020, section IV): the end is
+  the first full-pose row whose measured path length from the start is at
+  least ``horizon`` (2 m by default); windows that never reach it are
+  dropped. The path length is the sum of the distances between consecutive
+  measured positions.
+- :func:`time_windows`: the same with a minimum duration instead.
+- :func:`prediction_windows` (the 2016 slip-model paper): the end is the
+  full-pose row whose time is nearest ``t_start + horizon`` (s), within a
+  tolerance.
+- :func:`non_overlapping`: windows chained end to start (training segments).
+- :func:`padded_steps`: the wheel rows of windows as a padded block, for
+  vectorised integration.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from terrain_odom.records import WheelLog
+
+__all__ = [
+    "DEFAULT_HORIZON",
+    "PREDICTION_HORIZON",
+    "Windows",
+    "spatial_windows",
+    "time_windows",
+    "prediction_windows",
+    "non_overlapping",
+    "padded_steps",
+]
+
+DEFAULT_HORIZON = 2.0  # m, Baril et al.'s spatial window h_e
+PREDICTION_HORIZON = 2.0  # s, the 2016 slip-model paper's prediction horizon
+
+
+@dataclass(frozen=True)
+class Windows:
+    """Spatial evaluation windows of a log.
+
+    Attributes
+    ----------
+    start, end : ndarray of int, shape (W,)
+        Log rows of the start and end pose measurements (``start < end``).
+    length : ndarray, shape (W,)
+        Measured path length between start and end, m (``>= horizon``).
+    """
+
+    start: np.ndarray
+    end: np.ndarray
+    length: np.ndarray
+
+    def __len__(self) -> int:
+        return int(self.start.shape[0])
+
+
+def _measured_path(log: WheelLog, runs: np.ndarray) -> np.ndarray:
+    """Cumulative measured path length per row, shape (N,), m (NaN without position).
+
+    The distance between consecutive measured positions of different
+    segments counts as zero, so differences within a segment are path lengths.
+    """
+    rows = np.flatnonzero(log.has_position)
+    steps = np.zeros(rows.size)
+    steps[1:] = np.linalg.norm(np.diff(log.pose[rows, :2], axis=0), axis=1)
+    steps[1:][runs[rows][1:] != runs[rows][:-1]] = 0.0
+    path = np.full(len(log), np.nan)
+    path[rows] = np.cumsum(steps)
+    return path
+
+
+def spatial_windows(log: WheelLog, horizon: float = DEFAULT_HORIZON) -> Windows:
+    """Find the spatial evaluation windows of a log.
+
+    Parameters
+    ----------
+    log : WheelLog
+        Log with pose measurements (``N`` rows).
+    horizon : float, optional
+        Minimum measured path length of a window ``h_e``, m (> 0).
+
+    Returns
+    -------
+    Windows
+        One window per full-pose row that reaches ``horizon`` within its
+        segment, in row order.
+
+    Examples
+    --------
+    Poses every 0.5 m along x, a segment change after row 5:
+
+    >>> n = 8
+    >>> pose = np.c_[0.5 * np.arange(n), np.zeros(n), np.zeros(n)]
+    >>> log = WheelLog(np.arange(n, dtype=float), np.ones(n), np.ones(n), pose,
+    ...                None, np.array([0] * 6 + [1] * 2))
+    >>> w = spatial_windows(log, horizon=1.0)
+    >>> w.start.tolist(), w.end.tolist(), w.length.tolist()
+    ([0, 1, 2, 3], [2, 3, 4, 5], [1.0, 1.0, 1.0, 1.0])
+    """
+    if not horizon > 0.0:
+        raise ValueError(f"window horizon must be > 0 m, got {horizon}")
+    runs = log.segment_runs()
+    path = _measured_path(log, runs)
+    return _windows_reaching(log, runs, path, path, horizon)
+
+
+def time_windows(log: WheelLog, duration: float) -> Windows:
+    """Find windows of a minimum duration (the time-horizon variant of :func:`spatial_windows`).
+
+    Parameters
+    ----------
+    log : WheelLog
+        Log with pose measurements (``N`` rows).
+    duration : float
+        Minimum time between the start and end pose measurements, s (> 0).
+
+    Returns
+    -------
+    Windows
+        One window per full-pose row that reaches ``duration`` within its
+        segment, in row order; ``length`` is the measured path length (m,
+        possibly 0 when the robot stood still).
+
+    Examples
+    --------
+    >>> n = 6
+    >>> pose = np.c_[0.5 * np.arange(n), np.zeros(n), np.zeros(n)]
+    >>> log = WheelLog(0.5 * np.arange(n), np.ones(n), np.ones(n), pose,
+    ...                None, np.array([0] * 4 + [1] * 2))
+    >>> w = time_windows(log, duration=1.0)
+    >>> w.start.tolist(), w.end.tolist()
+    ([0, 1], [2, 3])
+    """
+    if not duration > 0.0:
+        raise ValueError(f"window duration must be > 0 s, got {duration}")
+    runs = log.segment_runs()
+    same_run = runs[1:] == runs[:-1]
+    clock = np.concatenate([[0.0], np.cumsum(np.where(same_run, np.diff(log.t), 0.0))])
+    return _windows_reaching(log, runs, clock, _measured_path(log, runs), duration)
+
+
+def _windows_reaching(
+    log: WheelLog, runs: np.ndarray, measure: np.ndarray, path: np.ndarray, horizon: float
+) -> Windows:
+    """Windows from each full-pose row to the first one of its run ``horizon`` further.
+
+    ``measure`` is a per-row quantity that never decreases (path length or
+    time, frozen across segment changes); ``path`` gives the window lengths.
+    """
+    rows = np.flatnonzero(log.has_pose)
+    m = measure[rows]
+    j = np.searchsorted(m, m + horizon, side="left")
+    inside = j < rows.size
+    j_in = np.minimum(j, rows.size - 1)
+    keep = inside & (runs[rows[j_in]] == runs[rows])
+    start, end = rows[keep], rows[j_in[keep]]
+    return Windows(start=start, end=end, length=path[end] - path[start])
+
+
+def non_overlapping(windows: Windows) -> Windows:
+    """Chain windows end to start: the distinct segments of Baril et al.'s training.
+
+    Greedily keeps the first window, then the first window starting at or
+    after the end of the last kept one, and so on.
+
+    Parameters
+    ----------
+    windows : Windows
+        Windows in row order (from :func:`spatial_windows` or :func:`time_windows`).
+
+    Returns
+    -------
+    Windows
+        A subset whose row ranges ``start .. end`` do not overlap (they may
+        share an end/start row).
+
+    Examples
+    --------
+    >>> w = Windows(np.array([0, 1, 2, 3, 4]), np.array([2, 3, 4, 6, 6]), np.ones(5))
+    >>> non_overlapping(w).start.tolist()
+    [0, 2, 4]
+    """
+    keep = []
+    i = 0
+    while i < len(windows):
+        keep.append(i)
+        i = int(np.searchsorted(windows.start, windows.end[i], side="left"))
+    idx = np.asarray(keep, dtype=int)
+    return Windows(start=windows.start[idx], end=windows.end[idx], length=windows.length[idx])
+
+
+def prediction_windows(
+    log: WheelLog,
+    horizon: float = PREDICTION_HORIZON,
+    *,
+    starts: ArrayLike | None = None,
+    tolerance: float = 0.25,
+) -> Windows:
+    """Time windows of ``horizon`` seconds between full pose measurements.
+
+    Parameters
+    ----------
+    log : WheelLog
+        The reference log (its full poses are the ground truth).
+    horizon : float
+        Prediction horizon, s (> 0).
+    starts : array_like of int, optional
+        Candidate start rows (e.g. the rows of a subsampled pose stream);
+        every full-pose row if omitted. Rows without a full pose are skipped.
+    tolerance : float
+        Largest accepted ``|t_end - t_start - horizon|``, s.
+
+    Returns
+    -------
+    Windows
+        ``start``, ``end`` rows and the measured path ``length`` (m).
+
+    Examples
+    --------
+    >>> n = 9
+    >>> log = WheelLog(np.arange(n) * 0.5, np.ones(n), np.ones(n),
+    ...                np.c_[np.arange(n) * 0.5, np.zeros(n), np.zeros(n)],
+    ...                None, np.zeros(n, dtype=int))
+    >>> w = prediction_windows(log, 2.0, starts=[0, 2, 4, 6])
+    >>> w.start.tolist(), w.end.tolist()
+    ([0, 2, 4], [4, 6, 8])
+    """
+    if not horizon > 0.0:
+        raise ValueError(f"prediction horizon must be > 0 s, got {horizon}")
+    rows = np.flatnonzero(log.has_pose)
+    cand = rows if starts is None else np.asarray(starts, dtype=int)
+    cand = cand[log.has_pose[cand]]
+    runs = log.segment_runs()
+    t_rows = log.t[rows]
+    target = log.t[cand] + horizon
+    j = np.clip(np.searchsorted(t_rows, target), 1, max(rows.size - 1, 1))
+    before = np.clip(j - 1, 0, rows.size - 1)
+    j = np.minimum(j, rows.size - 1)
+    nearest = np.where(np.abs(t_rows[before] - target) <= np.abs(t_rows[j] - target), before, j)
+    end = rows[nearest] if rows.size else cand
+    keep = (
+        (end > cand)
+        & (runs[end] == runs[cand])
+        & (np.abs(log.t[end] - target) <= tolerance)
+    )  # fmt: skip
+    path = _measured_path(log, runs)
+    start, end = cand[keep], end[keep]
+    return Windows(start=start, end=end, length=path[end] - path[start])
+
+
+def padded_steps(
+    log: WheelLog, windows: Windows, index: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Wheel rows of some windows as a padded ``(W, K)`` block.
+
+    Parameters
+    ----------
+    log : WheelLog
+        The log the windows belong to.
+    windows : Windows
+        The windows.
+    index : ndarray of int, shape (W,)
+        Which windows to take; ``K`` is the longest one's number of steps.
+
+    Returns
+    -------
+    rows : ndarray of int, shape (W, K)
+        Log row of each step (padding repeats the last real row).
+    valid : ndarray of bool, shape (W, K)
+        False on padding.
+    dt : ndarray, shape (W, K)
+        Duration of each step (``t[k+1] - t[k]``, zero-order hold), s; 0 on padding.
+    """
+    dt_row = np.append(np.diff(log.t), 0.0)
+    k = (windows.end - windows.start)[index, None]
+    step = np.arange(k.max())
+    valid = step < k
+    rows = windows.start[index, None] + np.minimum(step, k - 1)
+    return rows, valid, np.where(valid, dt_row[rows], 0.0)
