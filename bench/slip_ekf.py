@@ -51,7 +51,7 @@ from terrain_odom.evaluation.prediction import (
     prediction_windows,
     slip_twist_from_rows,
 )
-from terrain_odom.fitting.identify import (
+from terrain_odom.fitting import (
     FitOptions,
     Horizon,
     fit_model,

@@ -9,7 +9,7 @@ import pytest
 from sim_logs import simulated_log
 
 from terrain_odom.evaluation import spatial_windows
-from terrain_odom.fitting.identify import (
+from terrain_odom.fitting import (
     FitOptions,
     Horizon,
     fit_model,
@@ -180,12 +180,12 @@ def test_sigma_weights_the_loss():
     m = get_model("edd-sym")
     p = np.array([[0.8, 2.0]])
     base = residuals(m, p, segs)
-    from terrain_odom.fitting.identify import _whitener
+    from terrain_odom.fitting.loss import whitener_matrix
 
-    scaled = residuals(m, p, segs, whitener=_whitener([2.0, 2.0, 0.5]))
+    scaled = residuals(m, p, segs, whitener=whitener_matrix([2.0, 2.0, 0.5]))
     np.testing.assert_allclose(scaled, base * [0.5, 0.5, 2.0])
     with pytest.raises(ValueError, match="positive definite|> 0"):
-        _whitener([1.0, 0.0, 1.0])
+        whitener_matrix([1.0, 0.0, 1.0])
 
 
 def test_idd_has_nothing_to_fit():
