@@ -20,14 +20,13 @@
 
 Usage::
 
-    PYTHONPATH=src python bench/slip_ekf.py [--data ../shared/data/drive]
+    python bench/slip_ekf.py [--data ../shared/data/drive]
 """
 
 from __future__ import annotations
 
 import argparse
 import dataclasses
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -62,6 +61,7 @@ from terrain_odom.io import read_wheel_log
 from terrain_odom.kinematics import get_model, integrate, relative_pose, twist_icr, wrap_angle
 from terrain_odom.kinematics.slip import SlipModel
 from terrain_odom.sim.slip_scenario import TRACK_WIDTH, feature_slip_scenario, icr_switch_scenario
+from terrain_odom.sim.slip_tuning import SEC41_SLIP_EKF, sec41_config
 
 REPO = Path(__file__).resolve().parents[1]
 TUNING_LOGS = (  # config/warthog.yaml slip_ekf was chosen on these; the others are held out
@@ -125,9 +125,6 @@ def settling(res, sc, tol: float = 0.2) -> list[float]:
 
 def sim_settling(seeds=range(10)):
     """Print settling times (|ICR error| <= 0.2 m) of Sec. 4.1 per seed."""
-    sys.path.insert(0, str(REPO / "tests" / "estimation"))
-    from test_slip_ekf import SIM_SLIP, _sim_config  # the tuning the tests use
-
     print("1. Sec. 4.1 abrupt ICR change (10 Hz pose), settling to |ICR error| <= 0.2 m, s,")
     print("   seeds 0-9: change at 2 s | change at 12 s  (count <= 1 s)")
 
@@ -139,10 +136,12 @@ def sim_settling(seeds=range(10)):
         ]
         print(f"   {name:<44} {' | '.join(cells)}")
 
-    for window in (SIM_SLIP.window, 0.0):
+    for window in (SEC41_SLIP_EKF.window, 0.0):
         for adapt in (False, True):
-            cfg = _sim_config(adapt)
-            cfg = dataclasses.replace(cfg, slip_ekf=dataclasses.replace(SIM_SLIP, window=window))
+            cfg = sec41_config(adapt)
+            cfg = dataclasses.replace(
+                cfg, slip_ekf=dataclasses.replace(SEC41_SLIP_EKF, window=window)
+            )
             rows = []
             for seed in seeds:
                 sc = icr_switch_scenario(seed=seed)
@@ -156,8 +155,8 @@ def sim_settling(seeds=range(10)):
     quiet = []
     for seed in seeds:
         sc = icr_switch_scenario(sigma_xy=0.01, sigma_yaw=np.radians(0.2), seed=seed)
-        quiet.append(settling(run_slip_ekf(sc.log, _sim_config(False), labels=sc.log.terrain), sc))
-    show(f"window {SIM_SLIP.window:.1f} s, not signalled, 1 cm / 0.2 deg", quiet)
+        quiet.append(settling(run_slip_ekf(sc.log, sec41_config(False), labels=sc.log.terrain), sc))
+    show(f"window {SEC41_SLIP_EKF.window:.1f} s, not signalled, 1 cm / 0.2 deg", quiet)
 
 
 # ---------------------------------------------------------------- 2. Sec. 4.2

@@ -11,12 +11,10 @@ import pytest
 from terrain_odom.config import (
     Config,
     IcrLimits,
-    PoseChangeSigmas,
     RobotConfig,
     SlipEkfConfig,
     SlipParams,
     SlipSigmas,
-    TerrainConfig,
     load_config,
 )
 from terrain_odom.errors import ConfigError, EstimationError
@@ -31,26 +29,9 @@ from terrain_odom.sim.slip_scenario import (
     feature_slip_scenario,
     icr_switch_scenario,
 )
+from terrain_odom.sim.slip_tuning import SEC41_SLIP_EKF, sec41_config
 
 MODEL = SlipModel(TRACK_WIDTH, 1e-3, True, True, IcrLimits())
-# Sec. 4.1 tuning: pose at 10 Hz with RTK-GPS noise; the paper's model has no alpha.
-# window, sigma_p0 and sigma_q chosen on seeds 100-109 (bench/slip_ekf.py reports seeds 0-9).
-SIM_SLIP = SlipEkfConfig(
-    estimate_alpha=False,
-    window=0.6,
-    sigma_p0=SlipSigmas(*(2.0,) * 6, 0.1),
-    sigma_pb=SlipSigmas(*(2.0,) * 6, 0.1),
-    sigma_q=SlipSigmas(*(0.12,) * 6, 0.001),
-    sigma_r=PoseChangeSigmas(0.03, 0.03, 0.012),
-)
-
-
-def _sim_config(adapt: bool = True) -> Config:
-    return Config(
-        robot=RobotConfig(track_width=TRACK_WIDTH),
-        slip_ekf=SIM_SLIP,
-        terrain=TerrainConfig(adapt=adapt, memory=False),
-    )
 
 
 @pytest.mark.parametrize(
@@ -229,7 +210,7 @@ def _settling(seed: int, window: float, adapt: bool) -> tuple[float, float]:
     """Settling times (s) of the ICRs after the two Sec. 4.1 changes, |error| <= 0.2 m."""
     scenario = icr_switch_scenario(seed=seed)
     cfg = dataclasses.replace(
-        _sim_config(adapt), slip_ekf=dataclasses.replace(SIM_SLIP, window=window)
+        sec41_config(adapt), slip_ekf=dataclasses.replace(SEC41_SLIP_EKF, window=window)
     )
     res = run_slip_ekf(scenario.log, cfg, labels=scenario.log.terrain)
     if adapt:
@@ -245,7 +226,7 @@ def _settling(seed: int, window: float, adapt: bool) -> tuple[float, float]:
 
 def test_icrs_settle_within_a_second_of_unsignalled_abrupt_changes():
     # Sec. 4.1 as in the paper: the filter is not told about the changes.
-    first, second = np.array([_settling(seed, SIM_SLIP.window, False) for seed in range(3)]).T
+    first, second = np.array([_settling(seed, SEC41_SLIP_EKF.window, False) for seed in range(3)]).T
     assert np.median(first) <= 1.0 and max(first) <= 1.5
     assert max(second) <= 1.0
 
@@ -253,11 +234,14 @@ def test_icrs_settle_within_a_second_of_unsignalled_abrupt_changes():
 def test_one_interval_measurement_settles_slowly():
     # The pose change since the previous 10-Hz pose alone: the first updates after the
     # change are too noisy to linearise at, P collapses and the ICRs creep for seconds.
-    assert _settling(0, 0.0, False)[0] > 2.0 * _settling(0, SIM_SLIP.window, False)[0] + 1.0
+    assert _settling(0, 0.0, False)[0] > 2.0 * _settling(0, SEC41_SLIP_EKF.window, False)[0] + 1.0
 
 
 def test_terrain_reset_speeds_up_reconvergence_after_an_abrupt_icr_change():
-    fast, slow = _settling(1, SIM_SLIP.window, True)[1], _settling(1, SIM_SLIP.window, False)[1]
+    fast, slow = (
+        _settling(1, SEC41_SLIP_EKF.window, True)[1],
+        _settling(1, SEC41_SLIP_EKF.window, False)[1],
+    )
     assert fast < slow and fast <= 1.0
 
 

@@ -7,11 +7,12 @@ import json
 import numpy as np
 import pytest
 import yaml
-from sim_logs import simulated_log, write_log_csv
 
 from terrain_odom.cli.main import main
 from terrain_odom.errors import InputFileError
 from terrain_odom.io.params import ModelParams, ParamSet, read_params, write_params
+from terrain_odom.io.wheel_log import write_wheel_log
+from terrain_odom.sim.model_log import constant_model_log
 
 FAST = ("--popsize", "8")
 
@@ -36,9 +37,9 @@ def logs(tmp_path_factory):
     paths = {}
     for terrain, params, seed in (("grass", [0.9, 1.8], 1), ("asphalt", [0.95, 2.6], 2)):
         for role, s in (("train", seed), ("eval", seed + 10)):
-            log = simulated_log("edd-sym", params, seconds=40.0, seed=s, terrain=terrain)
+            log = constant_model_log("edd-sym", params, seconds=40.0, seed=s, terrain=terrain)
             paths[terrain, role] = folder / f"{terrain}_{role}.csv"
-            write_log_csv(log, paths[terrain, role])
+            write_wheel_log(paths[terrain, role], log)
     return paths
 
 
@@ -141,7 +142,7 @@ def test_bad_input_is_one_line_and_exit_2(logs, tmp_path, capsys):
     no_pose = tmp_path / "no_pose.csv"
     no_pose.write_text("t,v_l,v_r\n0,1,1\n0.1,1,1\n")
     no_terrain = tmp_path / "no_terrain.csv"
-    write_log_csv(simulated_log("edd-sym", [0.9, 1.8], seconds=10.0), no_terrain)
+    write_wheel_log(no_terrain, constant_model_log("edd-sym", [0.9, 1.8], seconds=10.0))
     grass = logs["grass", "train"]
     out = tmp_path / "p.yaml"
     cases = [

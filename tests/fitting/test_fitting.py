@@ -6,7 +6,6 @@ import dataclasses
 
 import numpy as np
 import pytest
-from sim_logs import simulated_log
 
 from terrain_odom.evaluation import spatial_windows
 from terrain_odom.fitting import (
@@ -20,6 +19,7 @@ from terrain_odom.fitting import (
 )
 from terrain_odom.kinematics import get_model
 from terrain_odom.records import WheelLog
+from terrain_odom.sim.model_log import constant_model_log
 
 H2 = Horizon(2.0, "m")
 FAST = FitOptions(popsize=8, maxiter=200)
@@ -45,7 +45,7 @@ def _loss(model, params, segs, track_width=1.0):
 
 @pytest.mark.parametrize("name", sorted(TRUTH))
 def test_each_model_recovered_on_its_own_data(name):
-    log = simulated_log(name, TRUTH[name], seconds=60.0, seed=1)
+    log = constant_model_log(name, TRUTH[name], seconds=60.0, seed=1)
     result = fit_model(name, _segments([log]), options=FAST, track_width=1.0)
     truth = np.array(TRUTH[name])
     # ROC's curvature law is weakly excited; its beta_1, beta_2 get a looser bound
@@ -56,20 +56,20 @@ def test_each_model_recovered_on_its_own_data(name):
 
 @pytest.mark.parametrize("name", ["icr", "icr-slip"])
 def test_icr_recovered_within_1_cm(name):
-    log = simulated_log(name, TRUTH[name], seconds=90.0, seed=2)
+    log = constant_model_log(name, TRUTH[name], seconds=90.0, seed=2)
     result = fit_model(name, _segments([log]), options=FAST, track_width=1.0)
     np.testing.assert_allclose(result.params[:3], TRUTH[name][:3], atol=0.01)
 
 
 def test_noise_free_fit_is_exact():
-    log = simulated_log("edd-asym", TRUTH["edd-asym"], seconds=30.0, noise=(0.0, 0.0, 0.0))
+    log = constant_model_log("edd-asym", TRUTH["edd-asym"], seconds=30.0, noise=(0.0, 0.0, 0.0))
     result = fit_model("edd-asym", _segments([log]), options=FAST)
     np.testing.assert_allclose(result.params, TRUTH["edd-asym"], atol=1e-5)
     assert result.loss < 1e-12
 
 
 def test_fit_is_reproducible_and_seeded():
-    segs = _segments([simulated_log("edd-sym", TRUTH["edd-sym"], seconds=30.0)])
+    segs = _segments([constant_model_log("edd-sym", TRUTH["edd-sym"], seconds=30.0)])
     opt = dataclasses.replace(FAST, polish=False)
     a = fit_model("edd-sym", segs, options=opt)
     b = fit_model("edd-sym", segs, options=opt)
@@ -80,7 +80,7 @@ def test_fit_is_reproducible_and_seeded():
 
 def test_bounds_are_respected():
     # alpha = 1.7 is outside edd-sym's bound [0, 1.5]: the fit stops on the bound
-    log = simulated_log("edd-sym", [1.7, 1.8], seconds=30.0)
+    log = constant_model_log("edd-sym", [1.7, 1.8], seconds=30.0)
     result = fit_model("edd-sym", _segments([log]), options=FAST)
     (lo_a, hi_a), (lo_b, hi_b) = get_model("edd-sym").bounds
     assert lo_a <= result.params[0] <= hi_a and lo_b <= result.params[1] <= hi_b
@@ -88,7 +88,7 @@ def test_bounds_are_respected():
 
 
 def test_loss_is_invariant_to_splitting_a_log_into_files():
-    log = simulated_log("icr-slip", TRUTH["icr-slip"], seconds=60.0, segments=3)
+    log = constant_model_log("icr-slip", TRUTH["icr-slip"], seconds=60.0, segments=3)
     pieces = [_select_rows(log, log.segment == s) for s in range(3)]
     whole = _segments([log])
     split = _segments(pieces)
@@ -96,7 +96,7 @@ def test_loss_is_invariant_to_splitting_a_log_into_files():
     p = [0.8, -1.0, 0.05, 0.95]
     assert _loss("icr-slip", p, split) == pytest.approx(_loss("icr-slip", p, whole), rel=1e-12)
     # cutting a segment-free log at a segment boundary of the chain gives the same segments too
-    one = simulated_log("icr-slip", TRUTH["icr-slip"], seconds=60.0)
+    one = constant_model_log("icr-slip", TRUTH["icr-slip"], seconds=60.0)
     w = training_windows(one, H2)
     cut = int(w.end[5])
     first = _select_rows(one, np.arange(len(one)) <= cut)
@@ -114,7 +114,7 @@ def _select_rows(log: WheelLog, mask: np.ndarray) -> WheelLog:
 
 
 def test_segments_never_cross_a_segment_break_and_do_not_overlap():
-    log = simulated_log("edd-sym", TRUTH["edd-sym"], seconds=40.0, segments=4)
+    log = constant_model_log("edd-sym", TRUTH["edd-sym"], seconds=40.0, segments=4)
     for horizon in (H2, Horizon(1.5, "s")):
         w = training_windows(log, horizon)
         assert len(w) > 8
@@ -126,7 +126,7 @@ def test_segments_never_cross_a_segment_break_and_do_not_overlap():
 
 
 def test_time_horizon_segments_last_at_least_the_duration():
-    log = simulated_log("edd-sym", TRUTH["edd-sym"], seconds=20.0)
+    log = constant_model_log("edd-sym", TRUTH["edd-sym"], seconds=20.0)
     w = training_windows(log, parse_horizon("2s"))
     duration = log.t[w.end] - log.t[w.start]
     assert np.all(duration >= 2.0 - 1e-9) and np.all(duration < 2.0 + 0.2)
@@ -136,7 +136,7 @@ def test_time_horizon_segments_last_at_least_the_duration():
 
 def test_merging_constant_steps_keeps_the_loss():
     # wheel readings held for several rows are merged into one step: loss unchanged
-    log = simulated_log("roc", TRUTH["roc"], seconds=30.0)
+    log = constant_model_log("roc", TRUTH["roc"], seconds=30.0)
     segs = _segments([log])
     steps = sum(int(np.count_nonzero(b.dt)) for b in segs.blocks)
     assert steps < 0.2 * sum(
@@ -152,8 +152,8 @@ def test_merging_constant_steps_keeps_the_loss():
 
 
 def test_per_terrain_segments_stay_on_their_terrain():
-    a = simulated_log("edd-sym", [0.9, 1.8], seconds=30.0, terrain="grass")
-    b = simulated_log("edd-sym", [0.8, 2.5], seconds=30.0, terrain="asphalt", seed=3)
+    a = constant_model_log("edd-sym", [0.9, 1.8], seconds=30.0, terrain="grass")
+    b = constant_model_log("edd-sym", [0.8, 2.5], seconds=30.0, terrain="asphalt", seed=3)
     both = _concat(a, b)
     wg = training_windows(both, H2, "grass")
     wa = training_windows(both, H2, "asphalt")
@@ -176,7 +176,7 @@ def _concat(a: WheelLog, b: WheelLog) -> WheelLog:
 
 
 def test_sigma_weights_the_loss():
-    segs = _segments([simulated_log("edd-sym", TRUTH["edd-sym"], seconds=20.0)])
+    segs = _segments([constant_model_log("edd-sym", TRUTH["edd-sym"], seconds=20.0)])
     m = get_model("edd-sym")
     p = np.array([[0.8, 2.0]])
     base = residuals(m, p, segs)
@@ -189,13 +189,13 @@ def test_sigma_weights_the_loss():
 
 
 def test_idd_has_nothing_to_fit():
-    segs = _segments([simulated_log("idd", [], seconds=20.0, track_width=1.0)])
+    segs = _segments([constant_model_log("idd", [], seconds=20.0, track_width=1.0)])
     result = fit_model("idd", segs, track_width=1.0)
     assert result.params.size == 0 and result.loss < 1e-3
 
 
 def test_no_segment_is_an_error():
-    log = simulated_log("edd-sym", TRUTH["edd-sym"], seconds=2.0)
+    log = constant_model_log("edd-sym", TRUTH["edd-sym"], seconds=2.0)
     with pytest.raises(ValueError, match="no training segment"):
         fit_model("edd-sym", _segments([log], Horizon(50.0, "m")))
 

@@ -6,7 +6,6 @@ import json
 
 import numpy as np
 import pytest
-from sim_logs import simulated_log, write_log_csv
 
 from terrain_odom.cli.main import main
 from terrain_odom.config import load_config
@@ -19,7 +18,9 @@ from terrain_odom.evaluation import (
 )
 from terrain_odom.io import read_wheel_log
 from terrain_odom.io.params import read_priors
+from terrain_odom.io.wheel_log import write_wheel_log
 from terrain_odom.records import WheelLog
+from terrain_odom.sim.model_log import constant_model_log
 
 TRUTH = {"grass": (0.55, -0.50, 0.05, 0.93), "gravel": (0.80, -0.72, 0.15, 0.85)}
 TOLERANCE = 0.05  # m: evaluation.icr_tolerance (10 %) of the default 0.5-m track width
@@ -49,18 +50,19 @@ def files(tmp_path_factory):
     train = []
     for seed, (terrain, truth) in enumerate(TRUTH.items(), start=1):
         train.append(folder / f"train_{terrain}.csv")
-        write_log_csv(
-            simulated_log("icr-slip", truth, seconds=60.0, seed=seed, terrain=terrain), train[-1]
+        write_wheel_log(
+            train[-1],
+            constant_model_log("icr-slip", truth, seconds=60.0, seed=seed, terrain=terrain),
         )
     priors = folder / "priors.yaml"
     argv = ["fit", "--model", "icr-slip", "--by-terrain", "--popsize", "8", "--out", priors]
     assert main([str(a) for a in [*argv, "--log", *train]]) == 0
     grass, gravel = (
-        simulated_log("icr-slip", truth, seconds=40.0, seed=seed, terrain=terrain)
+        constant_model_log("icr-slip", truth, seconds=40.0, seed=seed, terrain=terrain)
         for seed, (terrain, truth) in enumerate(TRUTH.items(), start=10)
     )
     evaluation = folder / "eval.csv"
-    write_log_csv(_one_after_another(grass, gravel), evaluation)
+    write_wheel_log(evaluation, _one_after_another(grass, gravel))
     return {"priors": priors, "eval": evaluation, "train": train[0]}
 
 

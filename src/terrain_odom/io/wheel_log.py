@@ -1,4 +1,4 @@
-"""Reader of wheel logs, the CSV input format of terrain-odom.
+"""Reader and writer of wheel logs, the CSV input format of terrain-odom.
 
 A wheel log is a comma-separated text file (UTF-8) whose first line is a header
 naming the columns; every following non-empty line is one sample. Header names
@@ -30,15 +30,17 @@ the column, e.g. ``log.csv, line 17, column 'v_l': 'abc' is not a number``.
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Sequence
 
 import numpy as np
 
 from terrain_odom.io._csv import CsvTable, Source, floats_or_nan, read_csv, shown
+from terrain_odom.io.atomic import write_text_atomic
 from terrain_odom.kinematics.integration import wrap_angle
 from terrain_odom.records import WheelLog, change_runs, run_starts
 
-__all__ = ["read_wheel_log"]
+__all__ = ["read_wheel_log", "write_wheel_log"]
 
 
 _SPEED_PAIRS = (("v_l", "v_r"), ("omega_l", "omega_r"))
@@ -101,6 +103,44 @@ def read_wheel_log(source: Source, *, wheel_radius: float | None = None) -> Whee
         segment=segment,
         source=table.name,
     )
+
+
+def write_wheel_log(path: str | os.PathLike[str], log: WheelLog) -> None:
+    """Write a wheel log as CSV (``t,v_l,v_r,x,y,yaw[,terrain],segment``), atomically.
+
+    ``t`` is written to 1 microsecond, speeds and poses to 1e-9 (m/s, m,
+    rad); an unmeasured pose cell is empty. :func:`read_wheel_log` reads it
+    back.
+
+    Parameters
+    ----------
+    path : str or PathLike
+        File to write (its folder must exist).
+    log : WheelLog
+        The log; ``terrain`` becomes a column when it is not None.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> folder = tempfile.TemporaryDirectory()
+    >>> path = pathlib.Path(folder.name) / "log.csv"
+    >>> log = WheelLog(np.array([0.0, 0.1]), np.ones(2), np.ones(2),
+    ...                np.array([[0.0, 0.0, 0.0], [np.nan, np.nan, 0.5]]), None, np.zeros(2, int))
+    >>> write_wheel_log(path, log)
+    >>> path.read_text().splitlines()[2]
+    '0.100000,1.000000000,1.000000000,,,0.500000000,0'
+    >>> folder.cleanup()
+    """
+    labels = log.terrain
+    header = "t,v_l,v_r,x,y,yaw" + (",terrain" if labels is not None else "") + ",segment"
+    lines = [header]
+    for k in range(len(log)):
+        pose = ",".join("" if np.isnan(v) else f"{v:.9f}" for v in log.pose[k])
+        label = f",{labels[k]}" if labels is not None else ""
+        lines.append(
+            f"{log.t[k]:.6f},{log.v_l[k]:.9f},{log.v_r[k]:.9f},{pose}{label},{log.segment[k]}"
+        )
+    write_text_atomic(path, "\n".join(lines) + "\n")
 
 
 def _check_known_columns_unique(table: CsvTable) -> None:
