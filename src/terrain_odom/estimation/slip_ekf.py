@@ -1,23 +1,10 @@
 """Slip-parameter EKF for low-rate pose sensors (the 2016 tracked-vehicle slip model).
 
-The track ICRs are functions of two features of the track surface speeds
-``v_l, v_r`` (m/s) and the nominal track width ``B`` (m):
-
-- lateral acceleration ``a = |v * omega_0|`` (m/s^2) with ``v = (v_l + v_r) / 2``
-  and ``omega_0 = (v_r - v_l) / B`` (the no-slip yaw rate);
-- curvature ``k = |v_r - v_l| / (|v_l| + |v_r| + eps)``, bounded to [0, 1]
-  (0 straight, 1 turning on the spot);
-
-.. math::
-
-    y_l = B/2 + l_1 a + l_2 k,\\quad
-    y_r = -(B/2 + l_3 a + l_4 k),\\quad
-    x_{icr} = l_5 a + l_6 k,
-
-optionally with the longitudinal slip factor ``alpha`` multiplying both track
-speeds. ``l = 0`` (and ``alpha = 1``) is the ideal differential drive. The
-ICRs are clipped into configured bounds, so ``y_l - y_r`` never reaches 0.
-The body twist is :func:`~terrain_odom.kinematics.twist_icr` of these ICRs.
+The model (:mod:`terrain_odom.kinematics.slip`, :class:`~terrain_odom.kinematics.slip.SlipModel`):
+the track ICRs are linear in six parameters ``l1 .. l6`` over two features of
+the track speeds (lateral acceleration and curvature), optionally with a
+longitudinal slip factor ``alpha``; ``l = 0`` (and ``alpha = 1``) is the
+ideal differential drive.
 
 The filter state is the parameter vector ``l1 .. l6(, alpha)`` only: the
 pose is not a state, the parameters follow a random walk. At each pose
