@@ -2,12 +2,9 @@
 
 from __future__ import annotations
 
-import io
-
 import numpy as np
 import pytest
 
-from terrain_odom.errors import InputFileError
 from terrain_odom.evaluation import model_twist, spatial_windows
 from terrain_odom.evaluation.groundtruth import (
     feature_times,
@@ -18,7 +15,6 @@ from terrain_odom.evaluation.groundtruth import (
     path_length,
     reconvergence,
 )
-from terrain_odom.io.groundtruth import read_groundtruth
 from terrain_odom.kinematics import get_model
 from terrain_odom.records import GroundTruth, WheelLog
 
@@ -30,21 +26,6 @@ def _straight_gt(n: int = 101, speed: float = 1.0, dt: float = 0.1) -> GroundTru
     terrain = np.where(x < 4.0 - 1e-9, "grass", "sand")
     icr = np.where((terrain == "grass")[:, None], [0.5, -0.5, 0.0], [0.8, -0.7, 0.1])
     return GroundTruth(t, np.c_[x, 0 * x, 0 * x], icr, None, terrain, "gt")
-
-
-def test_read_groundtruth_and_its_errors():
-    text = "t,x,y,yaw,y_l,y_r,x_icr,terrain,alpha\n0,0,0,0,.4,-.4,0,grass,0.9\n0.1,0.1,0,0,.4,-.4,0,sand,0.9\n"
-    gt = read_groundtruth(io.StringIO(text))
-    assert gt.changes() == [(0.1, "grass", "sand")] and gt.alpha.tolist() == [0.9, 0.9]
-    bad_time = text.replace("0.1,0.1", "0.0,0.1")
-    with pytest.raises(InputFileError, match=r"line 3, column 't'.*does not increase"):
-        read_groundtruth(io.StringIO(bad_time))
-    with pytest.raises(InputFileError, match=r"line 2, column 'y_l'.*'nan' is not a finite"):
-        read_groundtruth(io.StringIO(text.replace(".4,-.4,0,grass", "nan,-.4,0,grass")))
-    with pytest.raises(InputFileError, match="missing column 'terrain'"):
-        read_groundtruth(io.StringIO("t,x,y,yaw,y_l,y_r,x_icr\n0,0,0,0,1,-1,0\n"))
-    with pytest.raises(InputFileError, match="empty terrain label"):
-        read_groundtruth(io.StringIO(text.replace("grass", " ")))
 
 
 def test_path_length_of_a_square():

@@ -1,4 +1,4 @@
-"""Tests of :func:`terrain_odom.io.read_wheel_log`."""
+"""Tests of :func:`terrain_odom.io.read_wheel_log` and :func:`~terrain_odom.io.wheel_log.write_wheel_log`."""
 
 from __future__ import annotations
 
@@ -12,6 +12,7 @@ import pytest
 
 from terrain_odom.errors import InputFileError
 from terrain_odom.io import read_wheel_log
+from terrain_odom.io.wheel_log import write_wheel_log
 from terrain_odom.records import WheelLog
 
 DRIVE_DIR = Path(__file__).resolve().parents[3] / "shared" / "data" / "drive"
@@ -401,6 +402,56 @@ def test_long_cells_are_shortened_in_messages(in_tmp: Path) -> None:
 
 
 # --- speed -------------------------------------------------------------------
+
+
+def test_written_log_reads_back(tmp_path: Path) -> None:
+    """write_wheel_log then read_wheel_log gives the log back (t to 1 us, the rest to 1e-9)."""
+    rng = np.random.default_rng(0)
+    n = 7
+    pose = rng.uniform(-3.0, 3.0, (n, 3))
+    pose[1] = np.nan
+    pose[2, :2] = np.nan  # heading only
+    log = WheelLog(
+        t=np.r_[np.arange(4) * 0.1, np.arange(3) * 0.1 + 0.0000004],
+        v_l=rng.normal(size=n),
+        v_r=rng.normal(size=n),
+        pose=pose,
+        terrain=np.array(["grass"] * 4 + ["gravel"] * 3),
+        segment=np.array([2] * 4 + [5] * 3),
+    )
+    path = tmp_path / "log.csv"
+    write_wheel_log(path, log)
+    back = read_wheel_log(path)
+    np.testing.assert_allclose(back.t, log.t, atol=5e-7)
+    np.testing.assert_allclose(back.v_l, log.v_l, atol=5e-10)
+    np.testing.assert_allclose(back.v_r, log.v_r, atol=5e-10)
+    np.testing.assert_allclose(back.pose, log.pose, atol=5e-10)
+    assert back.terrain.tolist() == log.terrain.tolist()
+    assert back.segment.tolist() == log.segment.tolist()
+    assert path.read_text().splitlines()[0] == "t,v_l,v_r,x,y,yaw,terrain,segment"
+
+
+def test_written_log_without_terrain_has_no_terrain_column(tmp_path: Path) -> None:
+    """Without labels the file has no terrain column and reads back with terrain None."""
+    log = WheelLog(np.arange(3.0), np.ones(3), np.ones(3), np.full((3, 3), np.nan), None,
+                   np.zeros(3, dtype=int))  # fmt: skip
+    path = tmp_path / "log.csv"
+    write_wheel_log(path, log)
+    assert path.read_text().splitlines()[:2] == [
+        "t,v_l,v_r,x,y,yaw,segment",
+        "0.000000,1.000000000,1.000000000,,,,0",
+    ]
+    assert read_wheel_log(path).terrain is None
+
+
+def test_writing_into_a_missing_folder_fails_and_leaves_nothing(tmp_path: Path) -> None:
+    """The writer is atomic: a missing folder raises FileNotFoundError naming it."""
+    log = WheelLog(
+        np.zeros(1), np.ones(1), np.ones(1), np.full((1, 3), np.nan), None, np.zeros(1, int)
+    )
+    with pytest.raises(FileNotFoundError, match="directory does not exist"):
+        write_wheel_log(tmp_path / "nope" / "log.csv", log)
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_reading_is_a_small_multiple_of_bare_csv_parsing(tmp_path: Path) -> None:

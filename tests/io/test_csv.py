@@ -1,0 +1,98 @@
+"""Tests of the shared CSV reader :mod:`terrain_odom.io._csv`."""
+
+from __future__ import annotations
+
+import io
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from terrain_odom.errors import InputFileError
+from terrain_odom.io._csv import floats_or_nan, read_csv, shown
+
+
+def _table(text: str):
+    return read_csv(io.StringIO(text))
+
+
+def test_reads_header_rows_and_file_lines_from_a_path(tmp_path: Path):
+    path = tmp_path / "a.csv"
+    path.write_text("\ufeff a , b \n1,2\n\n3,4\n", encoding="utf-8")  # BOM, blank line
+    table = read_csv(path)
+    assert table.name == str(path)
+    assert table.header == ["a", "b"]
+    assert table.rows == [["1", "2"], ["3", "4"]]
+    assert list(table.lines) == [2, 4]
+    assert len(table) == 2
+
+
+def test_a_quoted_multi_line_cell_keeps_the_following_line_numbers():
+    table = _table('a,b\n1,"x\ny"\n3,4\n')
+    assert table.rows == [["1", "x\ny"], ["3", "4"]]
+    assert list(table.lines) == [2, 4]
+
+
+def test_a_stream_is_named_by_its_name_or_stream():
+    assert _table("a\n1\n").name == "<stream>"
+    handle = io.StringIO("a\n1\n")
+    handle.name = "given.csv"
+    assert read_csv(handle).name == "given.csv"
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("", r"^<stream>: file is empty; expected a header line"),
+        ("a,b\n1,2\n3\n", r"^<stream>, line 3, column 'b': row has 1 cells but the header has 2$"),
+        ("a,b\n1,2,3\n", r"^<stream>, line 2: row has 3 cells but the header has 2$"),
+    ],
+)
+def test_bad_tables_name_the_line_and_column(text: str, message: str):
+    with pytest.raises(InputFileError, match=message):
+        _table(text)
+
+
+def test_missing_and_binary_files(tmp_path: Path):
+    missing = tmp_path / "nope.csv"
+    with pytest.raises(InputFileError, match=r"nope\.csv: file does not exist$"):
+        read_csv(missing)
+    binary = tmp_path / "bad.csv"
+    binary.write_bytes(b"a,b\n\xff,1\n")
+    with pytest.raises(InputFileError, match=r"bad\.csv: not a UTF-8 text file"):
+        read_csv(binary)
+    with pytest.raises(InputFileError, match=r": cannot open"):
+        read_csv(tmp_path)  # a folder
+
+
+def test_convert_reports_the_first_bad_cell():
+    table = _table("a\n1\n2\n\nx\n")
+    np.testing.assert_array_equal(_table("a\n1\n2\n").convert("a", int, np.int64, str), [1, 2])
+    with pytest.raises(InputFileError, match=r"^<stream>, line 5, column 'a': bad 'x'$"):
+        table.convert("a", int, np.int64, lambda cell: f"bad {cell!r}")
+
+
+def test_convert_reports_a_value_that_overflows_the_dtype():
+    table = _table("a\n1\n99999999999999999999999\n")
+    with pytest.raises(InputFileError, match=r"line 3, column 'a': too big"):
+        table.convert("a", int, np.int64, lambda cell: "too big")
+
+
+def test_require_columns_names_the_reason_and_the_header():
+    table = _table("t,v\n0,1\n")
+    table.require_columns("t", reason="time")
+    with pytest.raises(
+        InputFileError, match=r"^<stream>, line 1: missing column 'x' \(pose\); header is 't,v'$"
+    ):
+        table.require_columns("t", "x", reason="pose")
+
+
+def test_cells_floats_or_nan_and_shown():
+    table = _table("a,b\n 1 ,\n2,3\n")
+    assert table.cells("a") == [" 1 ", "2"]
+    np.testing.assert_array_equal(floats_or_nan(table.cells("b")), [np.nan, 3.0])
+    with pytest.raises(ValueError):
+        floats_or_nan(["1", "x"])
+    assert shown("abc") == "'abc'"
+    long = shown("x" * 50)
+    assert long.endswith("...'") and len(long) == 42
