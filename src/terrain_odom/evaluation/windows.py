@@ -44,14 +44,15 @@ PREDICTION_HORIZON = 2.0  # s, the 2016 slip-model paper's prediction horizon
 
 @dataclass(frozen=True)
 class Windows:
-    """Spatial evaluation windows of a log.
+    """Evaluation windows of a log (spatial, time or prediction windows).
 
     Attributes
     ----------
     start, end : ndarray of int, shape (W,)
         Log rows of the start and end pose measurements (``start < end``).
     length : ndarray, shape (W,)
-        Measured path length between start and end, m (``>= horizon``).
+        Measured path length between start and end, m (``>= horizon`` for
+        spatial windows).
     """
 
     start: np.ndarray
