@@ -18,7 +18,7 @@ import datetime
 import json
 from importlib import resources
 from pathlib import Path
-from typing import Any
+from typing import Any, BinaryIO
 
 import numpy as np
 
@@ -67,8 +67,19 @@ def save_classifier(model: TerrainClassifier, path: str | Path) -> Path:
         "created": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
         "terrain_odom_version": __version__,
     }
-    arrays = {**arrays, "metadata": np.array(json.dumps(metadata))}
-    write_atomic(path, lambda handle: np.savez(handle, **arrays))
+
+    def write(handle: BinaryIO) -> None:
+        np.savez(
+            handle,
+            features=arrays["features"],
+            labels=arrays["labels"],
+            region=arrays["region"],
+            scaler_mean=arrays["scaler_mean"],
+            scaler_scale=arrays["scaler_scale"],
+            metadata=np.array(json.dumps(metadata)),
+        )
+
+    write_atomic(path, write)
     return path
 
 

@@ -76,7 +76,7 @@ def colour_statistics(image_rgb: NDArray[np.uint8], space: Literal["lab", "hsv"]
 
 def _convert(image_rgb: NDArray[np.uint8], space: Literal["lab", "hsv"]) -> NDArray[np.uint8]:
     code = cv2.COLOR_RGB2Lab if space == "lab" else cv2.COLOR_RGB2HSV
-    return cv2.cvtColor(np.ascontiguousarray(image_rgb), code)
+    return np.asarray(cv2.cvtColor(np.ascontiguousarray(image_rgb), code), dtype=np.uint8)
 
 
 def _channel_statistics(converted: NDArray[np.uint8], space: Literal["lab", "hsv"]) -> NDArray:
@@ -98,23 +98,24 @@ def _colour_space(cfg: ClassifierConfig) -> Literal["lab", "hsv"] | None:
 
 
 def _features(
-    image_rgb: NDArray[np.uint8], converted: NDArray[np.uint8] | None, cfg: ClassifierConfig
+    image_rgb: NDArray[np.uint8], colour: NDArray | None, cfg: ClassifierConfig
 ) -> NDArray:
-    """:func:`region_features` given the region already in the colour space, if any."""
+    """:func:`region_features` given the region's colour statistics, if any."""
     parts = []
     level = image_rgb
     for depth in range(cfg.pyramid_levels):
         if depth:
             height, width = level.shape[:2]
             size = (max(width // 2, 1), max(height // 2, 1))
-            level = cv2.resize(level, size, interpolation=cv2.INTER_AREA)
+            level = np.asarray(
+                cv2.resize(level, size, interpolation=cv2.INTER_AREA), dtype=np.uint8
+            )
         sfta = np.array(sfta_features(level, cfg.n_t), dtype=np.float64)
         if not cfg.relative_counts:  # sfta_features gives fractions of the area
             sfta[1::3] *= level.shape[0] * level.shape[1]
         parts.append(sfta)
-    space = _colour_space(cfg)
-    if space is not None:
-        parts.append(_channel_statistics(converted, space))
+    if colour is not None:
+        parts.append(colour)
     return np.concatenate(parts)
 
 
@@ -136,7 +137,9 @@ def region_features(image_rgb: NDArray[np.uint8], cfg: ClassifierConfig) -> NDAr
         ``n_features = 6 * n_t * pyramid_levels (+ 6)``.
     """
     space = _colour_space(cfg)
-    return _features(image_rgb, None if space is None else _convert(image_rgb, space), cfg)
+    if space is None:
+        return _features(image_rgb, None, cfg)
+    return _features(image_rgb, _channel_statistics(_convert(image_rgb, space), space), cfg)
 
 
 def tiles_per_side(height: int, width: int, cfg: ClassifierConfig) -> int:
@@ -281,4 +284,6 @@ def image_features(
     if space is None:
         return np.stack([_features(rgb_tiles[i], None, cfg) for i in keep])
     colour_tiles = split_tiles(_convert(image_rgb, space), *grid)  # one conversion
-    return np.stack([_features(rgb_tiles[i], colour_tiles[i], cfg) for i in keep])
+    return np.stack(
+        [_features(rgb_tiles[i], _channel_statistics(colour_tiles[i], space), cfg) for i in keep]
+    )
