@@ -40,7 +40,7 @@ def _can_build_here() -> bool:
 
 @pytest.fixture(scope="module")
 def installed(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """The package installed from a wheel into a folder of its own."""
+    """Install the package from a wheel into a folder of its own; return the folder."""
     wheels = tmp_path_factory.mktemp("wheels")
     isolation = ["--no-build-isolation"] if _can_build_here() else []
     built = _pip("wheel", "--no-deps", *isolation, "-w", str(wheels), str(REPO))
