@@ -50,3 +50,10 @@ def test_invalid_yaml_names_the_file(tmp_path):
     path.write_text("k: [1,\n")
     with pytest.raises(ConfigError, match=r"c\.yaml.*not valid YAML"):
         load_classifier_config(path)
+
+
+def test_a_missing_file_is_named_once(tmp_path):
+    path = tmp_path / "missing.yaml"
+    with pytest.raises(ConfigError) as info:
+        load_classifier_config(path)
+    assert str(info.value) == f"{path}: config file not found"

@@ -154,8 +154,9 @@ def load_classifier_config(
     cfg = ClassifierConfig()
     if path is not None:
         path = Path(path)
+        data = read_yaml(path)
         try:
-            cfg = build_section(cfg, read_yaml(path) or {})
+            cfg = build_section(cfg, data or {})
         except ConfigError as exc:
             raise ConfigError(f"{path}: {exc}") from None
     result: ClassifierConfig = build_section(cfg, dict(overrides or {}))
