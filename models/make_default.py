@@ -1,4 +1,8 @@
-"""Regenerate ``models/default.npz``, the default terrain classifier of ``terrain-odom run``.
+"""Regenerate ``src/terrain_odom/models/default.npz``, the default classifier of ``terrain-odom run``.
+
+The model ships as package data (found through ``importlib.resources``,
+:func:`terrain_odom.io.classifier_file.default_model_path`), so that an
+installed package runs the quick start from any folder.
 
 Trained on the labelled patches (grass, gravel, brick; 40 each) of a
 simulated ``chen2023`` run with seed 1, drawn from map areas that run does
@@ -14,7 +18,7 @@ From the repository root::
 which runs exactly::
 
     terrain-odom simulate --out TMP --scenario chen2023 --seed 1 --duration 48 --no-frames
-    terrain-odom train --images TMP/patches --out models/default.npz --tile-size 32
+    terrain-odom train --images TMP/patches --out src/terrain_odom/models/default.npz --tile-size 32
 """
 
 from __future__ import annotations
@@ -26,7 +30,7 @@ from pathlib import Path
 from terrain_odom.cli.main import main as cli
 
 HERE = Path(__file__).resolve().parent
-MODEL = HERE / "default.npz"
+MODEL = HERE.parent / "src" / "terrain_odom" / "models" / "default.npz"
 SEED = 1
 TILE_SIZE = 32  # px
 

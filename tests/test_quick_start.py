@@ -2,8 +2,8 @@
 
 ``terrain-odom run --images sample_images/chen2023 --wheels
 sample_images/chen2023/log.csv --out out/`` needs neither ``--model`` (the
-repository's ``models/default.npz``) nor ``--config`` (the run folder's
-``config.yaml``).
+default model, package data ``terrain_odom/models/default.npz``) nor
+``--config`` (the run folder's ``config.yaml``).
 """
 
 from __future__ import annotations
@@ -20,11 +20,11 @@ import pytest
 
 from terrain_odom.app import run as workflows
 from terrain_odom.cli.main import main
-from terrain_odom.vision.classifier import TerrainClassifier
+from terrain_odom.io.classifier_file import load_classifier
 
 REPO = Path(__file__).resolve().parents[1]
 SAMPLE = REPO / "sample_images" / "chen2023"
-MODEL = REPO / "models" / "default.npz"
+MODEL = REPO / "src" / "terrain_odom" / "models" / "default.npz"
 
 
 def _module(path: Path):
@@ -114,7 +114,7 @@ def test_default_model_is_small_loads_and_is_not_trained_on_the_sample():
     assert workflows.default_model_path() == MODEL.resolve()
     assert workflows.default_model() == MODEL.resolve()
     assert MODEL.stat().st_size < 2e6
-    classifier = TerrainClassifier.load(MODEL)
+    classifier = load_classifier(MODEL)
     assert {"grass", "gravel"} <= set(classifier.classes)
     make_default = _module(REPO / "models" / "make_default.py")
     make_sample = _module(REPO / "sample_images" / "make_sample.py")

@@ -22,13 +22,11 @@ import skimage.data
 from terrain_odom.app import train as training
 from terrain_odom.app.train import cross_validate, report_accuracy, train
 from terrain_odom.cli.main import main
-from terrain_odom.vision.classifier import ClassifierConfig, TerrainClassifier, paper_config
-from terrain_odom.vision.dataset import (
-    LabelledFeatures,
-    extract_feature_sets,
-    read_image_rgb,
-    scan_image_folder,
-)
+from terrain_odom.config.classifier import ClassifierConfig, paper_config
+from terrain_odom.io.classifier_file import load_classifier
+from terrain_odom.io.images import read_image_rgb, scan_image_folder
+from terrain_odom.vision.classifier import TerrainClassifier
+from terrain_odom.vision.dataset import LabelledFeatures, extract_feature_sets
 
 REPO = Path(__file__).resolve().parents[2]
 SRC = REPO / "src"
@@ -63,7 +61,7 @@ def test_train_prints_counts_and_accuracy_and_writes_a_model(tmp_path, capsys):
     assert "skipped 1 image(s):" in out and "broken.png: cannot be read as an image" in out
     assert "5-fold cross-validated accuracy: mean" in out
     assert f"model: {model_path}" in out
-    model = TerrainClassifier.load(model_path, expected=ClassifierConfig())
+    model = load_classifier(model_path, expected=ClassifierConfig())
     assert model.n_training_images == 18
     assert len(model.training_labels) == 12 * 1 + 6 * 9  # ragged: 48 px and 96 px images
     label, confidence = model.classify(read_image_rgb(root / "brick" / "0.png"))
@@ -92,7 +90,7 @@ def test_train_options_override_the_config_file(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "4-fold cross-validated" in out  # fewer images than 5 folds
     assert "tiles=2 min_tile_size=24" in out
-    model = TerrainClassifier.load(tmp_path / "m.npz")
+    model = load_classifier(tmp_path / "m.npz")
     cfg = model.cfg
     assert (cfg.features, cfg.scale, cfg.k, cfg.tiles, cfg.min_tile_size, cfg.weights) == (
         "sfta",
@@ -253,7 +251,10 @@ def test_indoor_surface_accuracy_acceptance():
     # 5-fold cross-validation on every image with the default features
     # (the full-dataset figures are in the README).
     default, paper = extract_feature_sets(
-        scan_image_folder(INDOOR), [ClassifierConfig(), paper_config()], progress=False
+        scan_image_folder(INDOOR),
+        [ClassifierConfig(), paper_config()],
+        read=read_image_rgb,
+        progress=False,
     )
     assert default.counts() == {"carpet": 726, "tiles": 595, "wood": 453}
     assert np.all(np.bincount(default.region) == 16)  # short side >= 320 px: 4x4 tiles

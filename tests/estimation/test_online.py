@@ -17,11 +17,11 @@ from terrain_odom.errors import ConfigError, EstimationError
 from terrain_odom.estimation.icr_ekf import IcrPriors
 from terrain_odom.estimation.odometry import run_icr_ekf, run_slip_ekf
 from terrain_odom.io import read_trajectory_csv
+from terrain_odom.io.classifier_file import load_classifier
 from terrain_odom.io.frames import read_frames
+from terrain_odom.io.images import read_image_rgb
 from terrain_odom.kinematics import integrate, twist_icr
 from terrain_odom.records import WheelLog
-from terrain_odom.vision.classifier import TerrainClassifier
-from terrain_odom.vision.dataset import read_image_rgb
 
 REPO = Path(__file__).resolve().parents[2]
 DRIVE_LOG = REPO.parent / "shared" / "data" / "drive" / "warthog_wheels_grass.csv"
@@ -121,7 +121,7 @@ def test_frames_reproduce_the_cli_frame_labels(tmp_path, capsys):
     with (out / "frames.csv").open(newline="") as handle:
         expected = [(r["label"], r["confirmed_label"]) for r in csv.DictReader(handle)]
     cfg = load_config(SAMPLE / "config.yaml")
-    odo = OnlineOdometry(cfg, TerrainClassifier.load(default_model()))
+    odo = OnlineOdometry(cfg, load_classifier(default_model()))
     log, _ = read_calibrated_log(SAMPLE / "log.csv", cfg)
     frames = read_frames(SAMPLE)
     got = []

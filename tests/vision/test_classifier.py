@@ -4,32 +4,20 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import os
-import stat
-from pathlib import Path
 
 import numpy as np
 import pytest
 import skimage.data
 
-from terrain_odom.errors import ConfigError, InputFileError
+from terrain_odom.config.classifier import ClassifierConfig, paper_config
+from terrain_odom.errors import ConfigError
 from terrain_odom.vision.classifier import (
-    FEATURE_VERSION,
-    MODEL_FORMAT_VERSION,
-    ClassifierConfig,
+    MODEL_ARRAYS,
     TerrainClassifier,
     check_regions,
-    colour_statistics,
-    image_features,
-    load_classifier_config,
     make_pipeline,
-    paper_config,
-    region_features,
-    split_tiles,
-    tile_grid,
-    tiles_per_side,
-    tiles_within,
 )
+from terrain_odom.vision.features import FEATURE_VERSION, image_features
 
 TILE = 64
 TEXTURES = ("grass", "gravel", "brick")
@@ -89,12 +77,15 @@ def test_skimage_textures_are_classified_from_the_other_image_half(texture_featu
     assert correct / total >= 0.97
 
 
-def test_model_round_trip_gives_identical_predictions(tmp_path, texture_features):
+def test_arrays_round_trip_gives_identical_predictions(texture_features):
     x_train, r_train, y_train = texture_features[0]
     x_test, r_test, _ = texture_features[1]
     model = TerrainClassifier().fit(x_train, y_train, r_train)
-    path = model.save(tmp_path / "model.npz")
-    loaded = TerrainClassifier.load(path, expected=ClassifierConfig())
+    arrays, meta = model.to_arrays()
+    assert sorted(arrays) == sorted(MODEL_ARRAYS)
+    assert arrays["region"].dtype == np.int64 and arrays["labels"].dtype.kind == "U"
+    json.dumps(meta)  # plain data
+    loaded = TerrainClassifier.from_arrays(ClassifierConfig(), arrays)
     assert loaded.cfg == model.cfg
     assert loaded.classes == sorted(TEXTURES)
     np.testing.assert_array_equal(loaded.training_region, r_train)
@@ -105,91 +96,11 @@ def test_model_round_trip_gives_identical_predictions(tmp_path, texture_features
     ):
         np.testing.assert_array_equal(ours, theirs)
     np.testing.assert_array_equal(loaded.predict_proba(x_test), model.predict_proba(x_test))
-    meta = loaded.metadata()
     assert loaded.n_training_images == meta["n_training_images"] == len(y_train)
     assert meta["n_training_samples"] == len(x_train) == 4 * len(y_train)
     assert meta["feature_version"] == FEATURE_VERSION
-    assert meta["config"]["min_tile_size"] == ClassifierConfig().min_tile_size
-
-
-def test_model_file_holds_no_pickle_and_readable_metadata(tmp_path):
-    model = TerrainClassifier(paper_config()).fit(np.arange(12.0).reshape(6, 2), list("aaabbb"))
-    path = model.save(tmp_path / "m.npz")
-    umask = os.umask(0)
-    os.umask(umask)
-    assert stat.S_IMODE(path.stat().st_mode) == 0o666 & ~umask  # not a private temp file's 0600
-    assert [p.name for p in tmp_path.iterdir()] == ["m.npz"]  # no temporary file left
-    with np.load(path, allow_pickle=False) as data:  # would raise on object arrays
-        meta = json.loads(str(data["metadata"]))
-        assert data["labels"].dtype.kind == "U"
-        assert data["region"].tolist() == list(range(6))
-        assert data["scaler_mean"].size == 0  # no scaler in the paper's recipe
-    assert meta["classes"] == ["a", "b"]
-    assert meta["config"]["features"] == "sfta"
-    assert {"format_version", "created", "terrain_odom_version", "n_training_images"} <= set(meta)
-
-
-def _rewrite_model(path: Path, arrays_changes: dict | None = None, **changes) -> None:
-    """Rewrite a model file with other arrays (None: removed) and metadata ``changes``."""
-    with np.load(path, allow_pickle=False) as data:
-        arrays = {name: data[name] for name in data.files}
-    arrays.update(arrays_changes or {})
-    arrays = {name: array for name, array in arrays.items() if array is not None}
-    meta = json.loads(str(arrays["metadata"]))
-    meta.update(changes)
-    arrays["metadata"] = np.array(json.dumps(meta))
-    with open(path, "wb") as handle:
-        np.savez(handle, **arrays)
-
-
-def test_load_refuses_a_model_of_another_feature_version(tmp_path):
-    path = TerrainClassifier().fit(np.eye(6), list("aaabbb")).save(tmp_path / "m.npz")
-    _rewrite_model(path, feature_version=FEATURE_VERSION + 1)
-    with pytest.raises(InputFileError, match="feature_version") as info:
-        TerrainClassifier.load(path)
-    message = str(info.value)
-    assert str(path) in message and str(FEATURE_VERSION + 1) in message
-    assert f"uses {FEATURE_VERSION}" in message
-
-
-def test_load_refuses_a_model_of_the_old_format_without_region_index(tmp_path):
-    # Format 1 stored (n_images * tiles**2) rows and no region index.
-    path = TerrainClassifier().fit(np.eye(6), list("aaabbb")).save(tmp_path / "m.npz")
-    _rewrite_model(path, {"region": None}, format_version=1, feature_version=1)
-    with pytest.raises(InputFileError, match="format_version is 1") as info:
-        TerrainClassifier.load(path)
-    assert f"uses {MODEL_FORMAT_VERSION}" in str(info.value) and "retrain" in str(info.value)
-
-
-def test_load_refuses_an_inconsistent_region_index(tmp_path):
-    path = TerrainClassifier().fit(np.eye(6), list("aaabbb")).save(tmp_path / "m.npz")
-    _rewrite_model(path, {"region": np.array([0, 1, 2, 4, 4, 5])})  # region 3 has no tile
-    with pytest.raises(InputFileError, match=r"inconsistent model file \(region\(s\) \[3\]"):
-        TerrainClassifier.load(path)
-
-
-@pytest.mark.parametrize(
-    ("expected", "text"),
-    [
-        (ClassifierConfig(n_t=3), "n_t=4.*n_t=3"),
-        (ClassifierConfig(features="sfta"), "features='sfta\\+lab'.*features='sfta'"),
-        (ClassifierConfig(tiles=3), "tiles"),
-        (ClassifierConfig(min_tile_size=24), "min_tile_size=32.*min_tile_size=24"),
-    ],
-)
-def test_load_refuses_a_model_with_other_feature_settings(tmp_path, expected, text):
-    path = TerrainClassifier().fit(np.eye(6), list("aaabbb")).save(tmp_path / "m.npz")
-    with pytest.raises(InputFileError, match=text) as info:
-        TerrainClassifier.load(path, expected=expected)
-    assert str(path) in str(info.value)
-
-
-def test_load_reports_missing_and_foreign_files(tmp_path):
-    with pytest.raises(InputFileError, match="not found"):
-        TerrainClassifier.load(tmp_path / "none.npz")
-    (tmp_path / "junk.npz").write_text("not a model")
-    with pytest.raises(InputFileError, match="not a terrain-odom model"):
-        TerrainClassifier.load(tmp_path / "junk.npz")
+    assert meta["config"] == dataclasses.asdict(ClassifierConfig())
+    assert meta["classes"] == sorted(TEXTURES)
 
 
 def test_paper_pipeline_uses_raw_features_and_default_standardises():
@@ -259,24 +170,6 @@ def test_region_index_is_checked():
     assert check_regions(np.eye(3), [1, 0, 1])[2].tolist() == [1, 2]
 
 
-def test_tile_grid_adapts_to_the_region_size():
-    cfg = ClassifierConfig()
-    assert (cfg.tiles, cfg.min_tile_size) == (4, 32)
-    # Below 2 * min_tile_size on the short side: one tile, whatever the long side.
-    assert tiles_per_side(63, 500, cfg) == tiles_per_side(1, 1, cfg) == 1
-    assert tiles_per_side(64, 64, cfg) == 2
-    assert tiles_per_side(120, 160, cfg) == 3
-    assert tiles_per_side(427, 320, cfg) == tiles_per_side(320, 427, cfg) == 4
-    assert tiles_per_side(427, 320, ClassifierConfig(tiles=6)) == 6
-    assert tiles_per_side(427, 320, ClassifierConfig(min_tile_size=200)) == 1
-    rng = np.random.default_rng(2)
-    for shape, rows in (((63, 90), 1), ((64, 64), 4), ((120, 160), 9), ((427, 320), 16)):
-        image = rng.integers(0, 256, size=(*shape, 3), dtype=np.uint8)
-        assert image_features(image, cfg).shape == (rows, 30)
-    tiny = image_features(rng.integers(0, 256, size=(2, 3, 3), dtype=np.uint8), cfg)
-    assert tiny.shape == (1, 30) and np.all(np.isfinite(tiny))
-
-
 def test_fit_and_classify_regions_of_mixed_sizes():
     # Training regions of 48, 64 and 128 px: 1, 4 and 16 tiles (ragged), a row of each.
     cfg = ClassifierConfig()
@@ -329,84 +222,6 @@ def test_k_larger_than_the_training_set_is_a_config_error():
         TerrainClassifier(ClassifierConfig(k=5)).fit(np.eye(3), list("abc"))
 
 
-def test_region_features_length_and_finite():
-    rng = np.random.default_rng(1)
-    image = rng.integers(0, 256, size=(48, 40, 3), dtype=np.uint8)
-    cases = {
-        ClassifierConfig(features="sfta"): 24,
-        ClassifierConfig(features="sfta+lab"): 30,
-        ClassifierConfig(features="sfta+hsv", pyramid_levels=2): 54,
-        ClassifierConfig(features="sfta", n_t=2, pyramid_levels=3): 36,
-    }
-    for cfg, length in cases.items():
-        features = region_features(image, cfg)
-        assert features.shape == (length,)
-        assert np.all(np.isfinite(features))
-    assert image_features(image, ClassifierConfig(tiles=3, min_tile_size=8)).shape == (9, 30)
-
-
-def test_relative_counts_are_fractions_of_the_area():
-    image = np.repeat(texture_tiles("gravel", 0)[0][..., :1], 3, axis=2)
-    raw = region_features(image, ClassifierConfig(features="sfta", relative_counts=False))
-    rel = region_features(image, ClassifierConfig(features="sfta"))
-    np.testing.assert_allclose(rel[1::3], raw[1::3] / TILE**2)
-    np.testing.assert_array_equal(rel[0::3], raw[0::3])
-
-
-def test_colour_statistics_lab_of_a_grey_patch_and_circular_hue():
-    grey = np.full((8, 8, 3), 100, dtype=np.uint8)
-    lab = colour_statistics(grey, "lab")
-    np.testing.assert_allclose(lab[[2, 4]], [128.0, 128.0])  # a*, b* of grey
-    np.testing.assert_allclose(lab[1::2], 0.0, atol=1e-12)
-    # Two reds on either side of hue 0 (OpenCV 178 and 2, i.e. -4 and +4 degrees).
-    red = np.zeros((2, 1, 3), dtype=np.uint8)
-    red[0, 0] = (255, 0, 17)  # hue ~ 176-178
-    red[1, 0] = (255, 17, 0)  # hue ~ 2
-    hsv = colour_statistics(red, "hsv")
-    assert min(hsv[0], 180.0 - hsv[0]) < 0.5  # the mean is red, not cyan (90)
-    assert hsv[1] < 3.0  # the spread is small, not ~88
-
-
-def test_fixed_size_tiles_scale_with_the_area():
-    cfg = ClassifierConfig(tile_size=64)
-    # Tiles of about 64 px whatever the region: a region 4x the area has 4x the tiles.
-    assert tile_grid(120, 160, cfg) == (2, 3)
-    assert tile_grid(240, 320, cfg) == (4, 5)
-    assert tile_grid(480, 640, cfg) == (8, 10)
-    assert tile_grid(95, 96, cfg) == (1, 2)  # 95 / 64 = 1.48: one row; 96 / 64 = 1.5: two
-    assert tile_grid(10, 700, cfg) == (1, 11)  # a sliver: one row, never zero
-    rng = np.random.default_rng(3)
-    for shape in ((120, 160), (240, 320), (40, 50)):
-        image = rng.integers(0, 256, size=(*shape, 3), dtype=np.uint8)
-        features = image_features(image, cfg)
-        assert features.shape == (np.prod(tile_grid(*shape, cfg)), 30)
-        # Each row is the features of its tile, cut at rounded edges.
-        tiles = split_tiles(image, *tile_grid(*shape, cfg))
-        np.testing.assert_array_equal(features[-1], region_features(tiles[-1], cfg))
-    with pytest.raises(ConfigError, match="tile_size: must be >= 8"):
-        load_classifier_config(None, {"tile_size": 4})
-    assert load_classifier_config(None, {"tile_size": 8}).tile_size == 8
-
-
-def test_tiles_within_a_polygon_are_those_whose_centre_it_contains():
-    cfg = ClassifierConfig(tile_size=10)  # a 40x60 region: 4 x 6 tiles, centres at 4.5, 14.5, ...
-    triangle = [(0, 0), (59, 0), (0, 39)]  # the upper-left half, u / 59 + v / 39 <= 1
-    kept = tiles_within(40, 60, cfg, triangle)
-    v, u = np.divmod(kept, 6) * np.array([[10], [10]]) + 4.5
-    assert np.all(u / 59 + v / 39 <= 1) and kept.size == 12
-    outside = np.setdiff1d(np.arange(24), kept)
-    v, u = np.divmod(outside, 6) * np.array([[10], [10]]) + 4.5
-    assert np.all(u / 59 + v / 39 > 1)
-    # A polygon between tile centres keeps the tile nearest its vertex mean.
-    sliver = [(20, 20), (23, 20), (23, 23)]
-    assert tiles_within(40, 60, cfg, sliver).tolist() == [2 * 6 + 2]
-    rng = np.random.default_rng(5)
-    image = rng.integers(0, 256, size=(40, 60, 3), dtype=np.uint8)
-    np.testing.assert_array_equal(
-        image_features(image, cfg, within=triangle), image_features(image, cfg)[kept]
-    )
-
-
 def test_a_polygon_decides_which_tiles_vote():
     # Gravel on the left two thirds, brick on the right third; the polygon covers the
     # right third only, so brick wins there although gravel has most of the region.
@@ -423,49 +238,13 @@ def test_a_polygon_decides_which_tiles_vote():
     assert clf.classify(region, within=right) == ("brick", 1.0)
 
 
-def test_fixed_tile_size_is_saved_with_the_model_and_checked(tmp_path):
-    rng = np.random.default_rng(4)
-    cfg = ClassifierConfig(tile_size=32, k=1)
-    images = [rng.integers(0, 256, size=(64, 64, 3), dtype=np.uint8) for _ in range(4)]
-    features = [image_features(im, cfg) for im in images]
-    region = np.repeat(np.arange(4), [len(f) for f in features])
-    clf = TerrainClassifier(cfg).fit(np.vstack(features), ["a", "a", "b", "b"], region)
-    loaded = TerrainClassifier.load(clf.save(tmp_path / "m.npz"))
-    assert loaded.cfg.tile_size == 32
-    with pytest.raises(InputFileError, match="tile_size=32.*tile_size=None"):
-        TerrainClassifier.load(tmp_path / "m.npz", expected=ClassifierConfig(k=1))
-
-
-def test_split_tiles_covers_every_pixel_once():
-    image = np.arange(7 * 9).reshape(7, 9)
-    tiles = split_tiles(image, 3)
-    assert len(tiles) == 9
-    assert sorted(np.concatenate([t.ravel() for t in tiles]).tolist()) == list(range(63))
-    with pytest.raises(ValueError, match="cannot cut"):
-        split_tiles(image, 8)
-    columns = split_tiles(image, 2, 4)
-    assert [t.shape for t in columns[:4]] == [(4, 2), (4, 2), (4, 3), (4, 2)]
-    assert sorted(np.concatenate([t.ravel() for t in columns]).tolist()) == list(range(63))
-    with pytest.raises(ValueError, match="cannot cut"):
-        split_tiles(image, 2, 10)
-
-
-def test_image_features_rejects_non_rgb_input():
-    with pytest.raises(ValueError, match="RGB uint8"):
-        image_features(np.zeros((8, 8)), ClassifierConfig())
-
-
-def test_classifier_config_file_and_overrides(tmp_path):
-    path = tmp_path / "c.yaml"
-    path.write_text("k: 7\nweights: uniform\n")
-    cfg = load_classifier_config(path, {"tiles": 2, "min_tile_size": 24})
-    assert (cfg.k, cfg.weights, cfg.tiles, cfg.min_tile_size) == (7, "uniform", 2, 24)
-    path.write_text("kk: 7\n")
-    with pytest.raises(ConfigError, match=r"c\.yaml: .*unknown key"):
-        load_classifier_config(path)
-    with pytest.raises(ConfigError, match="min_tile_size: must be a whole number >= 1"):
-        load_classifier_config(None, {"min_tile_size": 0})
-    with pytest.raises(ConfigError, match="features: must be one of"):
-        load_classifier_config(None, {"features": "rgb"})
-    with pytest.raises(ConfigError, match="not found"):
-        load_classifier_config(tmp_path / "missing.yaml")
+def test_from_arrays_refuses_missing_or_inconsistent_arrays():
+    with pytest.raises(ValueError, match="fit the classifier"):
+        TerrainClassifier().to_arrays()
+    arrays, _ = TerrainClassifier().fit(np.eye(6), list("aaabbb")).to_arrays()
+    no_region = {name: a for name, a in arrays.items() if name != "region"}
+    with pytest.raises(ValueError, match=r"no \['region'\]"):
+        TerrainClassifier.from_arrays(ClassifierConfig(), no_region)
+    short = {**arrays, "labels": arrays["labels"][:5]}
+    with pytest.raises(ValueError, match="5 labels for 6 feature rows"):
+        TerrainClassifier.from_arrays(ClassifierConfig(), short)

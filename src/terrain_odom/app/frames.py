@@ -24,7 +24,7 @@ from threadpoolctl import threadpool_limits
 from terrain_odom.errors import ConfigError, InputFileError
 from terrain_odom.estimation.online import OnlineOdometry
 from terrain_odom.io.frames import FrameList
-from terrain_odom.vision.dataset import read_image_rgb
+from terrain_odom.io.images import read_image_rgb
 from terrain_odom.vision.frame_classifier import FrameClassification
 
 __all__ = ["FRAME_COLUMNS", "FrameRecord", "FramePipeline", "ReplayedFrames", "one_thread"]

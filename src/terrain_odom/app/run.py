@@ -25,8 +25,9 @@ from terrain_odom.estimation.icr_ekf import IcrPriors
 from terrain_odom.estimation.odometry import OdometryResult, OdometryRow, run_odometry
 from terrain_odom.estimation.online import ESTIMATORS, Estimator, OnlineOdometry
 from terrain_odom.estimation.time_offset import TimeCalibration, calibrate_pose_delay
-from terrain_odom.io import TrajectoryWriter, read_wheel_log, write_tum
+from terrain_odom.io import TrajectoryWriter, classifier_file, read_wheel_log, write_tum
 from terrain_odom.io.atomic import write_atomic, write_text_atomic
+from terrain_odom.io.classifier_file import default_model_path, load_classifier
 from terrain_odom.io.frames import FrameList, read_frames
 from terrain_odom.io.groundtruth import read_groundtruth
 from terrain_odom.io.params import read_priors
@@ -50,32 +51,19 @@ TRAJECTORY_CSV = "trajectory.csv"
 FRAMES_CSV = "frames.csv"
 
 
-def default_model_path() -> Path:
-    """Return where the repository's default classifier is: ``models/default.npz``.
-
-    The file ships with a clone of the repository, next to ``src/``; an
-    editable install (``pip install -e .``) finds it there.
-    """
-    import terrain_odom
-
-    return Path(terrain_odom.__file__).resolve().parents[2] / "models" / "default.npz"
-
-
 def default_model() -> Path:
-    """Return :func:`default_model_path`, or raise if it is missing.
+    """Return the default classifier's file, or raise if it is missing.
+
+    :func:`terrain_odom.io.classifier_file.default_model` at
+    :func:`default_model_path`, looked up in this module so that a caller
+    (a test) may replace it.
 
     Raises
     ------
     InputFileError
-        The default model is not there (e.g. a non-editable install).
+        The default model is not there.
     """
-    path = default_model_path()
-    if not path.is_file():
-        raise InputFileError(
-            f"no --model given and the default classifier {path} is missing (it ships with "
-            "a clone of the repository installed with 'pip install -e'): pass --model FILE"
-        )
-    return path
+    return classifier_file.default_model(default_model_path())
 
 
 def images_config(images: str | Path) -> Path | None:
@@ -209,7 +197,7 @@ def _read_inputs(
         if model is None:
             model = default_model()
         frame_list = read_frames(images)
-        classifier = TerrainClassifier.load(model)
+        classifier = load_classifier(model)
     if slip and not np.any(log.has_yaw):
         raise InputFileError(f"{log.source}: --estimator slip-ekf needs a 'yaw' column with values")
     return _Inputs(

@@ -1,10 +1,10 @@
 """Terrain classifier training and accuracy reports: what ``train`` and ``report accuracy`` run.
 
-Both read a labelled image folder (:mod:`terrain_odom.vision.dataset`),
+Both read a labelled image folder (:mod:`terrain_odom.io.images`),
 extract features in parallel and score the classifier by stratified k-fold
 cross-validation over images (all tiles of an image stay in the same fold).
 The accuracy report always scores Chen et al.'s own recipe
-(:func:`~terrain_odom.vision.classifier.paper_config`) on the same folds
+(:func:`~terrain_odom.config.classifier.paper_config`) on the same folds
 beside the chosen configuration.
 """
 
@@ -23,20 +23,14 @@ import numpy as np
 from numpy.typing import NDArray
 from sklearn.model_selection import StratifiedKFold
 
+from terrain_odom.config.classifier import ClassifierConfig, paper_config
 from terrain_odom.errors import ConfigError, InputFileError
 from terrain_odom.io.atomic import write_atomic, write_text_atomic
+from terrain_odom.io.classifier_file import save_classifier
+from terrain_odom.io.images import read_image_rgb, scan_image_folder
 from terrain_odom.io.report import report_header, write_json
-from terrain_odom.vision.classifier import (
-    ClassifierConfig,
-    TerrainClassifier,
-    paper_config,
-)
-from terrain_odom.vision.dataset import (
-    LabelledFeatures,
-    SkippedImage,
-    extract_feature_sets,
-    scan_image_folder,
-)
+from terrain_odom.vision.classifier import TerrainClassifier
+from terrain_odom.vision.dataset import LabelledFeatures, SkippedImage, extract_feature_sets
 
 __all__ = [
     "CV_SEED",
@@ -215,7 +209,8 @@ def train(
     images : str or Path
         Folder with one sub-folder of images per terrain class.
     out : str or Path
-        Model file to write (``.npz``, see :meth:`TerrainClassifier.save`).
+        Model file to write (``.npz``, see
+        :func:`~terrain_odom.io.classifier_file.save_classifier`).
     cfg : ClassifierConfig, optional
         Default: :class:`ClassifierConfig`.
     folds : int
@@ -239,11 +234,13 @@ def train(
     cfg = ClassifierConfig() if cfg is None else cfg
     out = Path(out)
     _check_output_file(out)
-    data = extract_feature_sets(scan_image_folder(images), [cfg], jobs=jobs, progress=progress)[0]
+    data = extract_feature_sets(
+        scan_image_folder(images), [cfg], read=read_image_rgb, jobs=jobs, progress=progress
+    )[0]
     model = TerrainClassifier(cfg).fit(data.features, data.labels, data.region)
     folds = min(folds, *data.counts().values())
     validation = cross_validate(data, folds=folds) if folds >= 2 else None
-    model.save(out)
+    save_classifier(model, out)
     return TrainSummary(out, cfg, data.counts(), data.skipped, validation)
 
 
@@ -333,7 +330,7 @@ def report_accuracy(
         out_dir.mkdir(parents=True, exist_ok=True)
     paper = paper_config()
     chosen_data, paper_data = extract_feature_sets(
-        scan_image_folder(images), [cfg, paper], jobs=jobs, progress=progress
+        scan_image_folder(images), [cfg, paper], read=read_image_rgb, jobs=jobs, progress=progress
     )
     report = AccuracyReport(
         images=Path(images),

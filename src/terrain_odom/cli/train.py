@@ -6,7 +6,7 @@ import argparse
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
-    from terrain_odom.vision.classifier import ClassifierConfig
+    from terrain_odom.config.classifier import ClassifierConfig
     from terrain_odom.vision.dataset import SkippedImage
 
 FEATURE_CHOICES = ("sfta", "sfta+lab", "sfta+hsv")
@@ -50,7 +50,7 @@ def add_classifier_options(p: argparse.ArgumentParser) -> None:
 
 def classifier_config(args: argparse.Namespace) -> ClassifierConfig:
     """Return the :class:`ClassifierConfig` of ``--config`` and the options that override it."""
-    from terrain_odom.vision.classifier import load_classifier_config
+    from terrain_odom.config.classifier import load_classifier_config
 
     overrides: dict[str, Any] = {
         name: getattr(args, name)

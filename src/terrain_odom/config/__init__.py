@@ -11,6 +11,12 @@ over a step of ``dt`` seconds is ``sigma_q**2 * dt``).
 from __future__ import annotations
 
 from terrain_odom.config.camera import CameraConfig, RoiConfig
+from terrain_odom.config.classifier import (
+    PAPER_K,
+    ClassifierConfig,
+    load_classifier_config,
+    paper_config,
+)
 from terrain_odom.config.fields import NON_NEGATIVE, SIGNED, build_section
 from terrain_odom.config.loader import config_to_dict, load_config, with_pose_delay
 from terrain_odom.config.sections import (
@@ -56,6 +62,10 @@ __all__ = [
     "SlipEkfConfig",
     "TimeConfig",
     "Config",
+    "ClassifierConfig",
+    "PAPER_K",
+    "paper_config",
+    "load_classifier_config",
     "load_config",
     "config_to_dict",
     "with_pose_delay",

@@ -13,7 +13,7 @@ from terrain_odom.config.fields import _build
 from terrain_odom.config.sections import FORMAT_VERSION, MAX_POSE_DELAY, Config, TimeConfig
 from terrain_odom.errors import ConfigError
 
-__all__ = ["load_config", "config_to_dict", "with_pose_delay"]
+__all__ = ["load_config", "read_yaml", "config_to_dict", "with_pose_delay"]
 
 
 def _check_pose_delay(delay: float | Literal["auto"], where: str) -> None:
@@ -87,6 +87,29 @@ def _check_consistency(cfg: Config) -> None:
         )
 
 
+def read_yaml(path: Path) -> Any:
+    """Read a YAML configuration file into plain data (``None`` if it is empty).
+
+    Raises
+    ------
+    ConfigError
+        The file is missing, unreadable or not valid YAML (naming the file and,
+        where known, the line).
+    """
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ConfigError(f"{path}: config file not found") from None
+    except OSError as exc:
+        raise ConfigError(f"{path}: cannot read config file ({exc.strerror})") from None
+    try:
+        return yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        line = f", line {mark.line + 1}" if mark is not None else ""
+        raise ConfigError(f"{path}{line}: not valid YAML") from None
+
+
 def load_config(path: str | Path | None = None) -> Config:
     """Load and validate a YAML configuration.
 
@@ -108,18 +131,7 @@ def load_config(path: str | Path | None = None) -> Config:
     if path is None:
         return Config()
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise ConfigError(f"{path}: config file not found") from None
-    except OSError as exc:
-        raise ConfigError(f"{path}: cannot read config file ({exc.strerror})") from None
-    try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        line = f", line {mark.line + 1}" if mark is not None else ""
-        raise ConfigError(f"{path}{line}: not valid YAML") from None
+    data = read_yaml(path)
     try:
         cfg = _build(Config(), data or {}, "")
         _check_consistency(cfg)

@@ -25,14 +25,12 @@ import numpy as np
 
 from terrain_odom.errors import InputFileError
 from terrain_odom.io._csv import read_csv, shown
+from terrain_odom.io.images import IMAGE_SUFFIXES
 
 __all__ = ["FrameList", "read_frames", "FRAMES_CSV", "IMAGE_SUFFIXES"]
 
 FRAMES_CSV = "frames.csv"
 """Name of the optional frame index in a frame folder."""
-
-IMAGE_SUFFIXES = frozenset({".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff"})
-"""Image file suffixes recognised when a folder has no ``frames.csv``."""
 
 
 @dataclass(frozen=True)

@@ -452,22 +452,24 @@ def region_of_interest(
     ground = footprint_corners(
         pose, roi.expand * roi.footprint_length, roi.expand * roi.footprint_width
     )
-    known = {"pose": pose, "ground_polygon": ground, "image_size": (camera.width, camera.height)}
+
+    def result(
+        status: RoiStatus, box: tuple[int, int, int, int] | None, uv: np.ndarray, reason: str
+    ) -> RoiResult:
+        return RoiResult(status, box, pose, ground, uv, (camera.width, camera.height), reason)
+
     uv = _visible_pixels(camera, ground)
     if uv is None or len(uv) == 0:
         reason = "behind the camera" if uv is None else "outside the image"
-        return RoiResult(
-            RoiStatus.OUTSIDE, None, image_polygon=np.empty((0, 2)), reason=reason, **known
-        )
+        return result(RoiStatus.OUTSIDE, None, np.empty((0, 2)), reason)
     box = _pixel_box(uv, camera.width, camera.height)
     box_w, box_h = box[2] - box[0], box[3] - box[1]
     if min(box_w, box_h) < roi.min_size:
         reason = f"visible part {box_w}x{box_h} px is smaller than min_size={roi.min_size} px"
-        return RoiResult(RoiStatus.TOO_SMALL, None, image_polygon=uv, reason=reason, **known)
+        return result(RoiStatus.TOO_SMALL, None, uv, reason)
     if _fully_visible(camera, ground):
-        return RoiResult(RoiStatus.INSIDE, box, image_polygon=uv, reason="", **known)
-    reason = "partly behind the camera or outside the image"
-    return RoiResult(RoiStatus.CLIPPED, box, image_polygon=uv, reason=reason, **known)
+        return result(RoiStatus.INSIDE, box, uv, "")
+    return result(RoiStatus.CLIPPED, box, uv, "partly behind the camera or outside the image")
 
 
 def crop(image: np.ndarray, roi_result: RoiResult) -> np.ndarray:

@@ -1,33 +1,21 @@
-"""KNN terrain classifier on SFTA texture features (Chen et al. 2023, §3.2.3).
+"""KNN terrain classifier with tile voting (Chen et al. 2023, §3.2.3).
 
-Chen et al. describe each image region by the 24 SFTA values of its grey image
-(eq. 18-21) and classify it by the majority vote of its ``k`` nearest
-training samples in raw Euclidean distance (eq. 23-26). This module keeps
-that recipe selectable (``features="sfta"``, ``relative_counts=False``,
-``scale=False``, see :func:`paper_config`) and adds, each as an option of
-:class:`ClassifierConfig`:
+Chen et al. classify a region by the majority vote of the ``k`` nearest
+training samples to its feature vector (:mod:`terrain_odom.vision.features`)
+in raw Euclidean distance (eq. 23-26). This module keeps that recipe
+selectable (``scale=False``, ``weights="uniform"``, ``tiles=1``, see
+:func:`~terrain_odom.config.classifier.paper_config`) and adds, each as an
+option of :class:`~terrain_odom.config.classifier.ClassifierConfig`:
 
 - **standardisation** (``scale``): the raw SFTA values differ by orders of
   magnitude (border pixel counts ~1e4, fractal dimensions ~1.5), so the raw
   distance of eq. 24 is dominated by the counts;
-- **relative counts** (``relative_counts``): SFTA's pixel counts ``C_i`` as
-  fractions of the region's area (as :func:`~terrain_odom.vision.sfta.sfta_features`
-  returns them), so that regions of any size (tiles, regions of interest)
-  compare with the training images; the paper's raw counts scale with the
-  region's size;
-- **colour statistics** (``features="sfta+lab"`` or ``"sfta+hsv"``): grey
-  SFTA throws away colour, which is what separates e.g. wood from carpet;
-- **image pyramid** (``pyramid_levels``): SFTA also of the region halved
-  ``1, 2, ...`` times, describing the texture at coarser scales;
-- **tile voting** (``tiles``, ``min_tile_size``, or ``tile_size``): a region
-  is cut into up to ``tiles x tiles`` tiles of at least ``min_tile_size``
-  pixels a side (:func:`tiles_per_side`), or, with ``tile_size``, into tiles
-  of about ``tile_size`` pixels a side whatever the region's size
-  (:func:`tile_grid`), each tile is classified, and the region gets the
-  majority label with the vote share as its confidence. Fixed-size tiles
-  describe every region at the scale of the training tiles, and make the
-  time a region takes proportional to its area, which is what a region of
-  interest saves (Chen's Table 2);
+- **tile voting** (``tiles``, ``min_tile_size``, or ``tile_size``): each tile
+  of a region (:func:`~terrain_odom.vision.features.tile_grid`) is
+  classified, and the region gets the majority label with the vote share as
+  its confidence. Fixed-size tiles describe every region at the scale of the
+  training tiles, and make the time a region takes proportional to its area,
+  which is what a region of interest saves (Chen's Table 2);
 - **distance weighting** of the neighbours' votes (``weights``).
 
 Regions of different sizes have different numbers of tiles, so the features
@@ -35,438 +23,33 @@ of several regions are *flat*: one row per tile, ``(n_tiles, n_features)``,
 and a ``region`` index ``(n_tiles,)`` giving the region (0, 1, ...) of each
 row.
 
-A KNN model *is* its training set: :meth:`TerrainClassifier.save` writes the
-training features, labels, region index, scaler parameters and metadata to
-one ``.npz`` file (no pickle), and :meth:`TerrainClassifier.load` refuses a
-model whose file or feature format differs from this code's.
+A KNN model *is* its training set: :meth:`TerrainClassifier.to_arrays` gives
+the training features, labels, region index and scaler parameters as plain
+arrays with their metadata, and :meth:`TerrainClassifier.from_arrays` rebuilds
+the model from them (:mod:`terrain_odom.io.classifier_file` stores them in
+one ``.npz`` file).
 """
 
 from __future__ import annotations
 
 import dataclasses
-import datetime
-import json
 from collections.abc import Mapping
-from dataclasses import dataclass
-from pathlib import Path
-from typing import Any, Literal
+from typing import Any
 
-import cv2
 import numpy as np
-import yaml
 from numpy.typing import ArrayLike, NDArray
-from skimage.measure import points_in_poly
 from sklearn.neighbors import KNeighborsClassifier
 from sklearn.pipeline import Pipeline
 from sklearn.preprocessing import StandardScaler
 
-from terrain_odom import __version__
-from terrain_odom.config.fields import build_section
-from terrain_odom.errors import ConfigError, InputFileError
-from terrain_odom.io.atomic import write_atomic
-from terrain_odom.vision.sfta import sfta_features
+from terrain_odom.config.classifier import ClassifierConfig
+from terrain_odom.errors import ConfigError
+from terrain_odom.vision.features import FEATURE_VERSION, image_features
 
-__all__ = [
-    "FEATURE_VERSION",
-    "MODEL_FORMAT_VERSION",
-    "PAPER_K",
-    "FEATURE_FIELDS",
-    "ClassifierConfig",
-    "paper_config",
-    "load_classifier_config",
-    "colour_statistics",
-    "region_features",
-    "tiles_per_side",
-    "tile_grid",
-    "split_tiles",
-    "tiles_within",
-    "image_features",
-    "make_pipeline",
-    "check_regions",
-    "TerrainClassifier",
-]
+__all__ = ["MODEL_ARRAYS", "make_pipeline", "check_regions", "TerrainClassifier"]
 
-FEATURE_VERSION = 2
-"""Version of the feature vector; bump it whenever :func:`image_features` changes."""
-
-MODEL_FORMAT_VERSION = 2
-"""Version of the model file layout written by :meth:`TerrainClassifier.save`."""
-
-PAPER_K = 5
-"""Neighbour count of the paper-faithful configuration (Chen et al. do not state theirs)."""
-
-MIN_TILE_SIZE = 8
-"""Smallest ``tile_size``, px (SFTA's box counting needs a few box sizes)."""
-
-FeatureOption = Literal["sfta", "sfta+lab", "sfta+hsv"]
-
-FEATURE_FIELDS = (
-    "features",
-    "n_t",
-    "relative_counts",
-    "pyramid_levels",
-    "tiles",
-    "min_tile_size",
-    "tile_size",
-)
-"""Fields of :class:`ClassifierConfig` that change the feature vectors."""
-
-
-@dataclass(frozen=True)
-class ClassifierConfig:
-    """Features and KNN settings of the terrain classifier.
-
-    Attributes
-    ----------
-    features : {"sfta", "sfta+lab", "sfta+hsv"}
-        Grey SFTA only (Chen), or SFTA plus the mean and standard deviation
-        of each channel of CIE L*a*b* or HSV (6 values).
-    n_t : int
-        Number of multi-level Otsu thresholds of SFTA (``6 * n_t`` values).
-    relative_counts : bool
-        SFTA's pixel counts ``C_i`` as fractions of the region's area (True)
-        or as pixel counts (False, Chen).
-    pyramid_levels : int
-        SFTA of the region at ``pyramid_levels`` scales (full, 1/2, 1/4, ...).
-    scale : bool
-        Standardise every feature to zero mean, unit variance on the training
-        set before the distance (False: raw Euclidean distance, eq. 24).
-    k : int
-        Number of neighbours voting (eq. 25-26).
-    weights : {"uniform", "distance"}
-        Each neighbour's vote counts 1 (Chen) or ``1 / distance``.
-    tiles : int
-        Most tiles per side for tile voting; 1 classifies the whole region.
-    min_tile_size : int
-        Smallest tile side, px: a region is cut into fewer tiles per side
-        when ``tiles`` would make them smaller (:func:`tiles_per_side`), and
-        a region under ``2 * min_tile_size`` px a side is one tile. Box
-        counting fits the box sides ``1, 2, 4, ...`` up to the first at which
-        every box is occupied: in 16 px tiles of floor photos or skimage's
-        textures that leaves about 3 sizes (up to 17 % of the dimensions are
-        two-point slopes), in 32 px tiles about 4 (at most 3 %). 64x64
-        skimage patches: 96.4 % with 16 px tiles, 98.4 % with 32 px.
-    tile_size : int or None
-        If set, px (>= 8): tiles of about this side instead, as many as fit
-        (:func:`tile_grid`; ``tiles`` and ``min_tile_size`` are then unused).
-        A region's time is then proportional to its area.
-    """
-
-    features: FeatureOption = "sfta+lab"
-    n_t: int = 4
-    relative_counts: bool = True
-    pyramid_levels: int = 1
-    scale: bool = True
-    k: int = 5
-    weights: Literal["uniform", "distance"] = "distance"
-    tiles: int = 4
-    min_tile_size: int = 32
-    tile_size: int | None = None
-
-    def __post_init__(self) -> None:
-        if self.tile_size is not None and self.tile_size < MIN_TILE_SIZE:
-            raise ConfigError(f"tile_size: must be >= {MIN_TILE_SIZE} px, got {self.tile_size}")
-
-    def feature_key(self) -> dict[str, Any]:
-        """Return the fields that define the feature vectors (:data:`FEATURE_FIELDS`)."""
-        return {name: getattr(self, name) for name in FEATURE_FIELDS}
-
-
-def paper_config(n_t: int = 4) -> ClassifierConfig:
-    """Return Chen et al.'s recipe: grey SFTA, raw counts and distances, ``k = PAPER_K``."""
-    return ClassifierConfig(
-        features="sfta",
-        n_t=n_t,
-        relative_counts=False,
-        pyramid_levels=1,
-        scale=False,
-        k=PAPER_K,
-        weights="uniform",
-        tiles=1,
-    )
-
-
-def load_classifier_config(
-    path: str | Path | None = None, overrides: Mapping[str, Any] | None = None
-) -> ClassifierConfig:
-    """Load a classifier configuration (YAML, keys of :class:`ClassifierConfig`).
-
-    A file holds any subset of the fields at its top level, e.g. Chen et
-    al.'s recipe::
-
-        features: sfta
-        relative_counts: false
-        scale: false
-        k: 5
-        weights: uniform
-        tiles: 1
-
-    Parameters
-    ----------
-    path : str or Path, optional
-        YAML file; keys left out keep the defaults. ``None``: the defaults.
-    overrides : mapping, optional
-        Values that replace those of the file (e.g. command-line options),
-        validated by the same rules.
-
-    Raises
-    ------
-    ConfigError
-        Naming the file and the first unknown or invalid key.
-    """
-    cfg = ClassifierConfig()
-    if path is not None:
-        path = Path(path)
-        try:
-            data = yaml.safe_load(path.read_text(encoding="utf-8"))
-        except FileNotFoundError:
-            raise ConfigError(f"{path}: config file not found") from None
-        except OSError as exc:
-            raise ConfigError(f"{path}: cannot read config file ({exc.strerror})") from None
-        except yaml.YAMLError:
-            raise ConfigError(f"{path}: not valid YAML") from None
-        try:
-            cfg = build_section(cfg, data or {})
-        except ConfigError as exc:
-            raise ConfigError(f"{path}: {exc}") from None
-    return build_section(cfg, dict(overrides or {}))
-
-
-_HUE_LEVELS = 180  # OpenCV's 8-bit hue: 2 degrees per level
-_HUE_COS = np.cos(np.arange(_HUE_LEVELS) * (np.pi / 90.0))
-_HUE_SIN = np.sin(np.arange(_HUE_LEVELS) * (np.pi / 90.0))
-
-
-def colour_statistics(image_rgb: NDArray[np.uint8], space: Literal["lab", "hsv"]) -> NDArray:
-    """Mean and standard deviation of each channel of a colour space.
-
-    Parameters
-    ----------
-    image_rgb : ndarray of uint8, shape (H, W, 3)
-        RGB image.
-    space : {"lab", "hsv"}
-        CIE L*a*b* (OpenCV's 8-bit scaling: L in [0, 255], a and b offset by
-        128) or HSV (H in [0, 180) as OpenCV, S and V in [0, 255]). The hue
-        of HSV is an angle, so its "mean" and "spread" are those of the
-        circular statistics, in OpenCV hue units: the direction of the mean
-        hue vector and ``sqrt(-2 ln R)`` (R its length).
-
-    Returns
-    -------
-    ndarray of float64, shape (6,)
-        ``[mean_0, std_0, mean_1, std_1, mean_2, std_2]``.
-    """
-    return _channel_statistics(_convert(image_rgb, space), space)
-
-
-def _convert(image_rgb: NDArray[np.uint8], space: Literal["lab", "hsv"]) -> NDArray[np.uint8]:
-    code = cv2.COLOR_RGB2Lab if space == "lab" else cv2.COLOR_RGB2HSV
-    return cv2.cvtColor(np.ascontiguousarray(image_rgb), code)
-
-
-def _channel_statistics(converted: NDArray[np.uint8], space: Literal["lab", "hsv"]) -> NDArray:
-    """:func:`colour_statistics` of an image already converted to ``space``."""
-    mean, std = cv2.meanStdDev(np.ascontiguousarray(converted))
-    out = np.column_stack((mean.ravel(), std.ravel())).ravel()
-    if space == "hsv":
-        hue = converted[..., 0].ravel()
-        hist = np.bincount(hue, minlength=_HUE_LEVELS) / hue.size
-        c, s = hist @ _HUE_COS, hist @ _HUE_SIN
-        length = min(np.hypot(c, s), 1.0)
-        out[0] = (np.arctan2(s, c) % (2.0 * np.pi)) * (90.0 / np.pi)
-        out[1] = np.sqrt(-2.0 * np.log(max(length, 1e-12))) * (90.0 / np.pi)
-    return out
-
-
-def _colour_space(cfg: ClassifierConfig) -> Literal["lab", "hsv"] | None:
-    return {"sfta": None, "sfta+lab": "lab", "sfta+hsv": "hsv"}[cfg.features]
-
-
-def _features(
-    image_rgb: NDArray[np.uint8], converted: NDArray[np.uint8] | None, cfg: ClassifierConfig
-) -> NDArray:
-    """:func:`region_features` given the region already in the colour space, if any."""
-    parts = []
-    level = image_rgb
-    for depth in range(cfg.pyramid_levels):
-        if depth:
-            height, width = level.shape[:2]
-            size = (max(width // 2, 1), max(height // 2, 1))
-            level = cv2.resize(level, size, interpolation=cv2.INTER_AREA)
-        sfta = np.array(sfta_features(level, cfg.n_t), dtype=np.float64)
-        if not cfg.relative_counts:  # sfta_features gives fractions of the area
-            sfta[1::3] *= level.shape[0] * level.shape[1]
-        parts.append(sfta)
-    space = _colour_space(cfg)
-    if space is not None:
-        parts.append(_channel_statistics(converted, space))
-    return np.concatenate(parts)
-
-
-def region_features(image_rgb: NDArray[np.uint8], cfg: ClassifierConfig) -> NDArray:
-    """Feature vector of one image region (a whole region or one tile).
-
-    Parameters
-    ----------
-    image_rgb : ndarray of uint8, shape (H, W, 3)
-        RGB region.
-    cfg : ClassifierConfig
-
-    Returns
-    -------
-    ndarray of float64, shape (n_features,)
-        The ``6 * n_t`` SFTA values of each pyramid level (full size first,
-        then halved; counts ``C_i`` times the level's pixel count unless
-        ``cfg.relative_counts``), then the 6 colour statistics if any:
-        ``n_features = 6 * n_t * pyramid_levels (+ 6)``.
-    """
-    space = _colour_space(cfg)
-    return _features(image_rgb, None if space is None else _convert(image_rgb, space), cfg)
-
-
-def tiles_per_side(height: int, width: int, cfg: ClassifierConfig) -> int:
-    """Return the number of tiles per side of a ``height x width`` region.
-
-    ``min(cfg.tiles, max(1, min(height, width) // cfg.min_tile_size))``: as
-    many as ``cfg.tiles`` allows with tiles of at least ``cfg.min_tile_size``
-    pixels a side, and at least one.
-
-    >>> cfg = ClassifierConfig(tiles=4, min_tile_size=32)
-    >>> tiles_per_side(427, 320, cfg), tiles_per_side(120, 160, cfg), tiles_per_side(64, 64, cfg)
-    (4, 3, 2)
-    >>> tiles_per_side(63, 200, cfg)
-    1
-    """
-    return min(cfg.tiles, max(1, min(height, width) // cfg.min_tile_size))
-
-
-def tile_grid(height: int, width: int, cfg: ClassifierConfig) -> tuple[int, int]:
-    """Return the tile rows and columns of a ``height x width`` region.
-
-    With ``cfg.tile_size`` set: ``round(height / tile_size)`` rows and
-    ``round(width / tile_size)`` columns (halves up, at least one each), so
-    tile sides are within ``[2/3, 3/2] * tile_size`` once the region is at
-    least ``tile_size`` a side; otherwise ``n x n`` with
-    ``n = tiles_per_side(height, width, cfg)``.
-
-    >>> cfg = ClassifierConfig(tile_size=64)
-    >>> tile_grid(240, 320, cfg), tile_grid(96, 100, cfg), tile_grid(20, 500, cfg)
-    ((4, 5), (2, 2), (1, 8))
-    >>> tile_grid(240, 320, ClassifierConfig())
-    (4, 4)
-    """
-    if cfg.tile_size is None:
-        n = tiles_per_side(height, width, cfg)
-        return n, n
-    return (
-        max(1, int(height / cfg.tile_size + 0.5)),
-        max(1, int(width / cfg.tile_size + 0.5)),
-    )
-
-
-def _tile_edges(height: int, width: int, tiles: int, columns: int) -> tuple[NDArray, NDArray]:
-    """Row and column edges of a ``tiles x columns`` grid: ``round(i * H / tiles)``, ..."""
-    if tiles > height or columns > width:
-        raise ValueError(f"cannot cut a {height}x{width} image into {tiles}x{columns} tiles")
-    rows = np.rint(np.linspace(0, height, tiles + 1)).astype(int)
-    cols = np.rint(np.linspace(0, width, columns + 1)).astype(int)
-    return rows, cols
-
-
-def split_tiles(image: NDArray, tiles: int, columns: int | None = None) -> list[NDArray]:
-    """Cut an image into ``tiles`` rows by ``columns`` (default ``tiles``) columns of tiles.
-
-    Tiles come row by row. Tile edges are at ``round(i * H / tiles)`` and
-    ``round(j * W / columns)``, so every pixel belongs to exactly one tile.
-
-    >>> [t.shape for t in split_tiles(np.zeros((5, 4)), 2)]
-    [(2, 2), (2, 2), (3, 2), (3, 2)]
-    >>> [t.shape for t in split_tiles(np.zeros((4, 9)), 1, 3)]
-    [(4, 3), (4, 3), (4, 3)]
-    """
-    columns = tiles if columns is None else columns
-    rows, cols = _tile_edges(image.shape[0], image.shape[1], tiles, columns)
-    return [
-        image[rows[i] : rows[i + 1], cols[j] : cols[j + 1]]
-        for i in range(tiles)
-        for j in range(columns)
-    ]
-
-
-def tiles_within(height: int, width: int, cfg: ClassifierConfig, polygon: ArrayLike) -> NDArray:
-    """Return the :func:`tile_grid` tiles whose centre is inside a polygon.
-
-    Parameters
-    ----------
-    height, width : int
-        Region size, px.
-    cfg : ClassifierConfig
-    polygon : array_like, shape (M, 2)
-        ``(u, v)`` vertices in region pixels (pixel centres at integers),
-        e.g. the visible footprint of a region of interest.
-
-    Returns
-    -------
-    ndarray of intp
-        Tile indices, row by row, of the tiles whose centre is inside the
-        polygon (``skimage.measure.points_in_poly``; a centre exactly on an
-        edge may fall either way); if there is none, the one tile nearest the polygon's
-        vertex mean, so that a region is never left without a tile.
-
-    >>> square = [(0, 0), (99, 0), (99, 99), (0, 99)]
-    >>> tiles_within(100, 200, ClassifierConfig(tile_size=50), square).tolist()
-    [0, 1, 4, 5]
-    """
-    grid = tile_grid(height, width, cfg)
-    rows, cols = _tile_edges(height, width, *grid)
-    v, u = np.meshgrid(
-        (rows[:-1] + rows[1:] - 1) / 2.0, (cols[:-1] + cols[1:] - 1) / 2.0, indexing="ij"
-    )
-    centres = np.column_stack((u.ravel(), v.ravel()))
-    vertices = np.asarray(polygon, dtype=float).reshape(-1, 2)
-    inside = points_in_poly(centres, vertices)
-    if inside.any():
-        return np.flatnonzero(inside)
-    nearest = np.argmin(np.sum((centres - vertices.mean(axis=0)) ** 2, axis=1))
-    return np.array([nearest], dtype=np.intp)
-
-
-def image_features(
-    image_rgb: NDArray[np.uint8], cfg: ClassifierConfig, within: ArrayLike | None = None
-) -> NDArray:
-    """Feature vectors of the tiles of a region.
-
-    Parameters
-    ----------
-    image_rgb : ndarray of uint8, shape (H, W, 3)
-        RGB region of any size.
-    cfg : ClassifierConfig
-    within : array_like, shape (M, 2), optional
-        A polygon in region pixels: only the tiles whose centre it contains
-        are described (:func:`tiles_within`), e.g. the footprint of a region
-        of interest inside its bounding box.
-
-    Returns
-    -------
-    ndarray of float64, shape (n_tiles, n_features)
-        :func:`region_features` of each tile (of those within the polygon),
-        row by row, of the :func:`tile_grid` of the region (one row for a
-        single tile).
-    """
-    image_rgb = np.asarray(image_rgb)
-    if image_rgb.ndim != 3 or image_rgb.shape[2] != 3 or image_rgb.dtype != np.uint8:
-        raise ValueError(
-            f"expected an RGB uint8 image (H, W, 3), got {image_rgb.dtype} {image_rgb.shape}"
-        )
-    height, width = image_rgb.shape[:2]
-    grid = tile_grid(height, width, cfg)
-    keep = range(grid[0] * grid[1]) if within is None else tiles_within(height, width, cfg, within)
-    rgb_tiles = split_tiles(image_rgb, *grid)
-    space = _colour_space(cfg)
-    if space is None:
-        return np.stack([_features(rgb_tiles[i], None, cfg) for i in keep])
-    colour_tiles = split_tiles(_convert(image_rgb, space), *grid)  # one conversion
-    return np.stack([_features(rgb_tiles[i], colour_tiles[i], cfg) for i in keep])
+MODEL_ARRAYS = ("features", "labels", "region", "scaler_mean", "scaler_scale")
+"""Names of the arrays of :meth:`TerrainClassifier.to_arrays`."""
 
 
 def make_pipeline(cfg: ClassifierConfig) -> Pipeline:
@@ -679,7 +262,7 @@ class TerrainClassifier:
         Parameters
         ----------
         image_rgb : ndarray of uint8, shape (H, W, 3)
-            Cut into the tiles of :func:`tile_grid`.
+            Cut into the tiles of :func:`~terrain_odom.vision.features.tile_grid`.
         within : array_like, shape (M, 2), optional
             Polygon in region pixels: only the tiles whose centre it contains
             vote (:func:`image_features`).
@@ -711,34 +294,27 @@ class TerrainClassifier:
         )
         return str(labels[0]), float(confidence[0])
 
-    def metadata(self) -> dict[str, Any]:
-        """Metadata stored in the model file."""
-        return {
-            "format_version": MODEL_FORMAT_VERSION,
-            "feature_version": FEATURE_VERSION,
-            "config": dataclasses.asdict(self.cfg),
-            "classes": self.classes,
-            "n_training_images": self.n_training_images,
-            "n_training_samples": len(self.training_labels),
-            "created": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
-            "terrain_odom_version": __version__,
-        }
-
-    def save(self, path: str | Path) -> Path:
-        """Write the model atomically to one ``.npz`` file (no pickle).
-
-        Arrays: ``features`` (n_samples, n_features) raw training features
-        (one row per tile), ``labels`` (n_samples,) str, ``region``
-        (n_samples,) int64 the training image of each row (numbered from 0),
-        ``scaler_mean`` and ``scaler_scale`` (n_features,) (empty without
-        scaling), ``metadata`` a JSON string (:meth:`metadata`). The file is
-        written as given, even without the ``.npz`` suffix.
+    def to_arrays(self) -> tuple[dict[str, NDArray], dict[str, Any]]:
+        """Return the fitted model as plain arrays and metadata.
 
         Returns
         -------
-        Path
+        arrays : dict of str to ndarray
+            :data:`MODEL_ARRAYS`: ``features`` (n_samples, n_features) raw
+            training features (one row per tile), ``labels`` (n_samples,)
+            str, ``region`` (n_samples,) int64 the training image of each row
+            (numbered from 0), ``scaler_mean`` and ``scaler_scale``
+            (n_features,) (empty without scaling).
+        metadata : dict
+            JSON-able: ``feature_version``, ``config`` (the
+            :class:`ClassifierConfig` as a mapping), ``classes``,
+            ``n_training_images``, ``n_training_samples``.
+
+        Raises
+        ------
+        ValueError
+            The classifier is not fitted.
         """
-        path = Path(path)
         if not self.n_training_images:
             raise ValueError("fit the classifier before saving it")
         if self.cfg.scale:
@@ -752,57 +328,39 @@ class TerrainClassifier:
             "region": self.training_region.astype(np.int64),
             "scaler_mean": mean,
             "scaler_scale": scale,
-            "metadata": np.array(json.dumps(self.metadata())),
         }
-        write_atomic(path, lambda handle: np.savez(handle, **arrays))
-        return path
+        metadata = {
+            "feature_version": FEATURE_VERSION,
+            "config": dataclasses.asdict(self.cfg),
+            "classes": self.classes,
+            "n_training_images": self.n_training_images,
+            "n_training_samples": len(self.training_labels),
+        }
+        return arrays, metadata
 
     @classmethod
-    def load(cls, path: str | Path, expected: ClassifierConfig | None = None) -> TerrainClassifier:
-        """Read a model written by :meth:`save`.
+    def from_arrays(cls, cfg: ClassifierConfig, arrays: Mapping[str, NDArray]) -> TerrainClassifier:
+        """Rebuild a model from the arrays of :meth:`to_arrays`, without refitting the scaler.
 
         Parameters
         ----------
-        path : str or Path
-        expected : ClassifierConfig, optional
-            If given, the model's feature settings (:data:`FEATURE_FIELDS`)
-            must equal these.
+        cfg : ClassifierConfig
+            The model's configuration (its metadata's ``config``).
+        arrays : mapping of str to ndarray
+            At least :data:`MODEL_ARRAYS`.
 
         Raises
         ------
-        InputFileError
-            The file is missing, not a model or inconsistent, or its format
-            version, feature version or feature settings differ from this
-            code's or ``expected``'s (the message names the file and both
-            values).
+        ValueError
+            An array is missing, or the arrays do not match each other.
         """
-        path = Path(path)
-        try:
-            with np.load(path, allow_pickle=False) as data:
-                arrays = {name: data[name] for name in data.files}
-        except FileNotFoundError:
-            raise InputFileError(f"{path}: model file not found") from None
-        except (OSError, ValueError) as exc:
-            raise InputFileError(f"{path}: not a terrain-odom model file ({exc})") from None
-        try:
-            meta = json.loads(str(arrays["metadata"]))
-        except KeyError:
-            raise InputFileError(f"{path}: not a terrain-odom model file (no metadata)") from None
-        except json.JSONDecodeError:
-            meta = None
-        if not isinstance(meta, dict):
-            raise InputFileError(f"{path}: not a terrain-odom model file (bad metadata)")
-        cfg = _check_model_metadata(path, meta, expected)  # versions before the arrays
-        missing = {"features", "labels", "region", "scaler_mean", "scaler_scale"} - set(arrays)
+        missing = set(MODEL_ARRAYS) - set(arrays)
         if missing:
-            raise InputFileError(f"{path}: not a terrain-odom model file (no {sorted(missing)})")
+            raise ValueError(f"no {sorted(missing)}")
         labels = arrays["labels"]
-        try:
-            features, region, _ = check_regions(arrays["features"], arrays["region"])
-            if labels.shape != region.shape:
-                raise ValueError(f"{labels.size} labels for {region.size} feature rows")
-        except ValueError as exc:
-            raise InputFileError(f"{path}: inconsistent model file ({exc})") from None
+        features, region, _ = check_regions(arrays["features"], arrays["region"])
+        if labels.shape != region.shape:
+            raise ValueError(f"{labels.size} labels for {region.size} feature rows")
         model = cls(cfg)
         model.training_features = samples = features
         model.training_labels = labels
@@ -816,31 +374,3 @@ class TerrainClassifier:
             samples = scaler.transform(samples)
         model.pipeline["knn"].fit(samples, model.training_labels)
         return model
-
-
-def _check_model_metadata(
-    path: Path, meta: dict[str, Any], expected: ClassifierConfig | None
-) -> ClassifierConfig:
-    """Return the model's configuration, or raise if it does not match this code."""
-    for key, ours in (
-        ("format_version", MODEL_FORMAT_VERSION),
-        ("feature_version", FEATURE_VERSION),
-    ):
-        if meta.get(key) != ours:
-            raise InputFileError(
-                f"{path}: model {key} is {meta.get(key)!r} but this terrain-odom uses {ours}; "
-                "retrain the model with 'terrain-odom train'"
-            )
-    try:
-        cfg = build_section(ClassifierConfig(), meta["config"], "config")
-    except (ConfigError, KeyError) as exc:
-        raise InputFileError(f"{path}: invalid model metadata ({exc})") from None
-    if expected is not None:
-        for name in FEATURE_FIELDS:
-            theirs, ours = getattr(cfg, name), getattr(expected, name)
-            if theirs != ours:
-                raise InputFileError(
-                    f"{path}: model was trained with {name}={theirs!r} but the configuration "
-                    f"asks for {name}={ours!r}; retrain the model or change the configuration"
-                )
-    return cfg

@@ -1,15 +1,10 @@
-"""Labelled image folders and parallel feature extraction.
+"""Labelled image sets and parallel feature extraction.
 
-A labelled image folder has one sub-folder per terrain class, named after the
-class, holding its images (at any depth; png, jpg, jpeg, bmp, tif, tiff in
-any letter case; hidden files and folders are ignored)::
-
-    images/
-      carpet/  0001.jpg  0002.jpg ...
-      wood/    a.png ...
-
-Images are decoded with OpenCV (BGR) and converted to RGB here, at the edge;
-everything after works on RGB. Images may differ in size, and so in their
+A labelled image set (:class:`LabelledImages`, listed from a folder with one
+sub-folder per terrain class by :func:`terrain_odom.io.images.scan_image_folder`)
+names its images; the extraction decodes each through the ``read`` function
+it is given (e.g. :func:`terrain_odom.io.images.read_image_rgb`), so this
+module itself reads no file. Images may differ in size, and so in their
 number of tiles: their features are flat, one row per tile, with the index
 of each row's image (:class:`LabelledFeatures`).
 """
@@ -19,9 +14,10 @@ from __future__ import annotations
 import os
 import time
 from collections import Counter
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import TypeAlias
 
 import cv2
 import numpy as np
@@ -29,21 +25,25 @@ from joblib import Parallel, delayed
 from numpy.typing import NDArray
 from tqdm import tqdm
 
+from terrain_odom.config.classifier import ClassifierConfig
 from terrain_odom.errors import ConfigError, InputFileError
-from terrain_odom.vision.classifier import ClassifierConfig, image_features
+from terrain_odom.vision.features import image_features
 
 __all__ = [
-    "IMAGE_SUFFIXES",
+    "ImageReader",
     "LabelledImages",
     "SkippedImage",
     "LabelledFeatures",
-    "scan_image_folder",
-    "read_image_rgb",
     "extract_features",
     "extract_feature_sets",
 ]
 
-IMAGE_SUFFIXES = frozenset({".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff"})
+ImageReader: TypeAlias = Callable[[Path], NDArray[np.uint8] | None]
+"""Decodes one image file to RGB uint8 (H, W, 3), or returns ``None`` if it cannot.
+
+Given to the extraction by the caller; a module-level function, so that it
+reaches worker processes.
+"""
 
 
 @dataclass(frozen=True)
@@ -90,7 +90,7 @@ class LabelledFeatures:
     cfg : ClassifierConfig
         Configuration the features were computed with.
     features : ndarray of float64, shape (n_tiles, n_features)
-        :func:`~terrain_odom.vision.classifier.image_features` of every
+        :func:`~terrain_odom.vision.features.image_features` of every
         image, concatenated in image order (an image's tiles are adjacent).
     region : ndarray of intp, shape (n_tiles,)
         Image of each row of ``features`` (index into ``labels`` and ``paths``).
@@ -151,67 +151,11 @@ class LabelledFeatures:
         )
 
 
-def _is_hidden(path: Path, root: Path) -> bool:
-    return any(part.startswith(".") for part in path.relative_to(root).parts)
-
-
-def scan_image_folder(root: str | Path) -> LabelledImages:
-    """List the images of a labelled folder (one sub-folder per class).
-
-    Raises
-    ------
-    InputFileError
-        The folder does not exist, has fewer than 2 class sub-folders, or a
-        class sub-folder has no image.
-    """
-    root = Path(root)
-    if not root.is_dir():
-        raise InputFileError(f"{root}: image folder not found")
-    class_dirs = sorted(p for p in root.iterdir() if p.is_dir() and not p.name.startswith("."))
-    if len(class_dirs) < 2:
-        raise InputFileError(
-            f"{root}: needs one sub-folder per terrain class and at least 2 classes, "
-            f"found {[p.name for p in class_dirs]}"
-        )
-    paths: list[Path] = []
-    labels: list[str] = []
-    for class_dir in class_dirs:
-        images = sorted(
-            p
-            for p in class_dir.rglob("*")
-            if p.suffix.lower() in IMAGE_SUFFIXES and p.is_file() and not _is_hidden(p, root)
-        )
-        if not images:
-            raise InputFileError(
-                f"{class_dir}: class '{class_dir.name}' has no images "
-                f"({', '.join(sorted(s[1:] for s in IMAGE_SUFFIXES))})"
-            )
-        paths += images
-        labels += [class_dir.name] * len(images)
-    return LabelledImages(root, tuple(p.name for p in class_dirs), tuple(paths), tuple(labels))
-
-
-def read_image_rgb(path: str | Path) -> NDArray[np.uint8] | None:
-    """Decode an image file to RGB uint8 (H, W, 3); ``None`` if it cannot be decoded.
-
-    Grey images are replicated to 3 channels, an alpha channel is dropped,
-    16-bit images are scaled to 8 bits (OpenCV's ``IMREAD_COLOR``).
-    """
-    try:
-        data = np.fromfile(path, dtype=np.uint8)
-    except OSError:
-        return None
-    bgr = cv2.imdecode(data, cv2.IMREAD_COLOR) if data.size else None
-    if bgr is None:
-        return None
-    return cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
-
-
 def _extract_one(
-    path: Path, configs: Sequence[ClassifierConfig]
+    path: Path, configs: Sequence[ClassifierConfig], read: ImageReader
 ) -> tuple[list[NDArray], list[float]] | str:
     """Features and extraction time (s) of one image per configuration, or why it failed."""
-    image = read_image_rgb(path)
+    image = read(path)
     if image is None:
         return "cannot be read as an image"
     features, seconds = [], []
@@ -223,11 +167,11 @@ def _extract_one(
 
 
 def _extract_in_worker(
-    path: Path, configs: Sequence[ClassifierConfig]
+    path: Path, configs: Sequence[ClassifierConfig], read: ImageReader
 ) -> tuple[list[NDArray], list[float]] | str:
     """:func:`_extract_one` in a worker process: OpenCV single-threaded (one worker per core)."""
     cv2.setNumThreads(1)
-    return _extract_one(path, configs)
+    return _extract_one(path, configs, read)
 
 
 def _default_jobs() -> int:
@@ -241,6 +185,7 @@ def extract_feature_sets(
     images: LabelledImages,
     configs: Sequence[ClassifierConfig],
     *,
+    read: ImageReader,
     jobs: int | None = None,
     progress: bool | None = None,
 ) -> list[LabelledFeatures]:
@@ -253,6 +198,9 @@ def extract_feature_sets(
     ----------
     images : LabelledImages
     configs : sequence of ClassifierConfig
+    read : ImageReader
+        Decodes an image file (e.g. :func:`terrain_odom.io.images.read_image_rgb`);
+        an image it returns ``None`` for is skipped.
     jobs : int, optional
         Worker processes (default: the usable cores); 1 runs in this process.
     progress : bool, optional
@@ -276,21 +224,25 @@ def extract_feature_sets(
     keys = [tuple(cfg.feature_key().items()) for cfg in configs]
     unique_keys = list(dict.fromkeys(keys))
     unique = [configs[keys.index(key)] for key in unique_keys]
-    results = _run_all(images.paths, unique, jobs, progress)
+    results = _run_all(images.paths, unique, read, jobs, progress)
     return _collect(images, configs, [unique_keys.index(key) for key in keys], results)
 
 
 def _run_all(
-    paths: Sequence[Path], configs: list[ClassifierConfig], jobs: int, progress: bool | None
+    paths: Sequence[Path],
+    configs: list[ClassifierConfig],
+    read: ImageReader,
+    jobs: int,
+    progress: bool | None,
 ) -> list[tuple[list[NDArray], list[float]] | str]:
     """:func:`_extract_one` over all images, in order, in ``jobs`` processes."""
     disable = None if progress is None else not progress
     with tqdm(total=len(paths), desc="features", unit="image", disable=disable) as bar:
         if jobs == 1:
-            tasks = (_extract_one(path, configs) for path in paths)
+            tasks = (_extract_one(path, configs, read) for path in paths)
         else:  # loky workers do not re-run the caller's __main__ (unlike spawn)
             parallel = Parallel(n_jobs=jobs, return_as="generator", batch_size="auto")
-            tasks = parallel(delayed(_extract_in_worker)(path, configs) for path in paths)
+            tasks = parallel(delayed(_extract_in_worker)(path, configs, read) for path in paths)
         results = []
         for result in tasks:
             results.append(result)
@@ -342,6 +294,7 @@ def extract_features(
     images: LabelledImages,
     cfg: ClassifierConfig,
     *,
+    read: ImageReader,
     jobs: int | None = None,
     progress: bool | None = None,
 ) -> LabelledFeatures:
@@ -349,4 +302,4 @@ def extract_features(
 
     See :func:`extract_feature_sets` for the parameters and errors.
     """
-    return extract_feature_sets(images, [cfg], jobs=jobs, progress=progress)[0]
+    return extract_feature_sets(images, [cfg], read=read, jobs=jobs, progress=progress)[0]

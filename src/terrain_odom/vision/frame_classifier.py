@@ -12,7 +12,7 @@ nearer because perspective gives near ground more pixels, did worse in
 ``bench/chen2023.py`` with 32-px tiles voting over the whole box:
 terrain/no-terrain error 0.45, 0.50, 0.47 against 0.37, 0.51, 0.36.) Only
 the tiles whose centre is inside the footprint's projection vote
-(:func:`~terrain_odom.vision.classifier.tiles_within`).
+(:func:`~terrain_odom.vision.features.tiles_within`).
 """
 
 from __future__ import annotations
@@ -27,7 +27,8 @@ from terrain_odom.config import RoiConfig
 from terrain_odom.errors import ConfigError
 from terrain_odom.records import Sighting
 from terrain_odom.vision.camera import GroundCamera, crop, region_of_interest
-from terrain_odom.vision.classifier import TerrainClassifier, image_features
+from terrain_odom.vision.classifier import TerrainClassifier
+from terrain_odom.vision.features import image_features
 
 __all__ = ["FULL_FRAME", "FrameClassification", "FrameClassifier"]
 

@@ -112,10 +112,11 @@ from __future__ import annotations
 
 import functools
 import itertools
-from typing import Literal
+from typing import Any, Literal
 
 import cv2
 import numpy as np
+from cv2.typing import MatLike
 from numpy.typing import NDArray
 
 __all__ = [
@@ -147,12 +148,14 @@ _BITS = np.unpackbits(
     np.arange(_N_LEVELS, dtype=np.uint8)[:, None], axis=1, bitorder="little"
 ).astype(np.float64)
 # +inf where the class matrix of _otsu_dp is defined (a < b), -inf elsewhere.
-_VALID = {
+_VALID: dict[type[np.floating[Any]], NDArray[np.floating[Any]]] = {
     dtype: np.where(np.tri(_N_LEVELS, dtype=bool), np.inf, -np.inf).astype(dtype)
     for dtype in (np.float32, np.float64)
 }
 _FLOAT32_EXACT = 2**24  # integers below this are exact in float32
-_EPS = {dtype: float(np.finfo(dtype).eps) for dtype in (np.float32, np.float64)}
+_EPS: dict[type[np.floating[Any]], float] = {
+    dtype: float(np.finfo(dtype).eps) for dtype in (np.float32, np.float64)
+}
 _CALCHIST_EXACT = 2**24  # cv2.calcHist counts in float32
 
 
@@ -199,7 +202,7 @@ def to_grey(image: NDArray, *, colour_order: ColourOrder = "rgb") -> NDArray[np.
         return image
     if image.ndim != 3 or image.shape[2] != 3:
         raise ValueError(f"image must have shape (H, W) or (H, W, 3), got {image.shape}")
-    return cv2.transform(image, _GREY_WEIGHTS[colour_order])
+    return np.asarray(cv2.transform(image, _GREY_WEIGHTS[colour_order]), dtype=np.uint8)
 
 
 def multiotsu_thresholds(hist: NDArray, n_t: int) -> NDArray[np.uint8]:
@@ -372,7 +375,7 @@ def box_counting_dimension(binary: NDArray) -> float:
     return float(_dimensions(counts[:, :1], boxes)[0])
 
 
-def _histogram(grey: NDArray[np.uint8]) -> NDArray:
+def _histogram(grey: MatLike) -> NDArray:
     """Pixel count of each grey level, shape (256,), exact."""
     if grey.size >= _CALCHIST_EXACT:
         return np.bincount(grey.ravel(), minlength=_N_LEVELS)
@@ -420,7 +423,9 @@ def _otsu_cuts(moments: NDArray[np.float64], n_t: int) -> NDArray[np.intp]:
     return _otsu_dp(cumulative, n_t, np.float64)[0]
 
 
-def _otsu_dp(cumulative: NDArray, n_t: int, dtype: type) -> tuple[NDArray[np.intp], bool]:
+def _otsu_dp(
+    cumulative: NDArray, n_t: int, dtype: type[np.floating[Any]]
+) -> tuple[NDArray[np.intp], bool]:
     """Dynamic programme of :func:`_otsu_cuts` in `dtype`.
 
     ``value[b - 1, a] = (S_b - S_a)**2 / (P_b - P_a)`` is the objective of
@@ -533,7 +538,7 @@ def _border_dimensions(grey: NDArray[np.uint8], luts: NDArray, n_planes: int) ->
     return (dimensions[0] if len(dimensions) == 1 else np.concatenate(dimensions))[:n_planes]
 
 
-def _border(padded: NDArray[np.uint8]) -> NDArray[np.uint8]:
+def _border(padded: MatLike) -> MatLike:
     """Border pixels of 8 bit planes at once (eq. 21).
 
     Parameters
@@ -554,7 +559,7 @@ def _border(padded: NDArray[np.uint8]) -> NDArray[np.uint8]:
     return cv2.bitwise_xor(padded[1:-1, 1:-1], eroded)
 
 
-def _box_counts(planes: NDArray[np.uint8]) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+def _box_counts(planes: MatLike) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
     """Occupied boxes of side 1, 2, 4, ... of each of 8 bit planes.
 
     Boxes of side ``2**k`` are the pixels of the image OR-pooled ``k`` times
@@ -585,7 +590,7 @@ def _box_counts(planes: NDArray[np.uint8]) -> tuple[NDArray[np.float64], NDArray
     return np.dot(histograms[: len(boxes)], _BITS), np.array(boxes)[:, None]
 
 
-def _halve_rows(level: NDArray[np.uint8]) -> NDArray[np.uint8]:
+def _halve_rows(level: MatLike) -> MatLike:
     """OR of row pairs (0, 1), (2, 3), ...; an odd last row is kept."""
     n_rows = level.shape[0]
     if n_rows % 2 == 0:
@@ -598,7 +603,7 @@ def _halve_rows(level: NDArray[np.uint8]) -> NDArray[np.uint8]:
     return halved
 
 
-def _byte_histogram(level: NDArray[np.uint8]) -> NDArray:
+def _byte_histogram(level: MatLike) -> NDArray:
     """Count of each byte value (256,); the faster call for the size."""
     if level.size < 2048:
         return np.bincount(level.ravel(), minlength=_N_LEVELS)

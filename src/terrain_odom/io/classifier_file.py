@@ -1,0 +1,193 @@
+"""Terrain classifier model files (``.npz``, no pickle) and the default model.
+
+A model file holds the arrays of
+:meth:`~terrain_odom.vision.classifier.TerrainClassifier.to_arrays` and a
+``metadata`` array, a JSON string: the model's own metadata preceded by the
+file's ``format_version`` and followed by ``created`` (UTC) and
+``terrain_odom_version``. :func:`load_classifier` refuses a file whose format,
+feature version or feature settings differ from this code's.
+
+The default model of ``terrain-odom run`` ships inside the package
+(``terrain_odom/models/default.npz``, found through :mod:`importlib.resources`;
+``models/make_default.py`` in the repository regenerates it).
+"""
+
+from __future__ import annotations
+
+import datetime
+import json
+from importlib import resources
+from pathlib import Path
+from typing import Any, BinaryIO
+
+import numpy as np
+
+from terrain_odom.config.classifier import FEATURE_FIELDS, ClassifierConfig
+from terrain_odom.config.fields import build_section
+from terrain_odom.errors import ConfigError, InputFileError
+from terrain_odom.io.atomic import write_atomic
+from terrain_odom.vision.classifier import MODEL_ARRAYS, TerrainClassifier
+from terrain_odom.vision.features import FEATURE_VERSION
+
+__all__ = [
+    "MODEL_FORMAT_VERSION",
+    "save_classifier",
+    "load_classifier",
+    "default_model_path",
+    "default_model",
+]
+
+MODEL_FORMAT_VERSION = 2
+"""Version of the model file layout written by :func:`save_classifier`."""
+
+
+def save_classifier(model: TerrainClassifier, path: str | Path) -> Path:
+    """Write a fitted model atomically to one ``.npz`` file (no pickle).
+
+    Arrays: those of :meth:`~terrain_odom.vision.classifier.TerrainClassifier.to_arrays`
+    and ``metadata``, a JSON string (see the module). The file is written as
+    given, even without the ``.npz`` suffix.
+
+    Returns
+    -------
+    Path
+
+    Raises
+    ------
+    ValueError
+        The model is not fitted.
+    """
+    from terrain_odom import __version__
+
+    path = Path(path)
+    arrays, model_meta = model.to_arrays()
+    metadata = {
+        "format_version": MODEL_FORMAT_VERSION,
+        **model_meta,
+        "created": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+        "terrain_odom_version": __version__,
+    }
+
+    def write(handle: BinaryIO) -> None:
+        np.savez(
+            handle,
+            features=arrays["features"],
+            labels=arrays["labels"],
+            region=arrays["region"],
+            scaler_mean=arrays["scaler_mean"],
+            scaler_scale=arrays["scaler_scale"],
+            metadata=np.array(json.dumps(metadata)),
+        )
+
+    write_atomic(path, write)
+    return path
+
+
+def load_classifier(
+    path: str | Path, expected: ClassifierConfig | None = None
+) -> TerrainClassifier:
+    """Read a model written by :func:`save_classifier`.
+
+    Parameters
+    ----------
+    path : str or Path
+    expected : ClassifierConfig, optional
+        If given, the model's feature settings
+        (:data:`~terrain_odom.config.classifier.FEATURE_FIELDS`) must equal these.
+
+    Raises
+    ------
+    InputFileError
+        The file is missing, not a model or inconsistent, or its format
+        version, feature version or feature settings differ from this
+        code's or ``expected``'s (the message names the file and both
+        values).
+    """
+    path = Path(path)
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            arrays = {name: data[name] for name in data.files}
+    except FileNotFoundError:
+        raise InputFileError(f"{path}: model file not found") from None
+    except (OSError, ValueError) as exc:
+        raise InputFileError(f"{path}: not a terrain-odom model file ({exc})") from None
+    cfg = _check_metadata(path, _metadata(path, arrays), expected)  # versions before the arrays
+    missing = set(MODEL_ARRAYS) - set(arrays)
+    if missing:
+        raise InputFileError(f"{path}: not a terrain-odom model file (no {sorted(missing)})")
+    try:
+        return TerrainClassifier.from_arrays(cfg, arrays)
+    except ValueError as exc:
+        raise InputFileError(f"{path}: inconsistent model file ({exc})") from None
+
+
+def _metadata(path: Path, arrays: dict[str, np.ndarray]) -> dict[str, Any]:
+    """Return the decoded ``metadata`` array of a model file."""
+    try:
+        meta = json.loads(str(arrays["metadata"]))
+    except KeyError:
+        raise InputFileError(f"{path}: not a terrain-odom model file (no metadata)") from None
+    except json.JSONDecodeError:
+        meta = None
+    if not isinstance(meta, dict):
+        raise InputFileError(f"{path}: not a terrain-odom model file (bad metadata)")
+    return meta
+
+
+def _check_metadata(
+    path: Path, meta: dict[str, Any], expected: ClassifierConfig | None
+) -> ClassifierConfig:
+    """Return the model's configuration, or raise if it does not match this code."""
+    for key, ours in (
+        ("format_version", MODEL_FORMAT_VERSION),
+        ("feature_version", FEATURE_VERSION),
+    ):
+        if meta.get(key) != ours:
+            raise InputFileError(
+                f"{path}: model {key} is {meta.get(key)!r} but this terrain-odom uses {ours}; "
+                "retrain the model with 'terrain-odom train'"
+            )
+    try:
+        cfg: ClassifierConfig = build_section(ClassifierConfig(), meta["config"], "config")
+    except (ConfigError, KeyError) as exc:
+        raise InputFileError(f"{path}: invalid model metadata ({exc})") from None
+    if expected is not None:
+        for name in FEATURE_FIELDS:
+            theirs, ours = getattr(cfg, name), getattr(expected, name)
+            if theirs != ours:
+                raise InputFileError(
+                    f"{path}: model was trained with {name}={theirs!r} but the configuration "
+                    f"asks for {name}={ours!r}; retrain the model or change the configuration"
+                )
+    return cfg
+
+
+def default_model_path() -> Path:
+    """Return where the default classifier is: ``models/default.npz`` inside the package.
+
+    Found through :mod:`importlib.resources`, so an installed package (editable
+    or not) finds it wherever it is.
+    """
+    return Path(str(resources.files("terrain_odom") / "models" / "default.npz"))
+
+
+def default_model(path: Path | None = None) -> Path:
+    """Return the default classifier's file, or raise if it is missing.
+
+    Parameters
+    ----------
+    path : Path, optional
+        Where it should be (default: :func:`default_model_path`).
+
+    Raises
+    ------
+    InputFileError
+        The default model is not there (an installation without its package data).
+    """
+    path = default_model_path() if path is None else path
+    if not path.is_file():
+        raise InputFileError(
+            f"no --model given and the default classifier {path} is missing (it ships as "
+            "package data of terrain_odom): pass --model FILE"
+        )
+    return path

@@ -1,0 +1,289 @@
+"""Feature vectors of image regions: SFTA, colour statistics, tiles (Chen et al. 2023, §3.2.3).
+
+Chen et al. describe each image region by the 24 SFTA values of its grey image
+(eq. 18-21). :class:`~terrain_odom.config.classifier.ClassifierConfig` selects
+that recipe or adds to it:
+
+- **relative counts** (``relative_counts``): SFTA's pixel counts ``C_i`` as
+  fractions of the region's area (as :func:`~terrain_odom.vision.sfta.sfta_features`
+  returns them), so that regions of any size (tiles, regions of interest)
+  compare with the training images; the paper's raw counts scale with the
+  region's size;
+- **colour statistics** (``features="sfta+lab"`` or ``"sfta+hsv"``): grey
+  SFTA throws away colour, which is what separates e.g. wood from carpet;
+- **image pyramid** (``pyramid_levels``): SFTA also of the region halved
+  ``1, 2, ...`` times, describing the texture at coarser scales;
+- **tiles** (``tiles``, ``min_tile_size``, or ``tile_size``): a region is cut
+  into up to ``tiles x tiles`` tiles of at least ``min_tile_size`` pixels a
+  side (:func:`tiles_per_side`), or, with ``tile_size``, into tiles of about
+  ``tile_size`` pixels a side whatever the region's size (:func:`tile_grid`),
+  and each tile gets its own feature vector (:func:`image_features`), for
+  the classifier's tile vote.
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+import cv2
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from skimage.measure import points_in_poly
+
+from terrain_odom.config.classifier import ClassifierConfig
+from terrain_odom.vision.sfta import sfta_features
+
+__all__ = [
+    "FEATURE_VERSION",
+    "colour_statistics",
+    "region_features",
+    "tiles_per_side",
+    "tile_grid",
+    "split_tiles",
+    "tiles_within",
+    "image_features",
+]
+
+FEATURE_VERSION = 2
+"""Version of the feature vector; bump it whenever :func:`image_features` changes."""
+
+_HUE_LEVELS = 180  # OpenCV's 8-bit hue: 2 degrees per level
+_HUE_COS = np.cos(np.arange(_HUE_LEVELS) * (np.pi / 90.0))
+_HUE_SIN = np.sin(np.arange(_HUE_LEVELS) * (np.pi / 90.0))
+
+
+def colour_statistics(image_rgb: NDArray[np.uint8], space: Literal["lab", "hsv"]) -> NDArray:
+    """Mean and standard deviation of each channel of a colour space.
+
+    Parameters
+    ----------
+    image_rgb : ndarray of uint8, shape (H, W, 3)
+        RGB image.
+    space : {"lab", "hsv"}
+        CIE L*a*b* (OpenCV's 8-bit scaling: L in [0, 255], a and b offset by
+        128) or HSV (H in [0, 180) as OpenCV, S and V in [0, 255]). The hue
+        of HSV is an angle, so its "mean" and "spread" are those of the
+        circular statistics, in OpenCV hue units: the direction of the mean
+        hue vector and ``sqrt(-2 ln R)`` (R its length).
+
+    Returns
+    -------
+    ndarray of float64, shape (6,)
+        ``[mean_0, std_0, mean_1, std_1, mean_2, std_2]``.
+    """
+    return _channel_statistics(_convert(image_rgb, space), space)
+
+
+def _convert(image_rgb: NDArray[np.uint8], space: Literal["lab", "hsv"]) -> NDArray[np.uint8]:
+    code = cv2.COLOR_RGB2Lab if space == "lab" else cv2.COLOR_RGB2HSV
+    return np.asarray(cv2.cvtColor(np.ascontiguousarray(image_rgb), code), dtype=np.uint8)
+
+
+def _channel_statistics(converted: NDArray[np.uint8], space: Literal["lab", "hsv"]) -> NDArray:
+    """:func:`colour_statistics` of an image already converted to ``space``."""
+    mean, std = cv2.meanStdDev(np.ascontiguousarray(converted))
+    out = np.column_stack((mean.ravel(), std.ravel())).ravel()
+    if space == "hsv":
+        hue = converted[..., 0].ravel()
+        hist = np.bincount(hue, minlength=_HUE_LEVELS) / hue.size
+        c, s = hist @ _HUE_COS, hist @ _HUE_SIN
+        length = min(np.hypot(c, s), 1.0)
+        out[0] = (np.arctan2(s, c) % (2.0 * np.pi)) * (90.0 / np.pi)
+        out[1] = np.sqrt(-2.0 * np.log(max(length, 1e-12))) * (90.0 / np.pi)
+    return out
+
+
+def _colour_space(cfg: ClassifierConfig) -> Literal["lab", "hsv"] | None:
+    return {"sfta": None, "sfta+lab": "lab", "sfta+hsv": "hsv"}[cfg.features]
+
+
+def _features(
+    image_rgb: NDArray[np.uint8], colour: NDArray | None, cfg: ClassifierConfig
+) -> NDArray:
+    """:func:`region_features` given the region's colour statistics, if any."""
+    parts = []
+    level = image_rgb
+    for depth in range(cfg.pyramid_levels):
+        if depth:
+            height, width = level.shape[:2]
+            size = (max(width // 2, 1), max(height // 2, 1))
+            level = np.asarray(
+                cv2.resize(level, size, interpolation=cv2.INTER_AREA), dtype=np.uint8
+            )
+        sfta = np.array(sfta_features(level, cfg.n_t), dtype=np.float64)
+        if not cfg.relative_counts:  # sfta_features gives fractions of the area
+            sfta[1::3] *= level.shape[0] * level.shape[1]
+        parts.append(sfta)
+    if colour is not None:
+        parts.append(colour)
+    return np.concatenate(parts)
+
+
+def region_features(image_rgb: NDArray[np.uint8], cfg: ClassifierConfig) -> NDArray:
+    """Feature vector of one image region (a whole region or one tile).
+
+    Parameters
+    ----------
+    image_rgb : ndarray of uint8, shape (H, W, 3)
+        RGB region.
+    cfg : ClassifierConfig
+
+    Returns
+    -------
+    ndarray of float64, shape (n_features,)
+        The ``6 * n_t`` SFTA values of each pyramid level (full size first,
+        then halved; counts ``C_i`` times the level's pixel count unless
+        ``cfg.relative_counts``), then the 6 colour statistics if any:
+        ``n_features = 6 * n_t * pyramid_levels (+ 6)``.
+    """
+    space = _colour_space(cfg)
+    if space is None:
+        return _features(image_rgb, None, cfg)
+    return _features(image_rgb, _channel_statistics(_convert(image_rgb, space), space), cfg)
+
+
+def tiles_per_side(height: int, width: int, cfg: ClassifierConfig) -> int:
+    """Return the number of tiles per side of a ``height x width`` region.
+
+    ``min(cfg.tiles, max(1, min(height, width) // cfg.min_tile_size))``: as
+    many as ``cfg.tiles`` allows with tiles of at least ``cfg.min_tile_size``
+    pixels a side, and at least one.
+
+    >>> cfg = ClassifierConfig(tiles=4, min_tile_size=32)
+    >>> tiles_per_side(427, 320, cfg), tiles_per_side(120, 160, cfg), tiles_per_side(64, 64, cfg)
+    (4, 3, 2)
+    >>> tiles_per_side(63, 200, cfg)
+    1
+    """
+    return min(cfg.tiles, max(1, min(height, width) // cfg.min_tile_size))
+
+
+def tile_grid(height: int, width: int, cfg: ClassifierConfig) -> tuple[int, int]:
+    """Return the tile rows and columns of a ``height x width`` region.
+
+    With ``cfg.tile_size`` set: ``round(height / tile_size)`` rows and
+    ``round(width / tile_size)`` columns (halves up, at least one each), so
+    tile sides are within ``[2/3, 3/2] * tile_size`` once the region is at
+    least ``tile_size`` a side; otherwise ``n x n`` with
+    ``n = tiles_per_side(height, width, cfg)``.
+
+    >>> cfg = ClassifierConfig(tile_size=64)
+    >>> tile_grid(240, 320, cfg), tile_grid(96, 100, cfg), tile_grid(20, 500, cfg)
+    ((4, 5), (2, 2), (1, 8))
+    >>> tile_grid(240, 320, ClassifierConfig())
+    (4, 4)
+    """
+    if cfg.tile_size is None:
+        n = tiles_per_side(height, width, cfg)
+        return n, n
+    return (
+        max(1, int(height / cfg.tile_size + 0.5)),
+        max(1, int(width / cfg.tile_size + 0.5)),
+    )
+
+
+def _tile_edges(height: int, width: int, tiles: int, columns: int) -> tuple[NDArray, NDArray]:
+    """Row and column edges of a ``tiles x columns`` grid: ``round(i * H / tiles)``, ..."""
+    if tiles > height or columns > width:
+        raise ValueError(f"cannot cut a {height}x{width} image into {tiles}x{columns} tiles")
+    rows = np.rint(np.linspace(0, height, tiles + 1)).astype(int)
+    cols = np.rint(np.linspace(0, width, columns + 1)).astype(int)
+    return rows, cols
+
+
+def split_tiles(image: NDArray, tiles: int, columns: int | None = None) -> list[NDArray]:
+    """Cut an image into ``tiles`` rows by ``columns`` (default ``tiles``) columns of tiles.
+
+    Tiles come row by row. Tile edges are at ``round(i * H / tiles)`` and
+    ``round(j * W / columns)``, so every pixel belongs to exactly one tile.
+
+    >>> [t.shape for t in split_tiles(np.zeros((5, 4)), 2)]
+    [(2, 2), (2, 2), (3, 2), (3, 2)]
+    >>> [t.shape for t in split_tiles(np.zeros((4, 9)), 1, 3)]
+    [(4, 3), (4, 3), (4, 3)]
+    """
+    columns = tiles if columns is None else columns
+    rows, cols = _tile_edges(image.shape[0], image.shape[1], tiles, columns)
+    return [
+        image[rows[i] : rows[i + 1], cols[j] : cols[j + 1]]
+        for i in range(tiles)
+        for j in range(columns)
+    ]
+
+
+def tiles_within(height: int, width: int, cfg: ClassifierConfig, polygon: ArrayLike) -> NDArray:
+    """Return the :func:`tile_grid` tiles whose centre is inside a polygon.
+
+    Parameters
+    ----------
+    height, width : int
+        Region size, px.
+    cfg : ClassifierConfig
+    polygon : array_like, shape (M, 2)
+        ``(u, v)`` vertices in region pixels (pixel centres at integers),
+        e.g. the visible footprint of a region of interest.
+
+    Returns
+    -------
+    ndarray of intp
+        Tile indices, row by row, of the tiles whose centre is inside the
+        polygon (``skimage.measure.points_in_poly``; a centre exactly on an
+        edge may fall either way); if there is none, the one tile nearest the polygon's
+        vertex mean, so that a region is never left without a tile.
+
+    >>> square = [(0, 0), (99, 0), (99, 99), (0, 99)]
+    >>> tiles_within(100, 200, ClassifierConfig(tile_size=50), square).tolist()
+    [0, 1, 4, 5]
+    """
+    grid = tile_grid(height, width, cfg)
+    rows, cols = _tile_edges(height, width, *grid)
+    v, u = np.meshgrid(
+        (rows[:-1] + rows[1:] - 1) / 2.0, (cols[:-1] + cols[1:] - 1) / 2.0, indexing="ij"
+    )
+    centres = np.column_stack((u.ravel(), v.ravel()))
+    vertices = np.asarray(polygon, dtype=float).reshape(-1, 2)
+    inside = points_in_poly(centres, vertices)
+    if inside.any():
+        return np.flatnonzero(inside)
+    nearest = np.argmin(np.sum((centres - vertices.mean(axis=0)) ** 2, axis=1))
+    return np.array([nearest], dtype=np.intp)
+
+
+def image_features(
+    image_rgb: NDArray[np.uint8], cfg: ClassifierConfig, within: ArrayLike | None = None
+) -> NDArray:
+    """Feature vectors of the tiles of a region.
+
+    Parameters
+    ----------
+    image_rgb : ndarray of uint8, shape (H, W, 3)
+        RGB region of any size.
+    cfg : ClassifierConfig
+    within : array_like, shape (M, 2), optional
+        A polygon in region pixels: only the tiles whose centre it contains
+        are described (:func:`tiles_within`), e.g. the footprint of a region
+        of interest inside its bounding box.
+
+    Returns
+    -------
+    ndarray of float64, shape (n_tiles, n_features)
+        :func:`region_features` of each tile (of those within the polygon),
+        row by row, of the :func:`tile_grid` of the region (one row for a
+        single tile).
+    """
+    image_rgb = np.asarray(image_rgb)
+    if image_rgb.ndim != 3 or image_rgb.shape[2] != 3 or image_rgb.dtype != np.uint8:
+        raise ValueError(
+            f"expected an RGB uint8 image (H, W, 3), got {image_rgb.dtype} {image_rgb.shape}"
+        )
+    height, width = image_rgb.shape[:2]
+    grid = tile_grid(height, width, cfg)
+    keep = range(grid[0] * grid[1]) if within is None else tiles_within(height, width, cfg, within)
+    rgb_tiles = split_tiles(image_rgb, *grid)
+    space = _colour_space(cfg)
+    if space is None:
+        return np.stack([_features(rgb_tiles[i], None, cfg) for i in keep])
+    colour_tiles = split_tiles(_convert(image_rgb, space), *grid)  # one conversion
+    return np.stack(
+        [_features(rgb_tiles[i], _channel_statistics(colour_tiles[i], space), cfg) for i in keep]
+    )
