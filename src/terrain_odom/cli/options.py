@@ -13,12 +13,12 @@ import argparse
 import dataclasses
 from collections.abc import Mapping
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypedDict
 
 if TYPE_CHECKING:
     from terrain_odom.config import Config
     from terrain_odom.estimation.time_offset import TimeCalibration
-    from terrain_odom.fitting import FitOptions
+    from terrain_odom.fitting import FitOptions, Horizon
     from terrain_odom.vision.classifier import ClassifierConfig
 
 MODEL_CHOICES = ("idd", "edd-sym", "edd-asym", "roc", "linear", "icr", "icr-slip")
@@ -144,7 +144,17 @@ def fit_options(args: argparse.Namespace) -> FitOptions:
     return opt
 
 
-def fit_arguments(args: argparse.Namespace) -> dict[str, Any]:
+class FitArguments(TypedDict):
+    """The keyword arguments of ``fit`` and ``compare`` set by :func:`add_fit_options`."""
+
+    horizon: str | Horizon
+    by_terrain: bool
+    options: FitOptions
+    config: Config
+    config_path: str | None
+
+
+def fit_arguments(args: argparse.Namespace) -> FitArguments:
     """Return the keyword arguments that ``fit`` and ``compare`` take from the shared options."""
     from terrain_odom.fitting import DEFAULT_TRAINING_HORIZON
 
