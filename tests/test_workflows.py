@@ -236,11 +236,13 @@ def test_evaluate_returns_and_writes_result(log_path: Path, tmp_path: Path) -> N
     result = evaluate(summary.report_json.parent, log_path, params=[params], horizon=1.5)
 
     on_disk = json.loads((tmp_path / "run" / "evaluation.json").read_text(encoding="utf-8"))
-    assert on_disk == json.loads(json.dumps(result))
-    assert result["horizon_m"] == 1.5
-    assert list(result["models"]) == ["idd (B=0.5 m)", "ekf (online)", "icr (true.yaml)"]
-    assert result["models"]["icr (true.yaml)"]["translation_m_per_m"]["median"] < 1e-6
-    assert result["models"]["idd (B=0.5 m)"]["translation_m_per_m"]["median"] > 0.05
+    assert on_disk == json.loads(json.dumps(result.to_dict()))
+    assert result.horizon == 1.5
+    assert result.run == (tmp_path / "run").resolve()
+    assert list(result.models) == ["idd (B=0.5 m)", "ekf (online)", "icr (true.yaml)"]
+    assert list(result.prediction) == ["idd (B=0.5 m)", "ekf (online)"]
+    assert result.models["icr (true.yaml)"].errors.translation.median < 1e-6
+    assert result.models["idd (B=0.5 m)"].errors.translation.median > 0.05
 
 
 def test_load_config_default_is_builtin() -> None:

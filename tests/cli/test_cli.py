@@ -138,35 +138,64 @@ def test_bad_wheel_log_is_one_line_and_exit_2(
     assert not out_dir.exists()  # nothing is created before the inputs are validated
 
 
+BAD_FILES = [
+    (
+        "config",
+        "ekf:\n  sigma_r: {x: 0.05, bogus_key: 1.0}\n",
+        ["ekf.sigma_r", "unknown key", "bogus_key"],
+    ),
+    ("config", "robot: {wheel_radius: 0.1}\nfoo: 1\n", ["unknown key", "'foo'"]),
+    ("config", "ekf:\n  sigma_r: {x: -0.05}\n", ["ekf.sigma_r.x", "must be > 0", "-0.05"]),
+    ("config", "ekf:\n  sigma_q: {yaw: -1}\n", ["ekf.sigma_q.yaw", "must be >= 0"]),
+    (
+        "params",
+        "format_version: 1\nmodel: icr\nparams: {y_l: 0.4, y_r: -0.35, x_icr: 0.1}\nwidth: 1\n",
+        ["unknown key", "'width'"],
+    ),
+    (
+        "params",
+        "format_version: 1\nmodel: icr\nparams: {y_l: 0.4, y_r: -0.35, xicr: 0.1}\n",
+        ["model 'icr' needs params", "'x_icr'", "'xicr'"],
+    ),
+    ("params", "format_version: 1\nmodel: nope\nparams: {}\n", ["unknown kinematic model 'nope'"]),
+]
+"""A bad configuration (given to ``run``) or parameter file (to ``evaluate``), and
+what its error message must name."""
+
+
 @pytest.mark.parametrize(
-    ("yaml_text", "fragments"),
-    [
-        (
-            "ekf:\n  sigma_r: {x: 0.05, bogus_key: 1.0}\n",
-            ["ekf.sigma_r", "unknown key", "bogus_key"],
-        ),
-        ("robot: {wheel_radius: 0.1}\nfoo: 1\n", ["unknown key", "'foo'"]),
-        ("ekf:\n  sigma_r: {x: -0.05}\n", ["ekf.sigma_r.x", "must be > 0", "-0.05"]),
-        ("ekf:\n  sigma_q: {yaw: -1}\n", ["ekf.sigma_q.yaw", "must be >= 0"]),
+    ("kind", "yaml_text", "fragments"),
+    BAD_FILES,
+    ids=[
+        "config-unknown-nested-key",
+        "config-unknown-top-key",
+        "config-negative-sigma-r",
+        "config-negative-sigma-q",
+        "params-unknown-key",
+        "params-wrong-param-name",
+        "params-unknown-model",
     ],
-    ids=["unknown-nested-key", "unknown-top-key", "negative-sigma-r", "negative-sigma-q"],
 )
-def test_invalid_config_names_the_key(
+def test_bad_yaml_file_names_the_key(
+    kind: str,
     yaml_text: str,
     fragments: list[str],
     log_path: Path,
     tmp_path: Path,
     capsys: pytest.CaptureFixture[str],
 ) -> None:
-    config = write(tmp_path / "bad.yaml", yaml_text)
-    out_dir = tmp_path / "out"
+    bad = write(tmp_path / f"{kind}.yaml", yaml_text)
+    if kind == "config":
+        output = tmp_path / "out"
+        argv = ["run", "--wheels", log_path, "--out", output, "--config", bad]
+    else:
+        output = tmp_path / "evaluation.json"
+        argv = ["evaluate", "--log", log_path, "--params", bad, "--out", output]
 
-    code, out, err = run_main(
-        capsys, "run", "--wheels", log_path, "--out", out_dir, "--config", config
-    )
+    code, out, err = run_main(capsys, *argv)
 
-    assert_one_line_error(code, out, err, str(config), *fragments)
-    assert not out_dir.exists()
+    assert_one_line_error(code, out, err, str(bad), *fragments)
+    assert not output.exists()
 
 
 def test_missing_config_file(
@@ -248,39 +277,6 @@ def test_evaluate_run_of_another_log_is_rejected(
         code, out, err, str(run_dir / "trajectory.csv"), "do not match", *expected
     )
     assert not (run_dir / "evaluation.json").exists()
-
-
-@pytest.mark.parametrize(
-    ("yaml_text", "fragments"),
-    [
-        (
-            "format_version: 1\nmodel: icr\nparams: {y_l: 0.4, y_r: -0.35, x_icr: 0.1}\nwidth: 1\n",
-            ["unknown key", "'width'"],
-        ),
-        (
-            "format_version: 1\nmodel: icr\nparams: {y_l: 0.4, y_r: -0.35, xicr: 0.1}\n",
-            ["model 'icr' needs params", "'x_icr'", "'xicr'"],
-        ),
-        ("format_version: 1\nmodel: nope\nparams: {}\n", ["unknown kinematic model 'nope'"]),
-    ],
-    ids=["unknown-key", "wrong-param-name", "unknown-model"],
-)
-def test_bad_params_file(
-    yaml_text: str,
-    fragments: list[str],
-    log_path: Path,
-    tmp_path: Path,
-    capsys: pytest.CaptureFixture[str],
-) -> None:
-    params = write(tmp_path / "params.yaml", yaml_text)
-    out_json = tmp_path / "evaluation.json"
-
-    code, out, err = run_main(
-        capsys, "evaluate", "--log", log_path, "--params", params, "--out", out_json
-    )
-
-    assert_one_line_error(code, out, err, str(params), *fragments)
-    assert not out_json.exists()
 
 
 def test_run_out_is_an_existing_file(

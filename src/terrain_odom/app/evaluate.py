@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -10,7 +12,12 @@ import numpy as np
 from terrain_odom.app.run import read_calibrated_log
 from terrain_odom.config import Config, load_config
 from terrain_odom.errors import InputFileError
+from terrain_odom.estimation.time_offset import TimeCalibration
 from terrain_odom.evaluation import (
+    AteResult,
+    ErrorSummary,
+    TwistFn,
+    Windows,
     absolute_trajectory_error,
     dead_reckon,
     icr_twist_from_rows,
@@ -20,18 +27,93 @@ from terrain_odom.evaluation import (
     window_errors,
 )
 from terrain_odom.evaluation.prediction import (
+    PredictionSummary,
     prediction_errors,
     prediction_windows,
     slip_twist_from_rows,
 )
 from terrain_odom.io import read_trajectory_csv
-from terrain_odom.io.params import ModelParams, read_params
+from terrain_odom.io.params import read_params
 from terrain_odom.io.report import path_or_none, report_header, write_json
 from terrain_odom.kinematics import get_model, twist_icr
 from terrain_odom.kinematics.slip import SlipModel, param_names
 from terrain_odom.records import WheelLog
 
-__all__ = ["evaluate"]
+__all__ = ["ModelErrors", "EvaluationResult", "evaluate"]
+
+RowsTwist = tuple[np.ndarray, np.ndarray, np.ndarray]
+"""Per-row body twist ``(v_x, v_y, omega)`` of a model, m/s and rad/s."""
+
+
+@dataclass(frozen=True)
+class ModelErrors:
+    """Model-odometry errors of one model on the log.
+
+    Attributes
+    ----------
+    errors : ErrorSummary
+        Translational (m/m) and angular (deg/m) error per metre over the windows.
+    ate : AteResult
+        ATE of the model dead-reckoned over every segment, m.
+    """
+
+    errors: ErrorSummary
+    ate: AteResult
+
+    def to_dict(self) -> dict[str, Any]:
+        """Return the model's entry of ``evaluation.json``."""
+        return {**self.errors.to_dict(), "ate_dead_reckoning": self.ate.to_dict()}
+
+
+@dataclass(frozen=True)
+class EvaluationResult:
+    """What :func:`evaluate` computed (and wrote as ``evaluation.json``).
+
+    Attributes
+    ----------
+    log : Path
+        The wheel log (absolute).
+    run : Path or None
+        The run directory (absolute), when a run was evaluated.
+    time_calibration : TimeCalibration
+        The pose delay applied to the log.
+    horizon : float
+        Evaluation horizon ``h_e``, m.
+    windows : int
+        Number of ``h_e`` windows.
+    models : dict of str to ModelErrors
+        Per model, in the order evaluated: the nominal ``idd``, the run, the
+        parameter files.
+    prediction_windows : int
+        Number of 2-s prediction windows.
+    prediction : dict of str to PredictionSummary
+        2-s prediction errors of the nominal model and of the run.
+    """
+
+    log: Path
+    run: Path | None
+    time_calibration: TimeCalibration
+    horizon: float
+    windows: int
+    models: dict[str, ModelErrors]
+    prediction_windows: int
+    prediction: dict[str, PredictionSummary]
+
+    def to_dict(self) -> dict[str, Any]:
+        """Return the content of ``evaluation.json``."""
+        return {
+            **report_header("evaluate"),
+            "log": str(self.log),
+            "run": path_or_none(self.run),
+            "time_calibration": self.time_calibration.to_dict(),
+            "horizon_m": self.horizon,
+            "windows": self.windows,
+            "models": {name: entry.to_dict() for name, entry in self.models.items()},
+            "prediction_2s": {
+                "windows": self.prediction_windows,
+                "models": {name: p.to_dict() for name, p in self.prediction.items()},
+            },
+        }
 
 
 def _read_run(run_dir: Path, log: WheelLog) -> dict[str, np.ndarray]:
@@ -50,11 +132,71 @@ def _read_run(run_dir: Path, log: WheelLog) -> dict[str, np.ndarray]:
     return traj
 
 
-def _model_entry(log: WheelLog, windows: Any, twist_fn: Any, rows_twist: tuple) -> dict:
-    errors = window_errors(log, windows, twist_fn)
-    reckoned = dead_reckon(log, *rows_twist)
-    ate = absolute_trajectory_error(reckoned[:, :2], log.pose[:, :2])
-    return {**summarize(errors).to_dict(), "ate_dead_reckoning": ate.to_dict()}
+def _model_errors(
+    log: WheelLog, windows: Windows, twist_fn: TwistFn, rows: RowsTwist
+) -> ModelErrors:
+    """Window errors of ``twist_fn`` and the ATE of the per-row twist ``rows`` dead-reckoned."""
+    reckoned = dead_reckon(log, *rows)
+    return ModelErrors(
+        summarize(window_errors(log, windows, twist_fn)),
+        absolute_trajectory_error(reckoned[:, :2], log.pose[:, :2]),
+    )
+
+
+def _evaluation_windows(log: WheelLog, h_e: float) -> Windows:
+    windows = spatial_windows(log, h_e)
+    if len(windows) == 0:
+        raise InputFileError(
+            f"{log.source}: no {h_e} m window with pose measurements at both ends; nothing to evaluate"
+        )
+    return windows
+
+
+def _run_models(
+    run_dir: Path, log: WheelLog, windows: Windows, ahead: Windows, cfg: Config
+) -> tuple[str, ModelErrors, PredictionSummary]:
+    """Errors of the online estimate of a run (ICR EKF, or slip EKF with ``l1`` columns)."""
+    traj = _read_run(run_dir, log)
+    if "l1" in traj:  # a slip-ekf run: the slip model with the parameters of each row
+        slip_model = SlipModel.from_config(cfg.slip_ekf, cfg.robot.track_width)
+        rows_l = np.stack([traj[n] for n in param_names("alpha" in traj)], axis=1)
+        errors = _model_errors(
+            log,
+            windows,
+            slip_twist_from_rows(windows, rows_l, slip_model),
+            slip_model.twist(log.v_l, log.v_r, rows_l),
+        )
+        run_twist = slip_twist_from_rows(ahead, rows_l, slip_model)
+        return "slip-ekf (online)", errors, prediction_errors(log, ahead, run_twist)
+    icr = (traj["y_l"], traj["y_r"], traj["x_icr"], traj.get("alpha", np.ones(len(log))))
+    errors = _model_errors(
+        log, windows, icr_twist_from_rows(windows, *icr), twist_icr(log.v_l, log.v_r, *icr)
+    )
+    return "ekf (online)", errors, prediction_errors(log, ahead, icr_twist_from_rows(ahead, *icr))
+
+
+def _params_model(
+    path: str | Path, log: WheelLog, windows: Windows, track_width: float
+) -> tuple[str, ModelErrors]:
+    """Errors of the constant model of a parameter file (per-terrain sets row by row)."""
+    mp = read_params(path)
+    model = get_model(mp.model)
+    values = mp.rows(log)  # (N, k): each row's terrain set (per-terrain files)
+    b = mp.track_width or track_width
+    v_x, v_y, omega = model.twist(log.v_l[:, None], log.v_r[:, None], values, b)
+    errors = _model_errors(
+        log,
+        windows,
+        model_twist(model, values[windows.start], b),
+        (v_x[:, 0], v_y[:, 0], omega[:, 0]),
+    )
+    return f"{mp.model} ({Path(path).name})", errors
+
+
+def _output_path(out: str | Path | None, run_dir: str | Path | None) -> Path | None:
+    if out is not None:
+        return Path(out)
+    return Path(run_dir) / "evaluation.json" if run_dir else None
 
 
 def evaluate(
@@ -63,10 +205,10 @@ def evaluate(
     *,
     config: Config | None = None,
     config_path: str | Path | None = None,
-    params: list[str | Path] | None = None,
+    params: Sequence[str | Path] | None = None,
     horizon: float | None = None,
     out: str | Path | None = None,
-) -> dict[str, Any]:
+) -> EvaluationResult:
     """Model-odometry errors of the nominal model, an EKF run and parameter files.
 
     For every full pose measurement of the log, each model is integrated from
@@ -85,7 +227,7 @@ def evaluate(
     config, config_path : optional
         Configuration (robot geometry, default horizon, ``time.pose_delay``:
         give the one the run was made with).
-    params : list of str or Path, optional
+    params : sequence of str or Path, optional
         Parameter files of constant models (see :mod:`terrain_odom.io.params`).
     horizon : float, optional
         Evaluation horizon ``h_e``, m; ``config.evaluation.horizon`` if omitted.
@@ -94,76 +236,36 @@ def evaluate(
 
     Returns
     -------
-    dict
+    EvaluationResult
         Per model: translational (m/m) and angular (deg/m) error statistics
-        and dead-reckoning ATE (m).
+        and dead-reckoning ATE (m); 2-s prediction errors.
     """
     cfg = config if config is not None else load_config(config_path)
     log, timing = read_calibrated_log(wheels, cfg)
     h_e = cfg.evaluation.horizon if horizon is None else float(horizon)
-    windows = spatial_windows(log, h_e)
-    if len(windows) == 0:
-        raise InputFileError(
-            f"{log.source}: no {h_e} m window with pose measurements at both ends; nothing to evaluate"
-        )
-    b_nominal = cfg.robot.track_width
+    windows = _evaluation_windows(log, h_e)
+    b = cfg.robot.track_width
     idd = get_model("idd")
-    models: dict[str, Any] = {
-        f"idd (B={b_nominal:g} m)": _model_entry(
-            log,
-            windows,
-            model_twist(idd, [], b_nominal),
-            idd.twist(log.v_l, log.v_r, [], b_nominal),
-        )
-    }
+    nominal = f"idd (B={b:g} m)"
+    idd_twist = model_twist(idd, [], b)
+    models = {nominal: _model_errors(log, windows, idd_twist, idd.twist(log.v_l, log.v_r, [], b))}
     ahead = prediction_windows(log)
-    idd_errors = prediction_errors(log, ahead, model_twist(idd, [], b_nominal))
-    prediction = {next(iter(models)): idd_errors.to_dict()}
+    prediction = {nominal: prediction_errors(log, ahead, idd_twist)}
     if run_dir is not None:
-        traj = _read_run(Path(run_dir), log)
-        alpha = traj.get("alpha", np.ones(len(log)))
-        icr = (traj["y_l"], traj["y_r"], traj["x_icr"], alpha)
-        if "l1" in traj:  # a slip-ekf run: the slip model with the parameters of each row
-            slip_model = SlipModel.from_config(cfg.slip_ekf, b_nominal)
-            rows_l = np.stack([traj[n] for n in param_names("alpha" in traj)], axis=1)
-            models["slip-ekf (online)"] = _model_entry(
-                log,
-                windows,
-                slip_twist_from_rows(windows, rows_l, slip_model),
-                slip_model.twist(log.v_l, log.v_r, rows_l),
-            )
-            run_twist = slip_twist_from_rows(ahead, rows_l, slip_model)
-        else:
-            models["ekf (online)"] = _model_entry(
-                log, windows, icr_twist_from_rows(windows, *icr), twist_icr(log.v_l, log.v_r, *icr)
-            )
-            run_twist = icr_twist_from_rows(ahead, *icr)
-        prediction[list(models)[-1]] = prediction_errors(log, ahead, run_twist).to_dict()
+        name, models[name], prediction[name] = _run_models(Path(run_dir), log, windows, ahead, cfg)
     for path in params or []:
-        mp: ModelParams = read_params(path)
-        model = get_model(mp.model)
-        values = mp.rows(log)  # (N, k): each row's terrain set (per-terrain files)
-        b = mp.track_width or b_nominal
-        rows_twist = model.twist(log.v_l[:, None], log.v_r[:, None], values, b)
-        models[f"{mp.model} ({Path(path).name})"] = _model_entry(
-            log,
-            windows,
-            model_twist(model, values[windows.start], b),
-            tuple(c[:, 0] for c in rows_twist),
-        )
-    result = {
-        **report_header("evaluate"),
-        "log": str(Path(wheels).resolve()),
-        "run": path_or_none(run_dir),
-        "time_calibration": timing.to_dict(),
-        "horizon_m": h_e,
-        "windows": len(windows),
-        "models": models,
-        "prediction_2s": {"windows": len(ahead), "models": prediction},
-    }
-    target = (
-        Path(out) if out is not None else (Path(run_dir) / "evaluation.json" if run_dir else None)
+        name, models[name] = _params_model(path, log, windows, b)
+    result = EvaluationResult(
+        log=Path(wheels).resolve(),
+        run=None if run_dir is None else Path(run_dir).resolve(),
+        time_calibration=timing,
+        horizon=h_e,
+        windows=len(windows),
+        models=models,
+        prediction_windows=len(ahead),
+        prediction=prediction,
     )
+    target = _output_path(out, run_dir)
     if target is not None:
-        write_json(target, result)
+        write_json(target, result.to_dict())
     return result

@@ -19,7 +19,7 @@ import numpy as np
 from terrain_odom import __version__
 from terrain_odom.config import Config, load_config
 from terrain_odom.errors import ConfigError, InputFileError
-from terrain_odom.estimation.time_offset import calibrate_pose_delay
+from terrain_odom.estimation.time_offset import TimeCalibration, calibrate_pose_delay
 from terrain_odom.evaluation import (
     ErrorSummary,
     WindowErrors,
@@ -29,9 +29,10 @@ from terrain_odom.evaluation import (
     summarize,
     window_errors,
 )
-from terrain_odom.fitting.identify import (
+from terrain_odom.fitting import (
     DEFAULT_TRAINING_HORIZON,
     FitOptions,
+    FitResult,
     Horizon,
     fit_model,
     parse_horizon,
@@ -54,7 +55,10 @@ from terrain_odom.reporting.markdown import table
 
 __all__ = [
     "LogSource",
+    "FitEvaluation",
     "FitReport",
+    "ModelComparison",
+    "CompareReport",
     "fit",
     "evaluate_params",
     "compare",
@@ -67,6 +71,36 @@ ALL = "all"  # group name of evaluation windows when fits are not per terrain
 
 
 @dataclass(frozen=True)
+class FitEvaluation:
+    """Held-out errors of a fitted model and of the ideal differential drive.
+
+    Attributes
+    ----------
+    horizon : float
+        Evaluation horizon ``h_e``, m.
+    logs : tuple of str
+        The evaluation logs (their ``source``).
+    groups : dict of str to dict of str to ErrorSummary
+        Per group (terrain or ``"all"``), per model name: pooled error statistics.
+    """
+
+    horizon: float
+    logs: tuple[str, ...]
+    groups: dict[str, dict[str, ErrorSummary]]
+
+    def to_dict(self) -> dict[str, Any]:
+        """Return the ``evaluation`` entry of the parameter file."""
+        return {
+            "horizon_m": self.horizon,
+            "logs": list(self.logs),
+            "groups": {
+                g: {name: s.to_dict() for name, s in models.items()}
+                for g, models in self.groups.items()
+            },
+        }
+
+
+@dataclass(frozen=True)
 class FitReport:
     """Result of :func:`fit`.
 
@@ -74,27 +108,111 @@ class FitReport:
     ----------
     params : ModelParams
         The fitted model (what was written to the parameter file).
-    seconds : dict of str to float
-        Fit wall time per terrain (``"*"`` without per-terrain sets), s.
+    fits : dict of str to FitResult
+        The optimiser's result per terrain (``"*"`` without per-terrain sets).
     skipped : tuple of str
         Terrains left out because no training segment lies on them.
-    evaluation : dict
+    evaluation : FitEvaluation or None
         With evaluation logs: error statistics of the fitted model and of the
         ideal differential drive, per group (terrain or ``"all"``).
-    time_calibration : dict of str to dict
-        Per log (its ``source``): the pose delay applied
-        (``TimeCalibration.to_dict()``, see ``config.time.pose_delay``).
+    time_calibration : dict of str to TimeCalibration
+        Per log (its ``source``): the pose delay applied (see
+        ``config.time.pose_delay``).
     """
 
     params: ModelParams
-    seconds: dict[str, float]
+    fits: dict[str, FitResult]
     skipped: tuple[str, ...] = ()
-    evaluation: dict[str, Any] = field(default_factory=dict)
-    time_calibration: dict[str, dict[str, Any]] = field(default_factory=dict)
+    evaluation: FitEvaluation | None = None
+    time_calibration: dict[str, TimeCalibration] = field(default_factory=dict)
+
+    @property
+    def seconds(self) -> dict[str, float]:
+        """Fit wall time per terrain (``"*"`` without per-terrain sets), s."""
+        return {k: f.seconds for k, f in self.fits.items()}
+
+
+@dataclass(frozen=True)
+class ModelComparison:
+    """One model of :func:`compare`: its fitted sets and held-out errors.
+
+    Attributes
+    ----------
+    params : ModelParams
+        The fitted model (what was written to ``params_<model>.yaml``).
+    skipped : tuple of str
+        Terrains left out because no training segment lies on them.
+    errors : dict of str to ErrorSummary
+        Held-out error statistics per group (terrain or ``"all"``).
+    """
+
+    params: ModelParams
+    skipped: tuple[str, ...]
+    errors: dict[str, ErrorSummary]
+
+    def to_dict(self) -> dict[str, Any]:
+        """Return the model's entry of ``compare.json``."""
+        mp = self.params
+        return {
+            "sets": {k: {"params": v.params, "fit": v.fit} for k, v in mp.sets.items()},
+            "derived": {
+                k: derived_quantities(mp.model, v.params, mp.track_width)
+                for k, v in mp.sets.items()
+            },
+            "skipped_terrains": list(self.skipped),
+            "errors": {g: e.to_dict() for g, e in self.errors.items()},
+        }
+
+
+@dataclass(frozen=True)
+class CompareReport:
+    """Result of :func:`compare` (written as ``compare.json``).
+
+    Attributes
+    ----------
+    training_logs, evaluation_logs : tuple of str
+        The logs (their ``source``).
+    horizon_train : Horizon
+        Training horizon ``h_t``.
+    horizon_eval : float
+        Evaluation horizon ``h_e``, m.
+    track_width : float
+        Nominal ``B``, m.
+    time_calibration : dict of str to TimeCalibration
+        Per log: the pose delay applied.
+    models : dict of str to ModelComparison
+        Per model, in the order compared.
+    markdown : str
+        The tables (``compare.md``).
+    """
+
+    training_logs: tuple[str, ...]
+    evaluation_logs: tuple[str, ...]
+    horizon_train: Horizon
+    horizon_eval: float
+    track_width: float
+    time_calibration: dict[str, TimeCalibration]
+    models: dict[str, ModelComparison]
+    markdown: str
+
+    def to_dict(self) -> dict[str, Any]:
+        """Return the content of ``compare.json``."""
+        return {
+            "terrain_odom_version": __version__,
+            "command": "compare",
+            "training_logs": list(self.training_logs),
+            "evaluation_logs": list(self.evaluation_logs),
+            "horizon_train": str(self.horizon_train),
+            "horizon_eval_m": self.horizon_eval,
+            "track_width_m": self.track_width,
+            "time_calibration": {k: t.to_dict() for k, t in self.time_calibration.items()},
+            "models": {name: m.to_dict() for name, m in self.models.items()},
+            "markdown": self.markdown,
+        }
 
 
 def _load(
-    sources: Sequence[LogSource], cfg: Config, role: str, timing: dict[str, dict[str, Any]]
+    sources: Sequence[LogSource], cfg: Config, role: str, timing: dict[str, TimeCalibration]
 ) -> list[WheelLog]:
     """Read the logs and apply ``cfg.time.pose_delay`` to each; record it in ``timing``."""
     logs = []
@@ -109,7 +227,7 @@ def _load(
                 f"{log.source}: no pose measurements (x, y, yaw); a {role} log needs them"
             )
         log, calibration = calibrate_pose_delay(log, cfg.time.pose_delay, cfg.robot.track_width)
-        timing[log.source] = calibration.to_dict()
+        timing[log.source] = calibration
         logs.append(log)
     if not logs:
         raise InputFileError(f"no {role} log given")
@@ -126,10 +244,12 @@ def _horizon(value: str | float | Horizon) -> Horizon:
 
 
 def _terrains(logs: Sequence[WheelLog]) -> list[str]:
-    missing = [log.source for log in logs if log.terrain is None]
-    if missing:
-        raise InputFileError(f"{missing[0]}: no terrain column; --by-terrain needs one")
-    return sorted({str(x) for log in logs for x in np.unique(log.terrain)})
+    columns = []
+    for log in logs:
+        if log.terrain is None:
+            raise InputFileError(f"{log.source}: no terrain column; --by-terrain needs one")
+        columns.append(log.terrain)
+    return sorted({str(x) for column in columns for x in np.unique(column)})
 
 
 def _fit_sets(
@@ -139,11 +259,11 @@ def _fit_sets(
     by_terrain: bool,
     options: FitOptions,
     track_width: float,
-) -> tuple[dict[str, ParamSet], dict[str, float], tuple[str, ...]]:
+) -> tuple[dict[str, ParamSet], dict[str, FitResult], tuple[str, ...]]:
     """Fit one set (``ANY_TERRAIN``) or one per terrain."""
     groups = _terrains(logs) if by_terrain else [None]
     sets: dict[str, ParamSet] = {}
-    seconds: dict[str, float] = {}
+    fits: dict[str, FitResult] = {}
     skipped = []
     for terrain in groups:
         segments = segment_set(logs, [training_windows(log, horizon, terrain) for log in logs])
@@ -162,7 +282,7 @@ def _fit_sets(
                 "seconds": result.seconds,
             },
         )
-        seconds[key] = result.seconds
+        fits[key] = result
     if not sets:
         where = "" if not by_terrain else " on any terrain"
         raise InputFileError(
@@ -170,7 +290,7 @@ def _fit_sets(
             f"{', '.join(log.source for log in logs)} (pose measurements never that far apart "
             f"within a segment); use a shorter --horizon"
         )
-    return sets, seconds, tuple(skipped)
+    return sets, fits, tuple(skipped)
 
 
 def _group_errors(
@@ -280,12 +400,12 @@ def fit(
     except ValueError as exc:
         raise ConfigError(str(exc)) from None
     h_t = _horizon(horizon)
-    timing: dict[str, dict[str, Any]] = {}
+    timing: dict[str, TimeCalibration] = {}
     train = _load(logs, cfg, "training", timing)
     evals = _load(eval_logs, cfg, "evaluation", timing) if eval_logs else []
     opt = options or FitOptions()
     b = cfg.robot.track_width
-    sets, seconds, skipped = _fit_sets(m.name, train, h_t, by_terrain, opt, b)
+    sets, fits, skipped = _fit_sets(m.name, train, h_t, by_terrain, opt, b)
     info: dict[str, Any] = {
         "horizon": str(h_t),
         "sigma": None if opt.sigma is None else np.asarray(opt.sigma, dtype=float).tolist(),
@@ -294,23 +414,25 @@ def fit(
         },
     }
     mp = ModelParams(m.name, sets, b, info)
-    evaluation: dict[str, Any] = {}
-    if evals:
-        h_e = cfg.evaluation.horizon
-        fitted = evaluate_params(mp, evals, h_e, b)
-        ideal = evaluate_params(_idd(mp, b), evals, h_e, b)
-        evaluation = {
-            "horizon_m": h_e,
-            "logs": [log.source for log in evals],
-            "groups": {
-                g: {m.name: fitted[g].to_dict(), f"idd (B={b:g} m)": ideal[g].to_dict()}
-                for g in fitted
-            },
-        }
-        mp = ModelParams(m.name, sets, b, {**info, "evaluation": evaluation})
+    evaluation = _evaluate_fit(mp, evals, cfg.evaluation.horizon, b) if evals else None
+    if evaluation is not None:
+        mp = ModelParams(m.name, sets, b, {**info, "evaluation": evaluation.to_dict()})
     if out is not None:
         write_params(out, mp)
-    return FitReport(mp, seconds, skipped, evaluation, timing)
+    return FitReport(mp, fits, skipped, evaluation, timing)
+
+
+def _evaluate_fit(
+    mp: ModelParams, evals: Sequence[WheelLog], h_e: float, b: float
+) -> FitEvaluation:
+    """Held-out errors of the fitted model and of the ideal differential drive (``B = b``, m)."""
+    fitted = evaluate_params(mp, evals, h_e, b)
+    ideal = evaluate_params(_idd(mp, b), evals, h_e, b)
+    return FitEvaluation(
+        horizon=h_e,
+        logs=tuple(log.source for log in evals),
+        groups={g: {mp.model: fitted[g], f"idd (B={b:g} m)": ideal[g]} for g in fitted},
+    )
 
 
 def _fmt_stats(s: ErrorSummary) -> tuple[str, str]:
@@ -340,7 +462,7 @@ def compare(
     options: FitOptions | None = None,
     config: Config | None = None,
     config_path: str | Path | None = None,
-) -> dict[str, Any]:
+) -> CompareReport:
     """Fit every model and tabulate parameters and held-out errors (Baril Table I, Fig. 5-6).
 
     Parameters
@@ -357,9 +479,9 @@ def compare(
 
     Returns
     -------
-    dict
-        ``markdown`` (the tables), ``models`` (per model: sets, fit seconds,
-        errors per group) and the settings.
+    CompareReport
+        The tables (``markdown``), per model its sets and held-out errors per
+        group, and the settings.
     """
     cfg = config if config is not None else load_config(config_path)
     names = list(models) if models is not None else list(MODELS)
@@ -367,7 +489,7 @@ def compare(
         if name not in MODELS:
             raise ConfigError(f"unknown kinematic model {name!r}; choose from {sorted(MODELS)}")
     h_t = _horizon(horizon)
-    timing: dict[str, dict[str, Any]] = {}
+    timing: dict[str, TimeCalibration] = {}
     train = _load(logs, cfg, "training", timing)
     evals = _load(eval_logs, cfg, "evaluation", timing)
     target = None if out_dir is None else Path(out_dir)
@@ -376,36 +498,29 @@ def compare(
     opt = options or FitOptions()
     b = cfg.robot.track_width
     h_e = cfg.evaluation.horizon
-    results: dict[str, Any] = {}
+    results: dict[str, ModelComparison] = {}
     raw_errors: dict[str, dict[str, list[WindowErrors]]] = {}
     for name in names:
-        sets, seconds, skipped = _fit_sets(name, train, h_t, by_terrain, opt, b)
+        sets, _, skipped = _fit_sets(name, train, h_t, by_terrain, opt, b)
         mp = ModelParams(name, sets, b, {"horizon": str(h_t)})
         raw_errors[name] = _group_errors(mp, evals, h_e, b)
-        results[name] = {
-            "sets": {k: {"params": v.params, "fit": v.fit} for k, v in sets.items()},
-            "derived": {k: derived_quantities(name, v.params, b) for k, v in sets.items()},
-            "skipped_terrains": list(skipped),
-            "errors": {g: summarize(e).to_dict() for g, e in raw_errors[name].items()},
-        }
+        errors = {g: summarize(e) for g, e in raw_errors[name].items()}
+        results[name] = ModelComparison(mp, skipped, errors)
         if target is not None:
             write_params(target / f"params_{name}.yaml", mp)
-    markdown = _markdown(names, results, raw_errors, b, h_t, h_e)
-    report = {
-        "terrain_odom_version": __version__,
-        "command": "compare",
-        "training_logs": [log.source for log in train],
-        "evaluation_logs": [log.source for log in evals],
-        "horizon_train": str(h_t),
-        "horizon_eval_m": h_e,
-        "track_width_m": b,
-        "time_calibration": timing,
-        "models": results,
-        "markdown": markdown,
-    }
+    report = CompareReport(
+        training_logs=tuple(log.source for log in train),
+        evaluation_logs=tuple(log.source for log in evals),
+        horizon_train=h_t,
+        horizon_eval=h_e,
+        track_width=b,
+        time_calibration=timing,
+        models=results,
+        markdown=_markdown(results, b, h_t, h_e),
+    )
     if target is not None:
-        write_text_atomic(target / "compare.md", markdown)
-        write_json(target / "compare.json", report)
+        write_text_atomic(target / "compare.md", report.markdown)
+        write_json(target / "compare.json", report.to_dict())
         write_atomic(
             target / "compare.png", lambda handle: _box_plot(handle, names, raw_errors, h_e)
         )
@@ -413,32 +528,23 @@ def compare(
 
 
 def _markdown(
-    names: Sequence[str],
-    results: dict[str, Any],
-    raw_errors: dict[str, dict[str, list[WindowErrors]]],
-    track_width: float,
-    h_t: Horizon,
-    h_e: float,
+    results: dict[str, ModelComparison], track_width: float, h_t: Horizon, h_e: float
 ) -> str:
-    groups = sorted({g for r in results.values() for g in r["sets"]})
+    groups = sorted({g for r in results.values() for g in r.params.sets})
     head = [g if g != ANY_TERRAIN else "all training logs" for g in groups]
     param_rows = []
-    for name in names:
-        sets = results[name]["sets"]
-        cells = [
-            _fmt_params(name, ParamSet(sets[g]["params"]), track_width) if g in sets else "-"
-            for g in groups
-        ]
+    for name, result in results.items():
+        sets = result.params.sets
+        cells = [_fmt_params(name, sets[g], track_width) if g in sets else "-" for g in groups]
         if name == "idd":
             cells = [f"B={track_width:g} m (not fitted)"] * len(groups)
         param_rows.append([name, *cells])
     error_rows = []
-    for name in names:
-        for g, errs in sorted(raw_errors[name].items()):
-            summary = summarize(errs)
+    for name, result in results.items():
+        for g, summary in sorted(result.errors.items()):
             t, r = _fmt_stats(summary)
-            sets = results[name]["sets"]
-            fit_s = sets.get(g, sets.get(ANY_TERRAIN, {"fit": {}}))["fit"].get("seconds", 0.0)
+            ps = result.params.sets.get(g, result.params.sets.get(ANY_TERRAIN))
+            fit_s = 0.0 if ps is None else ps.fit.get("seconds", 0.0)
             error_rows.append([name, g, summary.translation.count, t, r, f"{fit_s:.1f}"])
     lines = [
         f"Parameters per model and terrain (trained on h_t = {h_t} segments; "

@@ -26,6 +26,7 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import cv2
 import numpy as np
@@ -44,20 +45,81 @@ LOG_COLUMNS = ("t", "v_l", "v_r", "x", "y", "yaw", "terrain")
 TRUTH_COLUMNS = ("t", "x", "y", "yaw", "y_l", "y_r", "x_icr", "terrain", "alpha", "v_l", "v_r")
 
 
-@dataclass
+@dataclass(frozen=True)
 class SimOutput:
-    """What :func:`write_simulation` wrote (paths and counts)."""
+    """What :func:`write_simulation` wrote (paths and counts).
 
+    Attributes
+    ----------
+    simulation : Simulation
+        The run written.
+    out : Path
+        The output folder.
+    log_csv, groundtruth_csv, metadata_json : Path
+    frames_csv : Path or None
+        None when no frames were rendered.
+    patches_dir : Path or None
+        None when no patches were rendered.
+    map_preview : Path
+        ``map.png`` or ``map.jpg``.
+    map_preview_resolution : float
+        Ground size of a preview pixel, m.
+    rows, pose_rows, frames : int
+        Wheel-log rows, rows with a pose measurement, camera frames.
+    patches : dict of str to int
+        Training patches per terrain.
+    """
+
+    simulation: Simulation = field(repr=False, compare=False)
     out: Path
     log_csv: Path
     groundtruth_csv: Path
     frames_csv: Path | None
     patches_dir: Path | None
     metadata_json: Path
+    map_preview: Path
+    map_preview_resolution: float
     rows: int
     pose_rows: int
     frames: int
     patches: dict[str, int] = field(default_factory=dict)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Return the content of ``simulation.json``."""
+        sim = self.simulation
+        sc = sim.scenario
+        return {
+            **report_header("simulate"),
+            "scenario": sc.name,
+            "description": sc.description,
+            "seed": sim.seed,
+            "duration_s": sc.duration,
+            "rates_hz": {"wheel": sc.wheel_rate, "pose": sc.pose_rate, "frame": sc.frame_rate},
+            "noise": {
+                "encoder_m_s": sc.sigma_encoder,
+                "pose_xy_m": sc.sigma_xy,
+                "pose_yaw_rad": sc.sigma_yaw,
+                "pixel": sc.lighting.noise,
+            },
+            "terrains": {k: dataclasses.asdict(v) for k, v in sc.table.items()},
+            "map": {
+                "extent_m": list(sim.ground.extent),
+                "resolution_m": sim.ground.resolution,
+                "textures": "skimage.data photos (grass, gravel, brick), mirror-tiled and tinted",
+                "preview": {
+                    "file": self.map_preview.name,
+                    "resolution_m": self.map_preview_resolution,
+                },
+            },
+            "camera": dataclasses.asdict(sc.camera),
+            "robot": dataclasses.asdict(sc.robot),
+            "counts": {
+                "rows": self.rows,
+                "pose_rows": self.pose_rows,
+                "frames": self.frames,
+                "patches": self.patches,
+            },
+        }
 
 
 def _write_log(sim: Simulation, path: Path) -> None:
@@ -178,38 +240,6 @@ def _write_map_preview(sim: Simulation, path: Path, max_side: int = 2000) -> flo
     return ground.resolution / scale
 
 
-def _metadata(sim: Simulation, output: SimOutput) -> dict:
-    sc = sim.scenario
-    return {
-        **report_header("simulate"),
-        "scenario": sc.name,
-        "description": sc.description,
-        "seed": sim.seed,
-        "duration_s": sc.duration,
-        "rates_hz": {"wheel": sc.wheel_rate, "pose": sc.pose_rate, "frame": sc.frame_rate},
-        "noise": {
-            "encoder_m_s": sc.sigma_encoder,
-            "pose_xy_m": sc.sigma_xy,
-            "pose_yaw_rad": sc.sigma_yaw,
-            "pixel": sc.lighting.noise,
-        },
-        "terrains": {k: dataclasses.asdict(v) for k, v in sc.table.items()},
-        "map": {
-            "extent_m": list(sim.ground.extent),
-            "resolution_m": sim.ground.resolution,
-            "textures": "skimage.data photos (grass, gravel, brick), mirror-tiled and tinted",
-        },
-        "camera": dataclasses.asdict(sc.camera),
-        "robot": dataclasses.asdict(sc.robot),
-        "counts": {
-            "rows": output.rows,
-            "pose_rows": output.pose_rows,
-            "frames": output.frames,
-            "patches": output.patches,
-        },
-    }
-
-
 def write_simulation(
     sim: Simulation,
     out: str | Path,
@@ -240,27 +270,27 @@ def write_simulation(
         raise ValueError(f"frame_format must be one of {FRAME_FORMATS}, got {frame_format!r}")
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
+    _write_log(sim, out / "log.csv")
+    _write_truth(sim, out / "groundtruth.csv")
+    frame_count = _write_frames(sim, out, frame_format) if frames else 0
+    patch_counts = _write_patches(sim, out) if patches else {}
+    _write_config(sim, out / "config.yaml")
+    preview = out / f"map.{frame_format}"
+    preview_resolution = _write_map_preview(sim, preview)
     output = SimOutput(
+        simulation=sim,
         out=out,
         log_csv=out / "log.csv",
         groundtruth_csv=out / "groundtruth.csv",
         frames_csv=out / "frames.csv" if frames else None,
         patches_dir=out / "patches" if patches else None,
         metadata_json=out / "simulation.json",
+        map_preview=preview,
+        map_preview_resolution=preview_resolution,
         rows=int(sim.motion.t.size),
         pose_rows=int(np.isfinite(sim.measured_pose[:, 0]).sum()),
-        frames=0,
+        frames=frame_count,
+        patches=patch_counts,
     )
-    _write_log(sim, output.log_csv)
-    _write_truth(sim, output.groundtruth_csv)
-    if frames:
-        output.frames = _write_frames(sim, out, frame_format)
-    if patches:
-        output.patches = _write_patches(sim, out)
-    _write_config(sim, out / "config.yaml")
-    preview = f"map.{frame_format}"
-    preview_resolution = _write_map_preview(sim, out / preview)
-    meta = _metadata(sim, output)
-    meta["map"]["preview"] = {"file": preview, "resolution_m": preview_resolution}
-    write_json(output.metadata_json, meta)
+    write_json(output.metadata_json, output.to_dict())
     return output

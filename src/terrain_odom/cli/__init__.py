@@ -1,1 +1,1 @@
-"""Command-line interface of terrain-odom (a thin layer over terrain_odom.app.run)."""
+"""Command-line interface of terrain-odom (a thin layer over :mod:`terrain_odom.app`)."""

@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import argparse
 
-from terrain_odom.cli.fit import (
+from terrain_odom.cli.options import (
     MODEL_CHOICES,
     add_fit_options,
-    fit_config,
-    fit_options,
+    add_out_option,
+    fit_arguments,
     print_pose_delays,
 )
 
@@ -24,27 +24,18 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         choices=MODEL_CHOICES,
         help="models to compare (default: all)",
     )
-    p.add_argument("--out", help="folder for compare.md, compare.json, compare.png, params_*.yaml")
+    add_out_option(p, "folder for compare.md, compare.json, compare.png, params_*.yaml")
     p.set_defaults(func=_cmd_compare)
 
 
 def _cmd_compare(args: argparse.Namespace) -> int:
     from terrain_odom.app.fit import compare
-    from terrain_odom.fitting.identify import DEFAULT_TRAINING_HORIZON
 
     report = compare(
-        args.log,
-        args.eval,
-        out_dir=args.out,
-        models=args.models,
-        horizon=args.horizon or DEFAULT_TRAINING_HORIZON,
-        by_terrain=args.by_terrain,
-        options=fit_options(args),
-        config=fit_config(args),
-        config_path=args.config,
+        args.log, args.eval, out_dir=args.out, models=args.models, **fit_arguments(args)
     )
-    print_pose_delays(report["time_calibration"])
-    print(report["markdown"], end="")
+    print_pose_delays(report.time_calibration)
+    print(report.markdown, end="")
     if args.out:
         print(f"tables, box plot and parameter files in {args.out}")
     return 0

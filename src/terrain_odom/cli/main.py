@@ -1,7 +1,9 @@
 """Entry point of the ``terrain-odom`` command.
 
-Argument parsing only: each subcommand unpacks its arguments and calls a
-function of :mod:`terrain_odom.app.run`. Errors raised on purpose by the
+Argument parsing only: each subcommand (one module each) unpacks its
+arguments, calls a function of :mod:`terrain_odom.app` and prints the typed
+result; the options several subcommands share live in
+:mod:`terrain_odom.cli.options`. Errors raised on purpose by the
 package (bad input files, invalid configuration) are printed as one line and
 exit with code 2; real bugs keep their traceback.
 """

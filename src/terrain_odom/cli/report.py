@@ -5,12 +5,8 @@ from __future__ import annotations
 import argparse
 from typing import TYPE_CHECKING
 
-from terrain_odom.cli.train import (
-    add_classifier_options,
-    classifier_config,
-    describe,
-    print_skipped,
-)
+from terrain_odom.cli.options import add_classifier_options, add_out_option, classifier_config
+from terrain_odom.cli.train import describe, print_skipped
 
 if TYPE_CHECKING:
     from terrain_odom.app.train import CrossValidation
@@ -26,7 +22,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     add_classifier_options(acc)
     acc.add_argument("--folds", type=int, default=5, help="cross-validation folds (default 5)")
-    acc.add_argument("--out", help="folder for accuracy.json, accuracy.csv, confusion.png")
+    add_out_option(acc, "folder for accuracy.json, accuracy.csv, confusion.png")
     acc.set_defaults(func=_cmd_accuracy)
 
 

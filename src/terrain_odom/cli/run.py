@@ -4,17 +4,23 @@ from __future__ import annotations
 
 import argparse
 
-from terrain_odom.cli.evaluate import add_pose_delay_option, pose_delay_line
+from terrain_odom.cli.options import (
+    add_config_option,
+    add_out_option,
+    add_pose_delay_option,
+    load_config_option,
+    print_pose_delay,
+)
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     """Register the ``run`` subcommand."""
     p = sub.add_parser("run", help="EKF odometry over a wheel log (terrain-adaptive)")
     p.add_argument("--wheels", required=True, help="wheel log CSV")
-    p.add_argument("--out", required=True, help="output directory")
-    p.add_argument(
-        "--config",
-        help="YAML configuration (default: IMAGES/config.yaml if --images has one, "
+    add_out_option(p, "output directory", required=True)
+    add_config_option(
+        p,
+        "YAML configuration (default: IMAGES/config.yaml if --images has one, "
         "else built-in defaults)",
     )
     p.add_argument(
@@ -72,9 +78,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     import dataclasses
 
     from terrain_odom.app.run import TerrainSource, default_model, images_config, run
-    from terrain_odom.config import load_config, with_pose_delay
     from terrain_odom.errors import ConfigError
-    from terrain_odom.estimation.time_offset import shows_pose_delay
 
     if args.no_terrain:
         source = TerrainSource.NONE
@@ -92,7 +96,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     if args.images is not None and not args.no_terrain and model is None:
         model = default_model()
         print(f"model:      {model} (default; --model to change)")
-    cfg = with_pose_delay(load_config(config), args.pose_delay)
+    cfg = load_config_option(args, config)
     if args.reset_at is not None:
         cfg = dataclasses.replace(
             cfg, terrain=dataclasses.replace(cfg.terrain, reset_at=args.reset_at)
@@ -110,9 +114,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
         estimator=args.estimator,
         priors=args.priors,
     )
-    timing = summary.time_calibration
-    if timing is not None and shows_pose_delay(timing.to_dict()):
-        print(pose_delay_line(timing.to_dict()))
+    print_pose_delay(summary.time_calibration)
     print(f"{summary.rows} rows in {summary.seconds:.2f} s")
     print(f"trajectory: {summary.trajectory_csv}")
     print(f"report:     {summary.report_json}")

@@ -4,13 +4,15 @@ from __future__ import annotations
 
 import argparse
 
+from terrain_odom.cli.options import add_config_option, add_out_option, load_config_option
+
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     """Register the ``simulate`` subcommand."""
     p = sub.add_parser(
         "simulate", help="simulate a run: wheel log, camera frames, ground truth, training patches"
     )
-    p.add_argument("--out", required=True, help="output directory (created; files overwritten)")
+    add_out_option(p, "output directory (created; files overwritten)", required=True)
     p.add_argument("--scenario", default="chen2023", help="scenario name (default: chen2023)")
     p.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
     p.add_argument("--duration", type=float, help="seconds to simulate (default: the scenario's)")
@@ -27,10 +29,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--frame-rate", type=float, help="camera frame rate, Hz (default: the scenario's)"
     )
-    p.add_argument(
-        "--config",
-        help="YAML configuration: its camera and robot sections replace the scenario's",
-    )
+    add_config_option(p, "YAML configuration: its camera and robot sections replace the scenario's")
     p.add_argument(
         "--frame-format",
         choices=("png", "jpg"),
@@ -47,7 +46,6 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     import dataclasses
 
     from terrain_odom.app.simulate import write_simulation
-    from terrain_odom.config import load_config
     from terrain_odom.errors import ConfigError
     from terrain_odom.sim import get_scenario, simulate
 
@@ -68,7 +66,7 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     scenario = dataclasses.replace(scenario, **given)
     robot = camera = None
     if args.config is not None:
-        cfg = load_config(args.config)
+        cfg = load_config_option(args)
         robot, camera = cfg.robot, cfg.camera
     sim = simulate(scenario, args.seed, robot=robot, camera=camera)
     out = write_simulation(

@@ -3,63 +3,13 @@
 from __future__ import annotations
 
 import argparse
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from terrain_odom.cli.options import add_classifier_options, add_out_option, classifier_config
 
 if TYPE_CHECKING:
     from terrain_odom.config.classifier import ClassifierConfig
     from terrain_odom.vision.dataset import SkippedImage
-
-FEATURE_CHOICES = ("sfta", "sfta+lab", "sfta+hsv")
-
-
-def add_classifier_options(p: argparse.ArgumentParser) -> None:
-    """Add the options shared by ``train`` and ``report accuracy``."""
-    p.add_argument(
-        "--images", required=True, help="folder with one sub-folder of images per terrain"
-    )
-    p.add_argument(
-        "--config",
-        help="classifier YAML: any of features, n_t, relative_counts, pyramid_levels, "
-        "scale, k, weights, tiles, min_tile_size, tile_size (default: built-in defaults)",
-    )
-    p.add_argument(
-        "--features",
-        choices=FEATURE_CHOICES,
-        help="grey SFTA only (Chen et al.) or SFTA + colour statistics",
-    )
-    p.add_argument(
-        "--no-scale",
-        action="store_true",
-        help="raw Euclidean distance on unstandardised features (Chen et al.)",
-    )
-    p.add_argument("--k", type=int, help="number of neighbours voting")
-    p.add_argument("--tiles", type=int, help="most tiles per side for tile voting (1: whole image)")
-    p.add_argument(
-        "--min-tile-size",
-        type=int,
-        help="smallest tile side in pixels: smaller images get fewer tiles per side",
-    )
-    p.add_argument(
-        "--tile-size",
-        type=int,
-        help="tiles of about this side in pixels, as many as fit (instead of --tiles); "
-        "a region's time is then proportional to its area",
-    )
-    p.add_argument("--jobs", type=int, help="feature-extraction processes (default: all cores)")
-
-
-def classifier_config(args: argparse.Namespace) -> ClassifierConfig:
-    """Return the :class:`ClassifierConfig` of ``--config`` and the options that override it."""
-    from terrain_odom.config.classifier import load_classifier_config
-
-    overrides: dict[str, Any] = {
-        name: getattr(args, name)
-        for name in ("features", "k", "tiles", "min_tile_size", "tile_size")
-        if getattr(args, name) is not None
-    }
-    if args.no_scale:
-        overrides["scale"] = False
-    return load_classifier_config(args.config, overrides)
 
 
 def describe(cfg: ClassifierConfig) -> str:
@@ -88,7 +38,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     """Register the ``train`` subcommand."""
     p = sub.add_parser("train", help="train the terrain classifier on labelled images")
     add_classifier_options(p)
-    p.add_argument("--out", required=True, help="model file to write (.npz)")
+    add_out_option(p, "model file to write (.npz)", required=True)
     p.set_defaults(func=_cmd_train)
 
 

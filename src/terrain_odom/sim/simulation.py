@@ -70,14 +70,13 @@ def _with_geometry(
     scenario: Scenario, robot: RobotConfig | None, camera: CameraConfig | None
 ) -> Scenario:
     """Replace the scenario's robot (scaling its ICR table) and camera."""
-    changes: dict[str, object] = {}
     if camera is not None:
-        changes["camera"] = camera
+        scenario = dataclasses.replace(scenario, camera=camera)
     if robot is not None:
         factor = robot.track_width / scenario.robot.track_width
-        changes["robot"] = robot
-        changes["table"] = {k: p.scaled(factor) for k, p in scenario.table.items()}
-    return dataclasses.replace(scenario, **changes)
+        table = {k: p.scaled(factor) for k, p in scenario.table.items()}
+        scenario = dataclasses.replace(scenario, robot=robot, table=table)
+    return scenario
 
 
 def simulate(
