@@ -32,6 +32,10 @@ LINK = re.compile(r"\[[^\]]*\]\(([^)\s]+)\)")
 HEADING = re.compile(r"^#{1,6}\s+(.*?)\s*#*\s*$", re.MULTILINE)
 OPTION = re.compile(r"(?<![\w-])--[a-z][a-z0-9-]*")
 SCRIPT = re.compile(r"(?<![\w-])python3?\s+([\w./-]+\.py)\b")
+# a file of the repository quoted in the text, optionally with a test: tests/x.py::test_y
+REPO_PATH = re.compile(
+    r"(?<![\w./-])((?:bench|config|examples|models|sample_images|src|tests)/[\w./-]*\w)(?:::(\w+))?"
+)
 COMMAND = re.compile(r"terrain-odom(?:\s+[^\s|]+)*")
 # one subcommand's section of docs/cli.md: "## run", "## report accuracy" ...
 CLI_SECTION = re.compile(r"^## (.+)$", re.MULTILINE)
@@ -145,6 +149,16 @@ def test_docs_are_linked_from_their_index():
 def test_every_quoted_script_exists(page):
     for script in SCRIPT.findall(page.read_text(encoding="utf-8")):
         assert (REPO / script).is_file(), f"{_rel(page)}: python {script}"
+
+
+@pytest.mark.parametrize("page", PAGES, ids=_rel)
+def test_every_quoted_repository_path_exists(page):
+    for path, test in REPO_PATH.findall(page.read_text(encoding="utf-8")):
+        if path.endswith(".npz"):
+            continue  # models/default.npz: package data, found wherever it is installed
+        assert (REPO / path).exists(), f"{_rel(page)}: {path}"
+        if test:
+            assert f"def {test}(" in (REPO / path).read_text(encoding="utf-8"), f"{path}::{test}"
 
 
 def test_the_results_quote_their_commands():
