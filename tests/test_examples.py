@@ -1,10 +1,12 @@
-"""The README quick start: the shipped demo log and config."""
+"""The README quick start: the shipped demo log and config, and its commands as written."""
 
 from __future__ import annotations
 
 import csv
 import importlib.util
 import json
+import re
+import shlex
 from pathlib import Path
 
 import numpy as np
@@ -13,6 +15,7 @@ from terrain_odom.cli.main import main
 
 REPO = Path(__file__).resolve().parents[1]
 EXAMPLES = REPO / "examples"
+README = REPO / "README.md"
 
 
 def _generator():
@@ -63,3 +66,52 @@ def test_online_example_streams_the_demo_log_to_the_cli_result(tmp_path, capsys)
     assert state["terrain"] == last["terrain"] == "gravel"
     for name in ("t", "x", "y", "yaw", "y_l", "y_r", "x_icr", "alpha", "std_x", "std_alpha"):
         assert state[name] == float(last[name]), name
+
+
+def _quick_start() -> str:
+    """Return the README's "Quick start" section."""
+    text = README.read_text(encoding="utf-8")
+    return text.split("\n## Quick start\n", 1)[1].split("\n## ", 1)[0]
+
+
+def _blocks(section: str, language: str) -> list[str]:
+    """Return the fenced code blocks of ``section`` in ``language`` ("" for plain output)."""
+    fences = re.findall(r"^```(\w*)\n(.*?)^```$", section, re.MULTILINE | re.DOTALL)
+    return [body for lang, body in fences if lang == language]
+
+
+def _shown(text: str) -> list[str]:
+    """Return printed lines with what varies between machines and runs left out."""
+    text = re.sub(r"\S*/(models/default\.npz|examples/demo_log\.csv)", r".../\1", text)
+    text = re.sub(r"rows in \d+\.\d+ s", "rows in ... s", text)
+    return [line.rstrip() for line in text.strip().splitlines()]
+
+
+def test_readme_quick_start_runs_as_written_and_prints_what_it_shows(tmp_path, monkeypatch, capsys):
+    for name in ("examples", "sample_images", "config"):
+        (tmp_path / name).symlink_to(REPO / name)
+    monkeypatch.chdir(tmp_path)
+    section = _quick_start()
+    lines = [line for block in _blocks(section, "bash") for line in block.splitlines()]
+    commands = [shlex.split(line) for line in lines if "../shared" not in line]
+    assert [words[:2] for words in commands] == [
+        ["terrain-odom", "run"],
+        ["terrain-odom", "run"],
+        ["terrain-odom", "evaluate"],
+    ]
+    printed = []
+    for words in commands:
+        assert main(words[1:]) == 0, shlex.join(words)
+        printed.append(capsys.readouterr().out)
+    camera_run, evaluation = _blocks(section, "")
+    assert _shown(printed[0]) == _shown(camera_run)
+    assert _shown(printed[2]) == _shown(evaluation)
+    changes = json.loads((tmp_path / "out" / "report.json").read_text())["terrain_changes"]
+    flat = " ".join(section.split())
+    confirmed = " and ".join(f"{c['t_confirmed']} s" for c in changes)
+    assert f"confirms the terrain changes at {confirmed}, looking ahead" in flat
+    first, second = (f"{c['t']:.2f} s" for c in changes)
+    assert f"on arrival, at {first} (true" in flat and f" and {second} (true" in flat
+    final = json.loads((tmp_path / "out-demo" / "report.json").read_text())["final_state"]
+    ends = ", ".join(f"{k}={final[k]:.3f}" for k in ("y_l", "y_r", "x_icr", "alpha"))
+    assert f"The filter ends at `{ends}`" in section
