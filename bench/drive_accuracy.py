@@ -1,6 +1,6 @@
 """Accuracy of the online ICR EKF on the real Warthog logs (../shared/data/drive).
 
-Prints every figure of the README's "Accuracy on real logs" section:
+Prints every figure of docs/results/real_logs.md:
 
 1. model-odometry error (Baril et al.: translational m/m and angular deg/m over
    h_e = 2 m windows, median and quartiles) pooled over the five grass runs, for

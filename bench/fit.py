@@ -1,6 +1,6 @@
 """Offline model identification on the real Warthog logs (../shared/data/drive).
 
-Prints every figure of the README's "Offline model identification" section:
+Prints every figure of docs/results/identification.md:
 
 1. the fit time of the 5-parameter asymmetric model (edd-asym) on ~10 min of
    grass log (the two longest runs), default optimiser settings;
@@ -150,7 +150,7 @@ def main():
         by_terrain=True,
         config=cfg,
     )
-    print(report["markdown"])
+    print(report.markdown)
     print(f"tables, box plot and parameter files in {args.out}")
     print(f"({time.perf_counter() - started:.0f} s)")
 

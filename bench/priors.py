@@ -1,6 +1,6 @@
 """Offline priors in the online ICR EKF (``terrain-odom run --priors``).
 
-Prints every figure of the README's "Offline priors" section. The priors are
+Prints every figure of docs/results/identification.md ("From offline to online"). The priors are
 always fitted on other data than the log they are scored on:
 
 1. simulator: ``icr-slip`` fitted per terrain (``terrain-odom fit

@@ -1,4 +1,4 @@
-"""Acceptance figures of the slip-parameter EKF (README "The slip-parameter EKF").
+"""Acceptance figures of the slip-parameter EKF (docs/results/slip_ekf.md).
 
 1. Sec. 4.1 simulation, seeds 0-9 (the filter was tuned on seeds 100-109):
    settling time of the ICRs after the abrupt changes, with the change not
@@ -41,14 +41,12 @@ from terrain_odom.evaluation import (
     model_twist,
     non_overlapping,
     predict_window_ends,
-    settling_time,
-    time_windows,
-    window_errors,
-)
-from terrain_odom.evaluation.prediction import (
     prediction_errors,
     prediction_windows,
+    settling_time,
     slip_twist_from_rows,
+    time_windows,
+    window_errors,
 )
 from terrain_odom.fitting import (
     FitOptions,

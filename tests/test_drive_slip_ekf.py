@@ -11,8 +11,8 @@ import pytest
 from terrain_odom.config import load_config
 from terrain_odom.estimation.odometry import run_slip_ekf
 from terrain_odom.estimation.time_offset import calibrate_pose_delay
-from terrain_odom.evaluation import model_twist
-from terrain_odom.evaluation.prediction import (
+from terrain_odom.evaluation import (
+    model_twist,
     prediction_errors,
     prediction_windows,
     slip_twist_from_rows,

@@ -12,13 +12,12 @@ import cv2
 import numpy as np
 import pytest
 
-from terrain_odom.app import run as workflows
 from terrain_odom.app.frames import FRAME_COLUMNS
 from terrain_odom.cli.main import main
 from terrain_odom.config import load_config
 from terrain_odom.estimation.odometry import run_icr_ekf
 from terrain_odom.estimation.online import OnlineOdometry
-from terrain_odom.io import read_wheel_log
+from terrain_odom.io import classifier_file, read_wheel_log
 from terrain_odom.records import Sighting
 
 DURATION_S = 45
@@ -226,7 +225,9 @@ def test_model_with_other_feature_settings_stops_before_processing(sim, tmp_path
 
 
 def test_images_without_a_model_or_its_default_is_an_error(sim, tmp_path, capsys, monkeypatch):
-    monkeypatch.setattr(workflows, "default_model_path", lambda: tmp_path / "no" / "default.npz")
+    monkeypatch.setattr(
+        classifier_file, "default_model_path", lambda: tmp_path / "no" / "default.npz"
+    )
     args = ["run", "--wheels", str(sim / "log.csv"), "--out", str(tmp_path / "o")]
     assert main([*args, "--images", str(sim)]) == 2
     assert "--model" in capsys.readouterr().err

@@ -161,7 +161,11 @@ def test_report_accuracy_writes_json_csv_png_with_the_paper_configuration(tmp_pa
     assert "3-fold cross-validation" in printed and "paper (Chen et al.)" in printed
     assert printed.count("mean accuracy") == 2
     report = json.loads((out_dir / "accuracy.json").read_text())
-    assert report["folds"] == 3 and report["counts"] == {"brick": 6, "grass": 6, "gravel": 6}
+    assert (
+        report["command"] == "report accuracy"
+        and report["folds"] == 3
+        and report["counts"] == {"brick": 6, "grass": 6, "gravel": 6}
+    )
     chosen, paper = report["configurations"]["chosen"], report["configurations"]["paper"]
     assert chosen["config"]["k"] == 3 and chosen["config"]["scale"] is True
     assert chosen["config"]["min_tile_size"] == 40
@@ -249,7 +253,7 @@ def test_train_errors_exit_2(tmp_path, capsys):
 @pytest.mark.skipif(not INDOOR.is_dir(), reason=f"real floor photos not found at {INDOOR}")
 def test_indoor_surface_accuracy_acceptance():
     # 5-fold cross-validation on every image with the default features
-    # (the full-dataset figures are in the README).
+    # (the full-dataset figures are in docs/results/classification.md).
     default, paper = extract_feature_sets(
         scan_image_folder(INDOOR),
         [ClassifierConfig(), paper_config()],

@@ -10,14 +10,14 @@ import numpy as np
 import pytest
 
 from terrain_odom import OnlineOdometry
-from terrain_odom.app.run import default_model, read_calibrated_log
+from terrain_odom.app.run import read_calibrated_log
 from terrain_odom.cli.main import main
 from terrain_odom.config import Config, SlipEkfConfig, load_config
 from terrain_odom.errors import ConfigError, EstimationError
 from terrain_odom.estimation.icr_ekf import IcrPriors
 from terrain_odom.estimation.odometry import run_icr_ekf, run_slip_ekf
 from terrain_odom.io import read_trajectory_csv
-from terrain_odom.io.classifier_file import load_classifier
+from terrain_odom.io.classifier_file import default_model, load_classifier
 from terrain_odom.io.frames import read_frames
 from terrain_odom.io.images import read_image_rgb
 from terrain_odom.kinematics import integrate, twist_icr

@@ -7,8 +7,9 @@ import pytest
 
 from terrain_odom.config import Config, EkfConfig, IcrState, RobotConfig, SlipEkfConfig
 from terrain_odom.estimation.odometry import run_icr_ekf, run_slip_ekf
-from terrain_odom.evaluation import icr_twist_from_rows, model_twist
-from terrain_odom.evaluation.prediction import (
+from terrain_odom.evaluation import (
+    icr_twist_from_rows,
+    model_twist,
     prediction_errors,
     prediction_windows,
     slip_twist_from_rows,

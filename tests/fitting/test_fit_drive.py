@@ -19,7 +19,7 @@ pytestmark = pytest.mark.skipif(not DRIVE.is_dir(), reason="../shared/data/drive
 
 
 def test_edd_sym_on_held_out_grass_runs():
-    """Leave-one-run-out on the five grass runs, held-out windows pooled (README figures)."""
+    """Leave-one-run-out on the five grass runs, held-out windows pooled (docs/results/identification.md)."""
     cfg = load_config(REPO / "config" / "warthog.yaml")
     grass = [
         read_wheel_log(p, wheel_radius=cfg.robot.wheel_radius)

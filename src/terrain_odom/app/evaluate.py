@@ -16,21 +16,19 @@ from terrain_odom.estimation.time_offset import TimeCalibration
 from terrain_odom.evaluation import (
     AteResult,
     ErrorSummary,
+    PredictionSummary,
     TwistFn,
     Windows,
     absolute_trajectory_error,
     dead_reckon,
     icr_twist_from_rows,
     model_twist,
-    spatial_windows,
-    summarize,
-    window_errors,
-)
-from terrain_odom.evaluation.prediction import (
-    PredictionSummary,
     prediction_errors,
     prediction_windows,
     slip_twist_from_rows,
+    spatial_windows,
+    summarize,
+    window_errors,
 )
 from terrain_odom.io import read_trajectory_csv
 from terrain_odom.io.params import read_params

@@ -25,9 +25,9 @@ from terrain_odom.estimation.icr_ekf import IcrPriors
 from terrain_odom.estimation.odometry import OdometryResult, OdometryRow, run_odometry
 from terrain_odom.estimation.online import ESTIMATORS, Estimator, OnlineOdometry
 from terrain_odom.estimation.time_offset import TimeCalibration, calibrate_pose_delay
-from terrain_odom.io import TrajectoryWriter, classifier_file, read_wheel_log, write_tum
+from terrain_odom.io import TrajectoryWriter, read_wheel_log, write_tum
 from terrain_odom.io.atomic import write_atomic, write_text_atomic
-from terrain_odom.io.classifier_file import default_model_path, load_classifier
+from terrain_odom.io.classifier_file import default_model, load_classifier
 from terrain_odom.io.frames import FrameList, read_frames
 from terrain_odom.io.groundtruth import read_groundtruth
 from terrain_odom.io.params import read_priors
@@ -41,29 +41,12 @@ __all__ = [
     "TerrainSource",
     "RunSummary",
     "run",
-    "default_model",
-    "default_model_path",
     "images_config",
     "read_calibrated_log",
 ]
 
 TRAJECTORY_CSV = "trajectory.csv"
 FRAMES_CSV = "frames.csv"
-
-
-def default_model() -> Path:
-    """Return the default classifier's file, or raise if it is missing.
-
-    :func:`terrain_odom.io.classifier_file.default_model` at
-    :func:`default_model_path`, looked up in this module so that a caller
-    (a test) may replace it.
-
-    Raises
-    ------
-    InputFileError
-        The default model is not there.
-    """
-    return classifier_file.default_model(default_model_path())
 
 
 def images_config(images: str | Path) -> Path | None:
@@ -238,7 +221,7 @@ def run(
     Parameters
     ----------
     wheels : str or Path
-        Wheel log (CSV, see the README for the format); its wheel speeds are
+        Wheel log (CSV, see docs/formats.md); its wheel speeds are
         delayed by ``config.time.pose_delay`` (:func:`read_calibrated_log`),
         recorded in ``report.json`` ``time_calibration``.
     out_dir : str or Path
@@ -260,8 +243,8 @@ def run(
         terrain column, and ``frames.csv`` is written. Ignored (frames not
         read) when ``terrain`` is ``NONE``.
     model : str or Path, optional
-        Terrain classifier model file; the repository's ``models/default.npz``
-        (:func:`default_model`) if omitted.
+        Terrain classifier model file; the packaged default model
+        (:func:`terrain_odom.io.classifier_file.default_model`) if omitted.
     use_roi : bool
         Classify the region of interest (default) or the whole frame.
     groundtruth : str or Path, optional

@@ -271,7 +271,7 @@ class AccuracyReport:
     def to_dict(self) -> dict[str, Any]:
         """Plain data for the JSON report."""
         return {
-            **report_header("train"),
+            **report_header("report accuracy"),
             "images": str(self.images),
             "folds": self.chosen.folds,
             "seed": CV_SEED,

@@ -31,7 +31,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--model",
         help="terrain classifier model (from 'terrain-odom train'; default: the "
-        "repository's models/default.npz)",
+        "default model shipped with the package)",
     )
     p.add_argument(
         "--no-roi", action="store_true", help="classify whole frames, not the region of interest"
@@ -77,8 +77,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 def _cmd_run(args: argparse.Namespace) -> int:
     import dataclasses
 
-    from terrain_odom.app.run import TerrainSource, default_model, images_config, run
+    from terrain_odom.app.run import TerrainSource, images_config, run
     from terrain_odom.errors import ConfigError
+    from terrain_odom.io.classifier_file import default_model
 
     if args.no_terrain:
         source = TerrainSource.NONE

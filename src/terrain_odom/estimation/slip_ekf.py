@@ -25,7 +25,7 @@ factor from a wider ICR spacing).
 References
 ----------
 .. [1] "Slip model of tracked vehicles based on ICRs", Mathematical Problems
-   in Engineering 2016, article 6375652 (equations reconstructed, see the README).
+   in Engineering 2016, article 6375652 (equations reconstructed, see docs/models.md).
 """
 
 from __future__ import annotations

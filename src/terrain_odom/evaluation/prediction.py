@@ -20,13 +20,11 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from terrain_odom.evaluation.metrics import TwistFn, window_errors
-from terrain_odom.evaluation.windows import PREDICTION_HORIZON as PREDICTION_HORIZON
 from terrain_odom.evaluation.windows import Windows
-from terrain_odom.evaluation.windows import prediction_windows as prediction_windows
 from terrain_odom.kinematics.slip import SlipModel
 from terrain_odom.records import WheelLog
 
-__all__ = [  # PREDICTION_HORIZON and prediction_windows, re-exported here, are in .windows
+__all__ = [
     "PredictionSummary",
     "prediction_errors",
     "slip_twist_from_rows",

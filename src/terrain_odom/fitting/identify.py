@@ -25,16 +25,9 @@ import numpy as np
 from scipy.optimize import differential_evolution, least_squares
 
 from terrain_odom.fitting.loss import residuals, squared_loss, whitener_matrix
-from terrain_odom.fitting.segments import DEFAULT_TRAINING_HORIZON as DEFAULT_TRAINING_HORIZON
-from terrain_odom.fitting.segments import Horizon as Horizon
 from terrain_odom.fitting.segments import SegmentSet
-from terrain_odom.fitting.segments import parse_horizon as parse_horizon
-from terrain_odom.fitting.segments import segment_set as segment_set
-from terrain_odom.fitting.segments import training_windows as training_windows
 from terrain_odom.kinematics.models import KinematicModel, get_model
 
-# The ``X as X`` imports above are re-exports for this module's older importers
-# (terrain_odom.app.fit, terrain_odom.cli); new code imports from terrain_odom.fitting.
 __all__ = ["FitOptions", "FitResult", "fit_model"]
 
 
