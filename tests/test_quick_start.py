@@ -20,6 +20,7 @@ import pytest
 
 from terrain_odom.app import run as workflows
 from terrain_odom.cli.main import main
+from terrain_odom.io import classifier_file
 from terrain_odom.io.classifier_file import load_classifier
 
 REPO = Path(__file__).resolve().parents[1]
@@ -111,8 +112,8 @@ def test_sample_is_small_and_regenerates_from_its_script(tmp_path, capsys):
 
 
 def test_default_model_is_small_loads_and_is_not_trained_on_the_sample():
-    assert workflows.default_model_path() == MODEL.resolve()
-    assert workflows.default_model() == MODEL.resolve()
+    assert classifier_file.default_model_path() == MODEL.resolve()
+    assert classifier_file.default_model() == MODEL.resolve()
     assert MODEL.stat().st_size < 2e6
     classifier = load_classifier(MODEL)
     assert {"grass", "gravel"} <= set(classifier.classes)
@@ -123,7 +124,7 @@ def test_default_model_is_small_loads_and_is_not_trained_on_the_sample():
 
 def test_missing_default_model_is_a_one_line_error(tmp_path, capsys, monkeypatch):
     missing = tmp_path / "site-packages" / "models" / "default.npz"
-    monkeypatch.setattr(workflows, "default_model_path", lambda: missing)
+    monkeypatch.setattr(classifier_file, "default_model_path", lambda: missing)
     images = _short_copy(tmp_path)
     out = tmp_path / "out"
     args = ["run", "--images", str(images), "--wheels", str(images / "log.csv")]
