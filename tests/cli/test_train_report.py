@@ -30,7 +30,6 @@ from terrain_odom.vision.dataset import LabelledFeatures, extract_feature_sets
 
 REPO = Path(__file__).resolve().parents[2]
 SRC = REPO / "src"
-INDOOR = REPO.parent / "shared" / "data" / "indoor_surface"
 TINTS = {"grass": (0.6, 1.0, 0.5), "gravel": (1.0, 0.9, 0.8), "brick": (1.0, 0.5, 0.4)}
 
 
@@ -250,12 +249,11 @@ def test_train_errors_exit_2(tmp_path, capsys):
     assert "is a directory" in capsys.readouterr().err
 
 
-@pytest.mark.skipif(not INDOOR.is_dir(), reason=f"real floor photos not found at {INDOOR}")
-def test_indoor_surface_accuracy_acceptance():
+def test_indoor_surface_accuracy_acceptance(indoor_dir):
     # 5-fold cross-validation on every image with the default features
     # (the full-dataset figures are in docs/results/classification.md).
     default, paper = extract_feature_sets(
-        scan_image_folder(INDOOR),
+        scan_image_folder(indoor_dir),
         [ClassifierConfig(), paper_config()],
         read=read_image_rgb,
         progress=False,

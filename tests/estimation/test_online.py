@@ -24,7 +24,6 @@ from terrain_odom.kinematics import integrate, twist_icr
 from terrain_odom.records import WheelLog
 
 REPO = Path(__file__).resolve().parents[2]
-DRIVE_LOG = REPO.parent / "shared" / "data" / "drive" / "warthog_wheels_grass.csv"
 SAMPLE = REPO / "sample_images" / "chen2023"
 TERRAIN_ICRS = {"grass": (0.42, -0.40, 0.05), "gravel": (0.55, -0.52, -0.03)}
 
@@ -93,17 +92,17 @@ def test_calls_reproduce_the_slip_ekf_row_loop_exactly():
     assert len(odo._steps._samples) <= 30
 
 
-@pytest.mark.skipif(not DRIVE_LOG.is_file(), reason="../shared/data/drive not present")
 @pytest.mark.parametrize("estimator", ["icr-ekf", "slip-ekf"])
-def test_calls_reproduce_the_cli_run_on_a_real_log(tmp_path, capsys, estimator):
+def test_calls_reproduce_the_cli_run_on_a_real_log(tmp_path, capsys, estimator, drive_dir):
     config = REPO / "config" / "warthog.yaml"
+    drive_log = drive_dir / "warthog_wheels_grass.csv"
     out = tmp_path / "out"
-    args = ["--wheels", str(DRIVE_LOG), "--config", str(config), "--estimator", estimator]
+    args = ["--wheels", str(drive_log), "--config", str(config), "--estimator", estimator]
     assert main(["run", *args, "--out", str(out)]) == 0
     capsys.readouterr()
     written = read_trajectory_csv(out / "trajectory.csv")
     odo = OnlineOdometry.from_config(config, estimator=estimator)
-    log, _ = read_calibrated_log(DRIVE_LOG, odo.config)
+    log, _ = read_calibrated_log(drive_log, odo.config)
     streamed = _stream(log, odo)
     names = odo.names
     for i, name in enumerate(names):

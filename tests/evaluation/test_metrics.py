@@ -26,8 +26,7 @@ from terrain_odom.evaluation import metrics as metrics_module
 from terrain_odom.kinematics import get_model, integrate, twist_icr
 from terrain_odom.records import WheelLog
 
-DRIVE_DIR = Path(__file__).resolve().parents[3] / "shared" / "data" / "drive"
-GRASS_LOG = DRIVE_DIR / "warthog_wheels_grass.csv"
+GRASS_LOG = "warthog_wheels_grass.csv"  # in ../shared/data/drive
 WARTHOG_RADIUS = 0.30  # m
 WARTHOG_TRACK = 1.08  # m, nominal
 TRUE_ICR = {"y_l": 0.9, "y_r": -0.9, "x_icr": 0.1}
@@ -338,10 +337,9 @@ def test_translational_error_equals_evo_rpe_on_synthetic_log() -> None:
     assert _assert_matches_evo_rpe(log, IDD) > 10
 
 
-@pytest.mark.skipif(not GRASS_LOG.exists(), reason="DRIVE logs (../shared) not available")
-def test_translational_error_equals_evo_rpe_on_real_grass_log() -> None:
+def test_translational_error_equals_evo_rpe_on_real_grass_log(drive_dir: Path) -> None:
     """Window errors equal evo's RPE on the real DRIVE grass log."""
-    log = _read_drive_log(GRASS_LOG)
+    log = _read_drive_log(drive_dir / GRASS_LOG)
     assert _assert_matches_evo_rpe(log, IDD) > 20
 
 
@@ -410,17 +408,16 @@ def test_ate_rejects_mismatched_input() -> None:
 # --- real data sanity -------------------------------------------------------------
 
 
-@pytest.mark.skipif(not GRASS_LOG.exists(), reason="DRIVE logs (../shared) not available")
-def test_real_grass_log_figures() -> None:
+def test_real_grass_log_figures(drive_dir: Path) -> None:
     """Error levels of idd and edd-sym on the real grass log (printed)."""
-    log = _read_drive_log(GRASS_LOG)
+    log = _read_drive_log(drive_dir / GRASS_LOG)
     windows = spatial_windows(log)
     t0 = time.perf_counter()
     idd = summarize(window_errors(log, windows, IDD))
     elapsed = time.perf_counter() - t0
     edd = summarize(window_errors(log, windows, model_twist(get_model("edd-sym"), [0.95, 1.8])))
     print(
-        f"\n{GRASS_LOG.name}: {len(windows)} windows, idd evaluated in {elapsed:.3f} s\n"
+        f"\n{GRASS_LOG}: {len(windows)} windows, idd evaluated in {elapsed:.3f} s\n"
         f"  idd B=1.08      : {json.dumps(idd.to_dict())}\n"
         f"  edd-sym .95/1.8 : {json.dumps(edd.to_dict())}"
     )

@@ -2,28 +2,19 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
-import pytest
-
 from terrain_odom.app.fit import fit
 from terrain_odom.config import load_config
 from terrain_odom.evaluation import model_twist, spatial_windows, summarize, window_errors
 from terrain_odom.io import read_wheel_log
 from terrain_odom.kinematics import get_model
 
-REPO = Path(__file__).resolve().parents[2]
-DRIVE = REPO.parent / "shared" / "data" / "drive"
 
-pytestmark = pytest.mark.skipif(not DRIVE.is_dir(), reason="../shared/data/drive not present")
-
-
-def test_edd_sym_on_held_out_grass_runs():
+def test_edd_sym_on_held_out_grass_runs(drive_dir, warthog_yaml):
     """Leave-one-run-out on the five grass runs, held-out windows pooled (docs/results/identification.md)."""
-    cfg = load_config(REPO / "config" / "warthog.yaml")
+    cfg = load_config(warthog_yaml)
     grass = [
         read_wheel_log(p, wheel_radius=cfg.robot.wheel_radius)
-        for p in sorted(DRIVE.glob("warthog_wheels_grass*.csv"))
+        for p in sorted(drive_dir.glob("warthog_wheels_grass*.csv"))
     ]
     assert len(grass) == 5
     edd, idd = get_model("edd-sym"), get_model("idd")

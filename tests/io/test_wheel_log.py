@@ -15,9 +15,6 @@ from terrain_odom.io import read_wheel_log
 from terrain_odom.io.wheel_log import write_wheel_log
 from terrain_odom.records import WheelLog
 
-DRIVE_DIR = Path(__file__).resolve().parents[3] / "shared" / "data" / "drive"
-"""Real DRIVE logs in ``../shared`` beside the repository (see its README.md)."""
-
 
 @pytest.fixture
 def in_tmp(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
@@ -489,11 +486,10 @@ def test_reading_is_a_small_multiple_of_bare_csv_parsing(tmp_path: Path) -> None
 # --- real DRIVE logs -----------------------------------------------------------
 
 
-def drive_files() -> list[Path]:
-    """Return the CSV logs of the DRIVE folder; skip the calling test if it is absent."""
-    if not DRIVE_DIR.is_dir():
-        pytest.skip(f"no DRIVE data at {DRIVE_DIR}")
-    return sorted(DRIVE_DIR.glob("*.csv"))
+@pytest.fixture
+def drive_files(drive_dir: Path) -> list[Path]:
+    """Return the CSV logs of the DRIVE folder (the test is skipped where it is absent)."""
+    return sorted(drive_dir.glob("*.csv"))
 
 
 def raw_columns(path: Path) -> dict[str, list[str]]:
@@ -503,9 +499,9 @@ def raw_columns(path: Path) -> dict[str, list[str]]:
     return {name: [row[name] for row in rows] for name in rows[0]}
 
 
-def test_every_drive_log_reads_with_consistent_content() -> None:
+def test_every_drive_log_reads_with_consistent_content(drive_files: list[Path]) -> None:
     """Every DRIVE log reads, and agrees with an independent parse of its cells."""
-    files = drive_files()
+    files = drive_files
     assert len(files) == 9
 
     for path in files:
@@ -524,9 +520,9 @@ def test_every_drive_log_reads_with_consistent_content() -> None:
         assert log.source == str(path)
 
 
-def test_drive_window_files_hold_300_two_second_segments() -> None:
+def test_drive_window_files_hold_300_two_second_segments(drive_files: list[Path]) -> None:
     """The window files hold 300 segments of 40 rows, each pose starting at 0."""
-    windows = [path for path in drive_files() if path.name.startswith("windows_")]
+    windows = [path for path in drive_files if path.name.startswith("windows_")]
     assert len(windows) == 2
 
     for path in windows:
@@ -540,10 +536,9 @@ def test_drive_window_files_hold_300_two_second_segments() -> None:
         assert set(log.terrain) == {path.stem.rsplit("_", 1)[1]}
 
 
-def test_drive_stitched_log_switches_from_grass_to_asphalt_at_113_9_s() -> None:
+def test_drive_stitched_log_switches_from_grass_to_asphalt_at_113_9_s(drive_dir: Path) -> None:
     """The stitched log turns from grass to asphalt once, at t = 113.9 s."""
-    drive_files()
-    log = read_wheel_log(DRIVE_DIR / "stitched_grass_to_asphalt.csv", wheel_radius=0.30)
+    log = read_wheel_log(drive_dir / "stitched_grass_to_asphalt.csv", wheel_radius=0.30)
 
     assert log.terrain is not None
     switch = np.flatnonzero(log.terrain[1:] != log.terrain[:-1])

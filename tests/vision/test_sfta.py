@@ -23,7 +23,9 @@ from terrain_odom.vision.sfta import (
 )
 
 REPO = Path(__file__).resolve().parents[2]
-INDOOR = REPO.parent / "shared" / "data" / "indoor_surface"  # real floor photos, if present
+# Real floor photos where ../shared is present: they parametrize tests at collection,
+# so the path is read here rather than through the conftest fixture.
+INDOOR = REPO.parent / "shared" / "data" / "indoor_surface"
 # Every 250th photo, plus two where skimage's float32 search returns the worse thresholds.
 INDOOR_IMAGES = sorted(
     {

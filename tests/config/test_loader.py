@@ -18,7 +18,7 @@ from terrain_odom.config import (
 )
 from terrain_odom.errors import ConfigError
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 
 
 def _write(tmp_path: Path, text: str) -> Path:

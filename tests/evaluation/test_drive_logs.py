@@ -22,11 +22,8 @@ from terrain_odom.evaluation import (
 from terrain_odom.io import read_wheel_log
 from terrain_odom.kinematics import get_model
 
-REPO = Path(__file__).resolve().parents[1]
-DRIVE = REPO.parent / "shared" / "data" / "drive"
+REPO = Path(__file__).resolve().parents[2]
 WARTHOG = REPO / "config" / "warthog.yaml"
-
-pytestmark = pytest.mark.skipif(not DRIVE.is_dir(), reason="../shared/data/drive not present")
 
 
 @pytest.fixture(scope="module")
@@ -35,10 +32,10 @@ def cfg():
 
 
 @pytest.fixture(scope="module")
-def grass(cfg):
+def grass(cfg, drive_dir):
     logs = [
         read_wheel_log(p, wheel_radius=cfg.robot.wheel_radius)
-        for p in sorted(DRIVE.glob("warthog_wheels_grass*.csv"))
+        for p in sorted(drive_dir.glob("warthog_wheels_grass*.csv"))
     ]
     assert len(logs) == 5
     return [(log, spatial_windows(log)) for log in logs]
@@ -87,8 +84,8 @@ def test_slip_state_wins_on_grass(grass, cfg):
     assert with_alpha_t < 0.8 * without_t
 
 
-def test_stitched_run_and_evaluate_through_the_cli(tmp_path, capsys):
-    log = str(DRIVE / "stitched_grass_to_asphalt.csv")
+def test_stitched_run_and_evaluate_through_the_cli(tmp_path, capsys, drive_dir):
+    log = str(drive_dir / "stitched_grass_to_asphalt.csv")
     out = tmp_path / "r"
     assert main(["run", "--config", str(WARTHOG), "--wheels", log, "--out", str(out)]) == 0
     report = json.loads((out / "report.json").read_text())
@@ -104,9 +101,9 @@ def test_stitched_run_and_evaluate_through_the_cli(tmp_path, capsys):
     assert "ekf (online)" in capsys.readouterr().out
 
 
-def test_reset_reconverges_after_the_grass_to_asphalt_switch(cfg):
+def test_reset_reconverges_after_the_grass_to_asphalt_switch(cfg, drive_dir):
     log = read_wheel_log(
-        DRIVE / "stitched_grass_to_asphalt.csv", wheel_radius=cfg.robot.wheel_radius
+        drive_dir / "stitched_grass_to_asphalt.csv", wheel_radius=cfg.robot.wheel_radius
     )
     switch = log.t[np.flatnonzero(log.terrain == "asphalt")[0]]
     t_move = log.t[

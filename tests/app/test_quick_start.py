@@ -23,7 +23,7 @@ from terrain_odom.cli.main import main
 from terrain_odom.io import classifier_file
 from terrain_odom.io.classifier_file import load_classifier
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 SAMPLE = REPO / "sample_images" / "chen2023"
 MODEL = REPO / "src" / "terrain_odom" / "models" / "default.npz"
 

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import dataclasses
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -21,16 +20,15 @@ from terrain_odom.io import read_wheel_log
 from terrain_odom.kinematics import get_model
 from terrain_odom.kinematics.slip import SlipModel
 
-REPO = Path(__file__).resolve().parents[1]
 # One of the three logs config/warthog.yaml's slip_ekf section was not tuned on.
-HELD_OUT = REPO.parent / "shared" / "data" / "drive" / "warthog_wheels_grass_2024_7_29_14h4s53.csv"
-
-pytestmark = pytest.mark.skipif(not HELD_OUT.is_file(), reason="../shared/data/drive not present")
+HELD_OUT = "warthog_wheels_grass_2024_7_29_14h4s53.csv"  # in ../shared/data/drive
 
 
-def test_held_out_grass_one_hz_beats_ideal_differential_drive_full_and_heading_only():
-    cfg = load_config(REPO / "config" / "warthog.yaml")
-    log = read_wheel_log(HELD_OUT, wheel_radius=cfg.robot.wheel_radius)
+def test_held_out_grass_one_hz_beats_ideal_differential_drive_full_and_heading_only(
+    drive_dir, warthog_yaml
+):
+    cfg = load_config(warthog_yaml)
+    log = read_wheel_log(drive_dir / HELD_OUT, wheel_radius=cfg.robot.wheel_radius)
     rows = np.flatnonzero(log.has_pose)
     sec = np.floor(log.t[rows])
     keep = rows[np.r_[True, sec[1:] != sec[:-1]]]  # first pose of every second: 1 Hz
@@ -49,9 +47,11 @@ def test_held_out_grass_one_hz_beats_ideal_differential_drive_full_and_heading_o
         assert e.heading < 0.5 * idd.heading
 
 
-def test_held_out_grass_one_hz_with_the_estimated_pose_delay_halves_the_position_error():
-    cfg = load_config(REPO / "config" / "warthog.yaml")
-    recorded = read_wheel_log(HELD_OUT, wheel_radius=cfg.robot.wheel_radius)
+def test_held_out_grass_one_hz_with_the_estimated_pose_delay_halves_the_position_error(
+    drive_dir, warthog_yaml
+):
+    cfg = load_config(warthog_yaml)
+    recorded = read_wheel_log(drive_dir / HELD_OUT, wheel_radius=cfg.robot.wheel_radius)
     log, timing = calibrate_pose_delay(recorded, "auto", cfg.robot.track_width)
     assert timing.pose_delay == pytest.approx(0.142, abs=0.01)
     rows = np.flatnonzero(log.has_pose)

@@ -7,27 +7,24 @@ by 0.07-0.52 s.
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import pytest
 
 from terrain_odom.config import load_config
 from terrain_odom.estimation.time_offset import estimate_pose_delay
 from terrain_odom.io import read_wheel_log
 
-REPO = Path(__file__).resolve().parents[1]
-DRIVE = REPO.parent / "shared" / "data" / "drive"
-
-pytestmark = pytest.mark.skipif(not DRIVE.is_dir(), reason="../shared/data/drive not present")
-
 
 @pytest.mark.parametrize(
     ("name", "measured"),
     [("asphalt_2024_9_25_12h8s57", 0.065), ("grass_2024_7_29_14h4s53", 0.142)],
 )
-def test_warthog_pose_delay_is_plausible_and_as_benchmarked(name, measured):
-    cfg = load_config(REPO / "config" / "warthog.yaml")
-    log = read_wheel_log(DRIVE / f"warthog_wheels_{name}.csv", wheel_radius=cfg.robot.wheel_radius)
+def test_warthog_pose_delay_is_plausible_and_as_benchmarked(
+    name, measured, drive_dir, warthog_yaml
+):
+    cfg = load_config(warthog_yaml)
+    log = read_wheel_log(
+        drive_dir / f"warthog_wheels_{name}.csv", wheel_radius=cfg.robot.wheel_radius
+    )
     est = estimate_pose_delay(log, cfg.robot.track_width)
     assert 0.0 < est.delay < 0.6  # behind the wheels, by less than the ICP period x 3
     assert est.delay == pytest.approx(measured, abs=0.01)

@@ -1,0 +1,40 @@
+"""Fixtures shared by every test folder: the repository and the real data beside it.
+
+The real data (``../shared/data`` next to the repository: Warthog drive logs,
+indoor floor photos) is not part of the project; a test that asks for it is
+skipped, with the reason, where it is absent.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+SHARED_DATA = REPO.parent / "shared" / "data"
+
+
+def _shared(name: str) -> Path:
+    path = SHARED_DATA / name
+    if not path.is_dir():
+        pytest.skip(f"real data not present: {path} (../shared beside the repository)")
+    return path
+
+
+@pytest.fixture(scope="session")
+def warthog_yaml() -> Path:
+    """Return the Warthog configuration the real drive logs were recorded with."""
+    return REPO / "config" / "warthog.yaml"
+
+
+@pytest.fixture(scope="session")
+def drive_dir() -> Path:
+    """Return ``../shared/data/drive``: real Warthog wheel logs with ICP ground truth."""
+    return _shared("drive")
+
+
+@pytest.fixture(scope="session")
+def indoor_dir() -> Path:
+    """Return ``../shared/data/indoor_surface``: 1,774 real floor photos (carpet, tiles, wood)."""
+    return _shared("indoor_surface")
