@@ -23,6 +23,12 @@ def _shared(name: str) -> Path:
 
 
 @pytest.fixture(scope="session")
+def examples_dir() -> Path:
+    """Return the repository's ``examples/`` (the demo log and its configuration)."""
+    return REPO / "examples"
+
+
+@pytest.fixture(scope="session")
 def warthog_yaml() -> Path:
     """Return the Warthog configuration the real drive logs were recorded with."""
     return REPO / "config" / "warthog.yaml"

@@ -109,7 +109,8 @@ class WheelLog:
     def run_ranges(self) -> list[range]:
         """Rows of every run (see :meth:`segment_runs`), in order."""
         starts = self.run_starts().tolist()
-        return [range(a, b) for a, b in zip(starts, [*starts[1:], len(self)], strict=True)]
+        ends = [*starts[1:], len(self)] if starts else []
+        return [range(a, b) for a, b in zip(starts, ends, strict=True)]
 
     @property
     def n_runs(self) -> int:
