@@ -1,72 +1,24 @@
 """Typed configuration: every section a frozen dataclass, loaded from YAML and validated.
 
-The defaults of the dataclasses are the values in ``config/default.yaml``
-(a test keeps the two equal). Noise values are standard deviations:
-``sigma_p0``, ``sigma_pb`` and ``sigma_prior`` in the state's units,
-``sigma_r`` in the measurement's units, and ``sigma_q`` as continuous-time
-noise densities in units per square-root second (the discrete process noise
-over a step of ``dt`` seconds is ``sigma_q**2 * dt``).
+- :mod:`~terrain_odom.config.sections`: robot, EKFs, terrain, evaluation, time (units and noise conventions there).
+- :mod:`~terrain_odom.config.camera`: the camera and the region of interest.
+- :mod:`~terrain_odom.config.classifier`: the terrain classifier's features and KNN.
+- :mod:`~terrain_odom.config.loader`: one YAML loader with clear messages.
 """
 
 from __future__ import annotations
 
-from terrain_odom.config.camera import CameraConfig, RoiConfig
-from terrain_odom.config.classifier import (
-    PAPER_K,
-    ClassifierConfig,
-    load_classifier_config,
-    paper_config,
-)
-from terrain_odom.config.fields import NON_NEGATIVE, SIGNED, build_section
-from terrain_odom.config.loader import config_to_dict, load_config, with_pose_delay
-from terrain_odom.config.sections import (
-    FORMAT_VERSION,
-    MAX_POSE_DELAY,
-    Config,
-    EkfConfig,
-    EvaluationConfig,
-    IcrLimits,
-    IcrSigmas,
-    IcrState,
-    PoseChangeSigmas,
-    PoseIcrSigmas,
-    PoseSigmas,
-    RobotConfig,
-    SlipEkfConfig,
-    SlipParams,
-    SlipSigmas,
-    TerrainConfig,
-    TimeConfig,
-)
+from terrain_odom.config import camera, classifier, fields, loader, sections
+from terrain_odom.config.camera import *  # noqa: F403  (re-exports camera.__all__)
+from terrain_odom.config.classifier import *  # noqa: F403  (re-exports classifier.__all__)
+from terrain_odom.config.fields import *  # noqa: F403  (re-exports fields.__all__)
+from terrain_odom.config.loader import *  # noqa: F403  (re-exports loader.__all__)
+from terrain_odom.config.sections import *  # noqa: F403  (re-exports sections.__all__)
 
 __all__ = [
-    "FORMAT_VERSION",
-    "MAX_POSE_DELAY",
-    "SIGNED",
-    "NON_NEGATIVE",
-    "build_section",
-    "CameraConfig",
-    "RoiConfig",
-    "RobotConfig",
-    "IcrState",
-    "PoseIcrSigmas",
-    "PoseSigmas",
-    "IcrSigmas",
-    "IcrLimits",
-    "EkfConfig",
-    "TerrainConfig",
-    "EvaluationConfig",
-    "SlipParams",
-    "SlipSigmas",
-    "PoseChangeSigmas",
-    "SlipEkfConfig",
-    "TimeConfig",
-    "Config",
-    "ClassifierConfig",
-    "PAPER_K",
-    "paper_config",
-    "load_classifier_config",
-    "load_config",
-    "config_to_dict",
-    "with_pose_delay",
+    *sections.__all__,
+    *camera.__all__,
+    *classifier.__all__,
+    *fields.__all__,
+    *loader.__all__,
 ]
