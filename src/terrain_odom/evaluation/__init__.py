@@ -5,11 +5,13 @@
   dead reckoning, settling time.
 - :mod:`~terrain_odom.evaluation.prediction`: the 2016 paper's prediction error.
 - :mod:`~terrain_odom.evaluation.groundtruth`: scores against a simulated run's truth.
+- :mod:`~terrain_odom.evaluation.plausibility`: wheels against poses before estimating.
 """
 
-from terrain_odom.evaluation import metrics, prediction, windows
+from terrain_odom.evaluation import metrics, plausibility, prediction, windows
 from terrain_odom.evaluation.metrics import *  # noqa: F403  (re-exports metrics.__all__)
+from terrain_odom.evaluation.plausibility import *  # noqa: F403  (re-exports plausibility.__all__)
 from terrain_odom.evaluation.prediction import *  # noqa: F403  (re-exports prediction.__all__)
 from terrain_odom.evaluation.windows import *  # noqa: F403  (re-exports windows.__all__)
 
-__all__ = [*windows.__all__, *metrics.__all__, *prediction.__all__]
+__all__ = [*windows.__all__, *metrics.__all__, *prediction.__all__, *plausibility.__all__]

@@ -1,0 +1,317 @@
+"""Plausibility of a wheel log: whether the wheels and the poses tell the same story.
+
+Before anything is estimated, the wheel speeds are compared with the poses
+of the same log, so the commonest mistakes stop a run with one line naming
+the likely cause instead of giving a plausible-looking wrong answer:
+
+- ``absurd_speed``: a wheel speed no ground robot reaches (a corrupt value,
+  or angular speeds read as surface speeds in the wrong unit);
+- ``time_step``: a median time step of more than a second or less than
+  0.1 ms (milliseconds or microseconds read as seconds);
+- ``still_wheels`` / ``still_poses``: the poses move while the wheels stand
+  still over most of the log, or the reverse (wrong columns, or poses of
+  another robot or run);
+- ``travel``: distance from the wheels against distance from the poses far
+  from 1 (wheel radius, rad/s against m/s);
+- ``yaw_sign``: the heading turns against the wheels' turn (left and right
+  swapped, or a clockwise yaw);
+- ``yaw_follow``: the heading does not follow the wheels' turn at all, or
+  turns many times faster (yaw in degrees, track width off by far).
+
+Every quantity is compared over chained intervals of at least 0.5 s
+between pose rows of one run of the log (never across a ``segment``
+change), so a low pose rate, repeated poses, gaps and heading-only poses
+are handled; a check without enough motion or turning to
+judge is not made. The thresholds are loose: skid-steer robots slip
+(the Warthog's heading turns at ~0.55 of the ideal differential drive's
+rate, and it travels ~0.93 of its wheels' distance), and none of them fires
+on the real logs in ``../shared/data/drive``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from terrain_odom.kinematics import wrap_angle
+from terrain_odom.records import WheelLog
+
+__all__ = ["Finding", "Plausibility", "PlausibilityLimits", "check_log"]
+
+
+@dataclass(frozen=True)
+class PlausibilityLimits:
+    """Thresholds of :func:`check_log` (units in the names' docs).
+
+    Attributes
+    ----------
+    max_speed : float
+        Fastest plausible track speed, m/s.
+    time_step : tuple of float
+        Plausible range of the median time step, s.
+    span : float
+        Shortest interval between two compared pose rows, s (bridges poses
+        repeated until the sensor's next measurement).
+    max_interval : float
+        Longest interval between two compared pose rows, s (longer: a gap).
+    moving_speed : float
+        Speed above which the wheels or the poses count as moving, m/s.
+    still_fraction : float
+        Share of one side's moving time during which the other stands still
+        that is reported.
+    min_moving_time : float
+        Least moving time (s) of one side for the still checks.
+    travel_ratio : tuple of float
+        Plausible range of pose distance / wheel distance.
+    min_travel : float
+        Least distance, m, from the wheels and from the poses, for the travel check.
+    min_turn : float
+        Least total turn, rad, from the wheels and from the poses, for the yaw checks.
+    min_correlation : float
+        Least correlation of the heading changes with the wheels' turn.
+    yaw_scale : tuple of float
+        Plausible range of the fitted (measured turn) / (ideal turn) ratio.
+    """
+
+    max_speed: float = 30.0
+    time_step: tuple[float, float] = (1e-4, 1.0)
+    span: float = 0.5
+    max_interval: float = 2.0
+    moving_speed: float = 0.2
+    still_fraction: float = 0.8
+    min_moving_time: float = 10.0
+    travel_ratio: tuple[float, float] = (0.5, 2.0)
+    min_travel: float = 5.0
+    min_turn: float = 1.0
+    min_correlation: float = 0.3
+    yaw_scale: tuple[float, float] = (0.1, 3.0)
+
+
+@dataclass(frozen=True)
+class Finding:
+    """One implausibility: which check, and a one-line message with the likely cause."""
+
+    check: str
+    message: str
+
+
+@dataclass(frozen=True)
+class Plausibility:
+    """What :func:`check_log` measured, and what it found.
+
+    Attributes
+    ----------
+    findings : tuple of Finding
+        Empty when the log is plausible.
+    median_step : float
+        Median time step, s.
+    max_speed : float
+        Largest absolute track speed, m/s.
+    wheel_travel, pose_travel : float
+        Distances over the compared pose intervals, m (NaN without positions).
+    yaw_scale, yaw_correlation : float
+        Least-squares ratio of measured to ideal heading changes, and their
+        correlation (NaN without headings).
+    """
+
+    findings: tuple[Finding, ...]
+    median_step: float
+    max_speed: float
+    wheel_travel: float
+    pose_travel: float
+    yaw_scale: float
+    yaw_correlation: float
+
+    @property
+    def ok(self) -> bool:
+        """Whether no check fired."""
+        return not self.findings
+
+
+@dataclass(frozen=True)
+class _Intervals:
+    """Per interval between consecutive pose rows: duration, wheel and pose change."""
+
+    dt: np.ndarray
+    wheel_travel: np.ndarray
+    pose_travel: np.ndarray
+    wheel_turn: np.ndarray
+    pose_turn: np.ndarray
+
+
+def check_log(
+    log: WheelLog, track_width: float, limits: PlausibilityLimits | None = None
+) -> Plausibility:
+    """Compare a log's wheel speeds with its poses (see the module).
+
+    Parameters
+    ----------
+    log : WheelLog
+        The log, wheel speeds already in m/s.
+    track_width : float
+        Nominal track width ``B``, m: the wheels' turn is ``(v_r - v_l) / B``.
+    limits : PlausibilityLimits, optional
+        Thresholds (default: :class:`PlausibilityLimits`).
+
+    Returns
+    -------
+    Plausibility
+    """
+    lim = limits or PlausibilityLimits()
+    step = float(np.median(np.diff(log.t))) if len(log) > 1 else float("nan")
+    top = float(np.max(np.abs(np.r_[log.v_l, log.v_r]))) if len(log) else 0.0
+    nan = float("nan")
+    findings = _units(log, step, top, lim)
+    if findings:  # the comparisons below would only repeat the unit mistake
+        return Plausibility(tuple(findings), step, top, nan, nan, nan, nan)
+    iv = _intervals(log, track_width, lim.span, lim.max_interval)
+    pos, yaw = np.isfinite(iv.pose_travel), np.isfinite(iv.pose_turn)
+    findings = _still(iv, pos, lim) or _travel(iv, pos, lim)
+    findings += _yaw(iv, yaw, lim)
+    return Plausibility(
+        tuple(findings),
+        step,
+        top,
+        float(np.sum(iv.wheel_travel[pos])),
+        float(np.sum(iv.pose_travel[pos])),
+        *_yaw_fit(iv, yaw),
+    )
+
+
+def _units(log: WheelLog, step: float, top: float, lim: PlausibilityLimits) -> list[Finding]:
+    out = []
+    if top > lim.max_speed:
+        k = int(np.argmax(np.maximum(np.abs(log.v_l), np.abs(log.v_r))))
+        out.append(
+            Finding(
+                "absurd_speed",
+                f"a track speed of {top:.3g} m/s at t = {log.t[k]:g} s is not a ground robot's "
+                f"(> {lim.max_speed:g} m/s): a corrupt value, or speeds in another unit",
+            )
+        )
+    low, high = lim.time_step
+    if np.isfinite(step) and not low <= step <= high:
+        cause = "milliseconds read as seconds?" if step > high else "microseconds or ticks?"
+        out.append(
+            Finding(
+                "time_step",
+                f"median time step {step:.3g} s is outside {low:g}-{high:g} s: times must be "
+                f"seconds ({cause})",
+            )
+        )
+    return out
+
+
+def _chain(t: np.ndarray, span: float) -> np.ndarray:
+    """Return indices into sorted ``t``: the first, then each next one at least ``span`` later."""
+    chain = [0] if t.size else []
+    while True:
+        j = int(np.searchsorted(t, t[chain[-1]] + span)) if chain else t.size
+        if j >= t.size:
+            return np.array(chain, dtype=int)
+        chain.append(j)
+
+
+def _intervals(log: WheelLog, track_width: float, span: float, max_interval: float) -> _Intervals:
+    """Wheel and pose changes over chained pose intervals of each run (see :func:`_chain`).
+
+    Intervals of at least ``span`` s bridge poses that a log repeats until
+    the sensor's next measurement.
+    """
+    parts: list[list[np.ndarray]] = [[] for _ in range(5)]
+    for run in log.run_ranges():
+        rows = np.arange(run.start, run.stop)
+        t = log.t[rows]
+        dt = np.diff(t)
+        travel = np.r_[0.0, np.cumsum(0.5 * np.abs(log.v_l[rows] + log.v_r[rows])[:-1] * dt)]
+        turn = np.r_[0.0, np.cumsum((log.v_r[rows] - log.v_l[rows])[:-1] / track_width * dt)]
+        has = np.flatnonzero(np.isfinite(log.pose[rows, 0]) | np.isfinite(log.pose[rows, 2]))
+        chain = has[_chain(t[has], span)]
+        a, b = chain[:-1], chain[1:]
+        keep = t[b] - t[a] <= max_interval
+        a, b = a[keep], b[keep]
+        pose = log.pose[rows]
+        for i, values in enumerate(
+            (
+                t[b] - t[a],
+                travel[b] - travel[a],
+                np.hypot(*(pose[b, :2] - pose[a, :2]).T),
+                turn[b] - turn[a],
+                wrap_angle(pose[b, 2] - pose[a, 2]),
+            )
+        ):
+            parts[i].append(values)
+    return _Intervals(*(np.concatenate(p) if p else np.zeros(0) for p in parts))
+
+
+def _still(iv: _Intervals, pos: np.ndarray, lim: PlausibilityLimits) -> list[Finding]:
+    dt = iv.dt[pos]
+    wheels = iv.wheel_travel[pos] / dt > lim.moving_speed
+    poses = iv.pose_travel[pos] / dt > lim.moving_speed
+    for moving, still, check, text in (
+        (poses, ~wheels, "still_wheels", "the poses move while the wheels stand still"),
+        (wheels, ~poses, "still_poses", "the wheels turn while the poses stand still"),
+    ):
+        time = float(np.sum(dt[moving]))
+        share = float(np.sum(dt[moving & still])) / time if time > 0 else 0.0
+        if time >= lim.min_moving_time and share >= lim.still_fraction:
+            return [
+                Finding(
+                    check,
+                    f"{text} over {100 * share:.0f} % of {time:.0f} s of motion: wrong wheel "
+                    "columns, or poses of another run",
+                )
+            ]
+    return []
+
+
+def _travel(iv: _Intervals, pos: np.ndarray, lim: PlausibilityLimits) -> list[Finding]:
+    wheel, pose = float(np.sum(iv.wheel_travel[pos])), float(np.sum(iv.pose_travel[pos]))
+    if min(wheel, pose) < lim.min_travel:
+        return []
+    ratio = pose / wheel
+    low, high = lim.travel_ratio
+    if low <= ratio <= high:
+        return []
+    return [
+        Finding(
+            "travel",
+            f"the poses travel {pose:.1f} m where the wheels say {wheel:.1f} m (x{ratio:.2f}): "
+            "check the wheel radius, and whether the speeds are rad/s (omega_*) or m/s (v_*)",
+        )
+    ]
+
+
+def _yaw_fit(iv: _Intervals, yaw: np.ndarray) -> tuple[float, float]:
+    """Least-squares scale of measured to ideal heading changes, and their correlation."""
+    m, w = iv.pose_turn[yaw], iv.wheel_turn[yaw]
+    mw, ww, mm = float(m @ w), float(w @ w), float(m @ m)
+    if ww == 0.0 or mm == 0.0:
+        return float("nan"), float("nan")
+    return mw / ww, mw / np.sqrt(ww * mm)
+
+
+def _yaw(iv: _Intervals, yaw: np.ndarray, lim: PlausibilityLimits) -> list[Finding]:
+    turned = min(np.sum(np.abs(iv.wheel_turn[yaw])), np.sum(np.abs(iv.pose_turn[yaw])))
+    if turned < lim.min_turn:
+        return []
+    scale, corr = _yaw_fit(iv, yaw)
+    if corr <= -lim.min_correlation:
+        return [
+            Finding(
+                "yaw_sign",
+                f"the heading turns against the wheels (correlation {corr:.2f}): left and right "
+                "wheels swapped, or yaw not counter-clockwise",
+            )
+        ]
+    low, high = lim.yaw_scale
+    if corr < lim.min_correlation or not low <= scale <= high:
+        return [
+            Finding(
+                "yaw_follow",
+                f"the heading does not follow the wheels' turn (x{scale:.2f}, correlation "
+                f"{corr:.2f}): yaw in degrees, or a track width far off",
+            )
+        ]
+    return []
