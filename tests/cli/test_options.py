@@ -10,7 +10,7 @@ import pytest
 from terrain_odom.cli.options import (
     add_config_option,
     add_fit_options,
-    add_pose_delay_option,
+    add_log_options,
     fit_arguments,
     load_config_option,
     pose_delay_line,
@@ -27,7 +27,7 @@ ESTIMATED = TimeCalibration(0.12, PoseDelayEstimate(0.12, 0.004, 1.01, 37))
 def parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser()
     add_config_option(p, "YAML configuration")
-    add_pose_delay_option(p)
+    add_log_options(p)
     return p
 
 
@@ -88,3 +88,11 @@ def test_fit_arguments() -> None:
     assert args["config_path"] is None
     with pytest.raises(ConfigError, match="--popsize"):
         fit_arguments(p.parse_args(["--log", "a.csv", "--popsize", "2"]))
+
+
+def test_no_checks_switches_the_checks_off(tmp_path: Path) -> None:
+    config = tmp_path / "c.yaml"
+    config.write_text("checks: {enabled: true}\n", encoding="utf-8")
+    on = load_config_option(parser().parse_args(["--config", str(config)]))
+    off = load_config_option(parser().parse_args(["--config", str(config), "--no-checks"]))
+    assert on.checks.enabled and not off.checks.enabled

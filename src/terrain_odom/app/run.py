@@ -25,6 +25,7 @@ from terrain_odom.estimation.icr_ekf import IcrPriors
 from terrain_odom.estimation.odometry import OdometryResult, OdometryRow, run_odometry
 from terrain_odom.estimation.online import ESTIMATORS, Estimator, OnlineOdometry
 from terrain_odom.estimation.time_offset import TimeCalibration, calibrate_pose_delay
+from terrain_odom.evaluation import check_log
 from terrain_odom.io import TrajectoryWriter, read_wheel_log, write_tum
 from terrain_odom.io.atomic import write_atomic, write_text_atomic
 from terrain_odom.io.classifier_file import default_model, load_classifier
@@ -43,6 +44,7 @@ __all__ = [
     "run",
     "images_config",
     "read_calibrated_log",
+    "check_plausible",
 ]
 
 TRAJECTORY_CSV = "trajectory.csv"
@@ -105,12 +107,32 @@ def read_calibrated_log(wheels: str | Path, cfg: Config) -> tuple[WheelLog, Time
     Raises
     ------
     InputFileError
-        If the file is missing or malformed.
+        If the file is missing or malformed, or its wheels and poses disagree
+        (:func:`check_plausible`).
     EstimationError
         ``auto`` on a log whose delay cannot be estimated.
     """
     log = read_wheel_log(wheels, wheel_radius=cfg.robot.wheel_radius)
+    check_plausible(log, cfg)
     return calibrate_pose_delay(log, cfg.time.pose_delay, cfg.robot.track_width)
+
+
+def check_plausible(log: WheelLog, cfg: Config) -> None:
+    """Stop on the first finding of :func:`~terrain_odom.evaluation.check_log` (if ``cfg.checks``).
+
+    Raises
+    ------
+    InputFileError
+        One line: the finding, the robot geometry it was judged with, and the way out.
+    """
+    if not cfg.checks.enabled:
+        return
+    found = check_log(log, cfg.robot.track_width).findings
+    if found:
+        raise InputFileError(
+            f"{log.source}: {found[0].message} (wheel radius {cfg.robot.wheel_radius:g} m, "
+            f"track width {cfg.robot.track_width:g} m); --no-checks runs anyway"
+        )
 
 
 def _labels(log: WheelLog, source: TerrainSource) -> list[str] | None:

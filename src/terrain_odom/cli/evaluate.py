@@ -8,8 +8,8 @@ from typing import TYPE_CHECKING
 
 from terrain_odom.cli.options import (
     add_config_option,
+    add_log_options,
     add_out_option,
-    add_pose_delay_option,
     load_config_option,
     print_pose_delay,
 )
@@ -27,7 +27,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     add_config_option(p, "YAML configuration (robot geometry, horizon)")
     p.add_argument("--horizon", type=float, help="evaluation horizon h_e in metres (default 2)")
     add_out_option(p, "JSON output (default RUN/evaluation.json)")
-    add_pose_delay_option(p)
+    add_log_options(p)
     p.set_defaults(func=_cmd_evaluate)
 
 

@@ -35,8 +35,14 @@ def add_out_option(p: argparse.ArgumentParser, help: str, *, required: bool = Fa
     p.add_argument("--out", required=required, help=help)
 
 
-def add_pose_delay_option(p: argparse.ArgumentParser) -> None:
-    """Add ``--pose-delay {auto,SECONDS}`` (overrides the configuration's ``time.pose_delay``)."""
+def add_log_options(p: argparse.ArgumentParser) -> None:
+    """Add ``--pose-delay`` and ``--no-checks``: how a log is read (override the configuration)."""
+    p.add_argument(
+        "--no-checks",
+        action="store_true",
+        help="run even where the log's wheels and poses disagree (travel, turn, time unit; "
+        "configuration: checks.enabled)",
+    )
     p.add_argument(
         "--pose-delay",
         metavar="{auto,SECONDS}",
@@ -47,20 +53,22 @@ def add_pose_delay_option(p: argparse.ArgumentParser) -> None:
 
 
 def load_config_option(args: argparse.Namespace, path: str | Path | None = None) -> Config:
-    """Return the configuration of ``--config`` with ``--pose-delay`` applied.
+    """Return the configuration of ``--config`` with ``--pose-delay`` and ``--no-checks`` applied.
 
     Parameters
     ----------
     args : argparse.Namespace
-        Parsed arguments with ``config`` and, for subcommands that have it,
-        ``pose_delay``.
+        Parsed arguments with ``config`` and, for subcommands that have them,
+        ``pose_delay`` and ``no_checks``.
     path : str or Path, optional
         The configuration file to load instead of ``--config`` (e.g. one found
         beside the input); built-in defaults when neither is given.
     """
-    from terrain_odom.config import load_config, with_pose_delay
+    from terrain_odom.config import ChecksConfig, load_config, with_pose_delay
 
     cfg = load_config(args.config if path is None else path)
+    if getattr(args, "no_checks", False):
+        cfg = dataclasses.replace(cfg, checks=ChecksConfig(enabled=False))
     return with_pose_delay(cfg, getattr(args, "pose_delay", None))
 
 
@@ -121,7 +129,7 @@ def add_fit_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--maxiter", type=int, help="most generations (300)")
     p.add_argument("--seed", type=int, help="seed of the optimiser, for reproducible fits (0)")
     add_config_option(p, "YAML configuration (wheel radius, track width, h_e)")
-    add_pose_delay_option(p)
+    add_log_options(p)
 
 
 def fit_options(args: argparse.Namespace) -> FitOptions:

@@ -6,8 +6,8 @@ import argparse
 
 from terrain_odom.cli.options import (
     add_config_option,
+    add_log_options,
     add_out_option,
-    add_pose_delay_option,
     load_config_option,
     print_pose_delay,
 )
@@ -61,7 +61,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "filter starts from them and, with --by-terrain sets, takes a terrain's set on "
         "each confirmed change to it (covariance ekf.sigma_prior)",
     )
-    add_pose_delay_option(p)
+    add_log_options(p)
     terrain = p.add_mutually_exclusive_group()
     terrain.add_argument(
         "--terrain-from-log",

@@ -32,6 +32,7 @@ __all__ = [
     "PoseChangeSigmas",
     "SlipEkfConfig",
     "TimeConfig",
+    "ChecksConfig",
     "MAX_POSE_DELAY",
     "Config",
 ]
@@ -338,6 +339,22 @@ class TimeConfig:
 
 
 @dataclass(frozen=True)
+class ChecksConfig:
+    """Plausibility checks of a log before anything is estimated.
+
+    Attributes
+    ----------
+    enabled : bool
+        Compare the wheels with the poses of the log
+        (:func:`~terrain_odom.evaluation.plausibility.check_log`) and stop
+        with the likely cause where they disagree (default); ``false`` (or
+        ``--no-checks``) runs anyway.
+    """
+
+    enabled: bool = True
+
+
+@dataclass(frozen=True)
 class Config:
     """The whole configuration of a run."""
 
@@ -348,5 +365,6 @@ class Config:
     evaluation: EvaluationConfig = field(default_factory=EvaluationConfig)
     slip_ekf: SlipEkfConfig = field(default_factory=SlipEkfConfig)
     time: TimeConfig = field(default_factory=TimeConfig)
+    checks: ChecksConfig = field(default_factory=ChecksConfig)
     camera: CameraConfig = field(default_factory=CameraConfig)
     roi: RoiConfig = field(default_factory=RoiConfig)
