@@ -7,10 +7,12 @@ import dataclasses
 import numpy as np
 import pytest
 
+from terrain_odom.errors import EstimationError
 from terrain_odom.evaluation import spatial_windows
 from terrain_odom.fitting import (
     FitOptions,
     Horizon,
+    at_bounds,
     fit_model,
     parse_horizon,
     residuals,
@@ -85,6 +87,37 @@ def test_bounds_are_respected():
     (lo_a, hi_a), (lo_b, hi_b) = get_model("edd-sym").bounds
     assert lo_a <= result.params[0] <= hi_a and lo_b <= result.params[1] <= hi_b
     assert result.params[0] == pytest.approx(hi_a)
+    assert result.at_bounds == ("alpha",)
+
+
+def test_fits_inside_the_bounds_are_not_flagged():
+    log = constant_model_log("edd-sym", TRUTH["edd-sym"], seconds=30.0)
+    assert fit_model("edd-sym", _segments([log]), options=FAST).at_bounds == ()
+
+
+def test_at_bounds_is_relative_to_the_bound_with_a_least_scale_of_one():
+    roc = get_model("roc")  # bounds alpha (0, 1.5), beta_1 (-0.95, 50), beta_2 (0, 50)
+    assert at_bounds(roc, np.array([1.49, 0.5, 0.011])) == ("alpha",)
+    assert at_bounds(roc, np.array([1.0, -0.945, 0.5])) == ("beta_1",)
+    assert at_bounds(roc, np.array([1.0, 49.6, 0.009])) == ("beta_1", "beta_2")
+    assert at_bounds(roc, np.array([1.0, 0.5, 0.5])) == ()
+
+
+def _straight(log: WheelLog) -> WheelLog:
+    """Return the log with both tracks at their mean speed (no turning) and its poses then."""
+    v = 0.5 * (log.v_l + log.v_r)
+    x = np.r_[0.0, np.cumsum(v[:-1] * np.diff(log.t))]
+    pose = np.where(np.isfinite(log.pose), np.c_[x, 0 * x, 0 * x], np.nan)
+    return dataclasses.replace(log, v_l=v, v_r=v, pose=pose)
+
+
+def test_data_without_turning_or_motion_is_refused_with_the_reason():
+    log = constant_model_log("edd-sym", TRUTH["edd-sym"], seconds=30.0)
+    with pytest.raises(EstimationError, match=r"turn 0\.0 deg in all: no turning"):
+        fit_model("edd-sym", _segments([_straight(log)]), options=FAST)
+    still = dataclasses.replace(log, v_l=0 * log.v_l, v_r=0 * log.v_r)
+    with pytest.raises(EstimationError, match="no motion"):
+        fit_model("icr", _segments([still], Horizon(2.0, "s")), options=FAST)
 
 
 def test_loss_is_invariant_to_splitting_a_log_into_files():

@@ -24,11 +24,12 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import differential_evolution, least_squares
 
+from terrain_odom.errors import EstimationError
 from terrain_odom.fitting.loss import residuals, squared_loss, whitener_matrix
 from terrain_odom.fitting.segments import SegmentSet
 from terrain_odom.kinematics.models import KinematicModel, get_model
 
-__all__ = ["FitOptions", "FitResult", "fit_model"]
+__all__ = ["FitOptions", "FitResult", "fit_model", "at_bounds"]
 
 
 @dataclass(frozen=True)
@@ -80,6 +81,9 @@ class FitResult:
         Wall time of the fit, s.
     generations, evaluations : int
         Differential-evolution generations and parameter sets evaluated.
+    at_bounds : tuple of str
+        Parameters at or within 1 % of a search bound (:func:`at_bounds`):
+        the optimum may lie beyond it, or the data do not determine them.
     """
 
     model: str
@@ -91,6 +95,7 @@ class FitResult:
     seconds: float
     generations: int
     evaluations: int
+    at_bounds: tuple[str, ...] = ()
 
     def as_dict(self) -> dict[str, float]:
         """Parameters by name."""
@@ -138,6 +143,8 @@ def fit_model(
         return squared_loss(residuals(m, pop, segments, whitener=whitener, track_width=track_width))
 
     k = len(m.param_names)
+    if k:
+        _check_excitation(m.name, segments)
     if k == 0:
         x = np.zeros(0)
         return FitResult(
@@ -176,5 +183,58 @@ def fit_model(
             x, best = ls.x, polished
     return FitResult(
         m.name, x, best, segments.count, segments.length, segments.duration,
-        time.perf_counter() - started, int(de.nit), nfev,
+        time.perf_counter() - started, int(de.nit), nfev, at_bounds(m, x),
     )  # fmt: skip
+
+
+BOUND_TOLERANCE = 0.01
+"""Relative distance to a bound at which a fitted parameter is flagged."""
+
+MIN_TRAVEL = 1.0
+"""Least path length of the training segments, m."""
+
+MIN_TURN = 0.5
+"""Least total heading change of the training segments, rad."""
+
+
+def at_bounds(model: KinematicModel, params: np.ndarray) -> tuple[str, ...]:
+    """Return the names of the parameters at or within 1 % of a search bound.
+
+    The distance is relative to the bound's magnitude, with 1 (m or unitless)
+    as the least scale, so a bound at 0 flags values within 0.01.
+
+    Examples
+    --------
+    >>> from terrain_odom.kinematics import get_model
+    >>> at_bounds(get_model("roc"), np.array([0.94, 0.65, 1e-16]))
+    ('beta_2',)
+    """
+    flagged = []
+    for name, value, (lo, hi) in zip(model.param_names, params, model.bounds, strict=True):
+        if any(abs(value - b) <= BOUND_TOLERANCE * max(abs(b), 1.0) for b in (lo, hi)):
+            flagged.append(name)
+    return tuple(flagged)
+
+
+def _check_excitation(name: str, segments: SegmentSet) -> None:
+    """Refuse training data without motion or turning (nothing to identify).
+
+    Raises
+    ------
+    EstimationError
+        The segments' poses or wheels travel less than :data:`MIN_TRAVEL`, or
+        their poses turn less than :data:`MIN_TURN`, in all.
+    """
+    wheels = float(sum((0.5 * np.abs(b.v_l + b.v_r) * b.dt).sum() for b in segments.blocks))
+    for what, travel in (("poses", segments.length), ("wheels", wheels)):
+        if travel < MIN_TRAVEL:
+            raise EstimationError(
+                f"the {what} of the training segments travel {travel:.2f} m in all: no motion "
+                f"to fit {name} to"
+            )
+    turn = float(sum(np.abs(b.target[:, 2]).sum() for b in segments.blocks))
+    if turn < MIN_TURN:
+        raise EstimationError(
+            f"the training segments turn {np.degrees(turn):.1f} deg in all: no turning to "
+            f"identify {name} from; fit on a log with turns"
+        )
