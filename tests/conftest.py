@@ -29,6 +29,12 @@ def examples_dir() -> Path:
 
 
 @pytest.fixture(scope="session")
+def sample_dir() -> Path:
+    """Return the quick start's simulated run with camera frames (``sample_images/chen2023``)."""
+    return REPO / "sample_images" / "chen2023"
+
+
+@pytest.fixture(scope="session")
 def warthog_yaml() -> Path:
     """Return the Warthog configuration the real drive logs were recorded with."""
     return REPO / "config" / "warthog.yaml"

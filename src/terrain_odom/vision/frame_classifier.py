@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from terrain_odom.config import RoiConfig
-from terrain_odom.errors import ConfigError
+from terrain_odom.errors import ConfigError, InputFileError
 from terrain_odom.records import Sighting
 from terrain_odom.vision.camera import GroundCamera, crop, region_of_interest
 from terrain_odom.vision.classifier import TerrainClassifier
@@ -134,6 +134,8 @@ class FrameClassifier:
         ------
         ConfigError
             With ``use_roi``, if the image size is not the camera's.
+        InputFileError
+            A grey frame (equal channels) given to a model with colour features.
         """
         started = time.perf_counter()
         height, width = image.shape[:2]
@@ -143,6 +145,7 @@ class FrameClassifier:
                 f"image is {width}x{height} px but the camera configuration says "
                 f"{camera.width}x{camera.height} (camera.width/height)"
             )
+        self._check_colour(t, image)
         record = FrameClassification(t)
         if self.use_roi:
             result = region_of_interest(camera, self.roi, v_l, v_r, icr_params)
@@ -174,6 +177,21 @@ class FrameClassifier:
         elif self.time_full_frame and not whole:
             record.ms_features_full, record.ms_knn_full = record.ms_features, record.ms_knn
         return record
+
+    def _check_colour(self, t: float, image: np.ndarray) -> None:
+        """Refuse a grey frame for a colour model: its colour features would be constant."""
+        features = self.classifier.cfg.features
+        if features == "sfta":
+            return
+        sample = image[::8, ::8]
+        if np.array_equal(sample[..., 0], sample[..., 1]) and np.array_equal(
+            sample[..., 1], sample[..., 2]
+        ):
+            raise InputFileError(
+                f"the frame at t = {t:g} s is grey (equal colour channels) but the model "
+                f"uses {features} features (colour): give colour frames, or a model trained "
+                "with --features sfta"
+            )
 
     def _classify_timed(
         self, region: np.ndarray, footprint: np.ndarray | None
