@@ -10,6 +10,7 @@ from terrain_odom.cli.options import (
     add_config_option,
     add_log_options,
     add_out_option,
+    check_horizon,
     load_config_option,
     print_pose_delay,
 )
@@ -68,7 +69,7 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
         config=load_config_option(args),
         config_path=args.config,
         params=args.params,
-        horizon=args.horizon,
+        horizon=check_horizon(args.horizon),
         out=args.out,
     )
     print(f"{result.windows} windows of {result.horizon:g} m on {result.log}")

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import math
 from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypedDict
@@ -100,6 +101,36 @@ def _shows(timing: TimeCalibration) -> bool:
     from terrain_odom.estimation.time_offset import shows_pose_delay
 
     return shows_pose_delay(timing.to_dict())
+
+
+def check_horizon(value: float | None, option: str = "--horizon") -> float | None:
+    """Return a command-line horizon, m, or raise unless it is a finite distance > 0.
+
+    Raises
+    ------
+    ConfigError
+        ``value`` is 0, negative, NaN or infinite (None, not given, passes).
+    """
+    from terrain_odom.errors import ConfigError
+
+    if value is not None and not 0.0 < value < math.inf:
+        raise ConfigError(f"{option}: must be a finite distance > 0 m, got {value:g}")
+    return value
+
+
+def check_seed(value: int, option: str = "--seed") -> int:
+    """Return a command-line random seed, or raise unless it is a whole number >= 0.
+
+    Raises
+    ------
+    ConfigError
+        ``value`` is negative (NumPy's generators take seeds >= 0).
+    """
+    from terrain_odom.errors import ConfigError
+
+    if value < 0:
+        raise ConfigError(f"{option}: must be a whole number >= 0, got {value}")
+    return value
 
 
 def add_fit_options(p: argparse.ArgumentParser) -> None:

@@ -4,7 +4,12 @@ from __future__ import annotations
 
 import argparse
 
-from terrain_odom.cli.options import add_config_option, add_out_option, load_config_option
+from terrain_odom.cli.options import (
+    add_config_option,
+    add_out_option,
+    check_seed,
+    load_config_option,
+)
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -49,6 +54,7 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     from terrain_odom.errors import ConfigError
     from terrain_odom.sim import get_scenario, simulate
 
+    seed = check_seed(args.seed)
     scenario = get_scenario(args.scenario)
     changes = {
         "duration": args.duration,
@@ -56,8 +62,8 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
         "frame_rate": args.frame_rate,
     }
     for name, value in changes.items():
-        if value is not None and not value > 0.0:
-            raise ConfigError(f"--{name.replace('_', '-')} must be > 0, got {value}")
+        if value is not None and not 0.0 < value < float("inf"):
+            raise ConfigError(f"--{name.replace('_', '-')} must be finite and > 0, got {value}")
     given = {k: v for k, v in changes.items() if v is not None}
     if args.pose_noise is not None:
         if not all(0.0 <= value < float("inf") for value in args.pose_noise):
@@ -68,7 +74,7 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     if args.config is not None:
         cfg = load_config_option(args)
         robot, camera = cfg.robot, cfg.camera
-    sim = simulate(scenario, args.seed, robot=robot, camera=camera)
+    sim = simulate(scenario, seed, robot=robot, camera=camera)
     out = write_simulation(
         sim,
         args.out,
@@ -76,7 +82,7 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
         patches=not args.no_patches,
         frame_format=args.frame_format,
     )
-    print(f"scenario {scenario.name} (seed {args.seed}): {scenario.description}")
+    print(f"scenario {scenario.name} (seed {seed}): {scenario.description}")
     print(f"wheel log:    {out.log_csv} ({out.rows} rows, {out.pose_rows} poses)")
     print(f"ground truth: {out.groundtruth_csv}")
     if out.frames_csv is not None:

@@ -35,7 +35,10 @@ _NON_NEGATIVE_PARENTS = {"sigma_q"}  # process noise densities may be 0
 def _check_float(value: Any, where: str, allowed: str) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise ConfigError(f"{where}: must be a number, got {value!r}")
-    value = float(value)
+    try:
+        value = float(value)
+    except OverflowError:  # an integer beyond the float range
+        value = math.inf
     if not math.isfinite(value):
         raise ConfigError(f"{where}: must be finite, got {value!r}")
     if allowed == "non-negative" and value < 0.0:

@@ -11,7 +11,7 @@ import yaml
 
 from terrain_odom.config.fields import _build
 from terrain_odom.config.sections import FORMAT_VERSION, MAX_POSE_DELAY, Config, TimeConfig
-from terrain_odom.errors import ConfigError
+from terrain_odom.errors import ConfigError, TerrainOdomError
 
 __all__ = ["load_config", "read_yaml", "config_to_dict", "with_pose_delay"]
 
@@ -87,27 +87,46 @@ def _check_consistency(cfg: Config) -> None:
         )
 
 
-def read_yaml(path: Path) -> Any:
-    """Read a YAML configuration file into plain data (``None`` if it is empty).
+def read_yaml(
+    path: Path, *, kind: str = "config file", error: type[TerrainOdomError] = ConfigError
+) -> Any:
+    """Read a YAML file into plain data (``None`` if it is empty).
+
+    Parameters
+    ----------
+    path : Path
+        The file.
+    kind : str
+        What the file is, for messages (e.g. ``"parameter file"``).
+    error : type of TerrainOdomError
+        The exception raised on a problem.
 
     Raises
     ------
     ConfigError
-        The file is missing, unreadable or not valid YAML (naming the file and,
-        where known, the line).
+        (or ``error``) The file is missing, unreadable, not UTF-8 text or not
+        valid YAML, naming the file and, where known, the line.
     """
     try:
         text = path.read_text(encoding="utf-8")
     except FileNotFoundError:
-        raise ConfigError(f"{path}: config file not found") from None
+        raise error(f"{path}: {kind} not found") from None
+    except UnicodeDecodeError as exc:
+        raise error(
+            f"{path}: not a UTF-8 text file (byte {exc.start}: {exc.reason}); is it a YAML {kind}?"
+        ) from None
     except OSError as exc:
-        raise ConfigError(f"{path}: cannot read config file ({exc.strerror})") from None
+        raise error(f"{path}: cannot read {kind} ({exc.strerror or exc})") from None
     try:
         return yaml.safe_load(text)
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         line = f", line {mark.line + 1}" if mark is not None else ""
-        raise ConfigError(f"{path}{line}: not valid YAML") from None
+        raise error(f"{path}{line}: not valid YAML") from None
+    except RecursionError:
+        raise error(f"{path}: not a YAML {kind} (nested too deeply)") from None
+    except (ValueError, OverflowError) as exc:  # e.g. a date like 2024-13-45
+        raise error(f"{path}: not valid YAML ({exc})") from None
 
 
 def load_config(path: str | Path | None = None) -> Config:

@@ -16,6 +16,8 @@ from __future__ import annotations
 
 import datetime
 import json
+import zipfile
+import zlib
 from importlib import resources
 from pathlib import Path
 from typing import Any, BinaryIO
@@ -39,6 +41,8 @@ __all__ = [
 
 MODEL_FORMAT_VERSION = 2
 """Version of the model file layout written by :func:`save_classifier`."""
+
+_ZIP_MAGIC = b"PK\x03\x04"  # a zip archive (an .npz file) starts with a local file header
 
 
 def save_classifier(model: TerrainClassifier, path: str | Path) -> Path:
@@ -104,34 +108,92 @@ def load_classifier(
         values).
     """
     path = Path(path)
-    try:
-        with np.load(path, allow_pickle=False) as data:
-            arrays = {name: data[name] for name in data.files}
-    except FileNotFoundError:
-        raise InputFileError(f"{path}: model file not found") from None
-    except (OSError, ValueError) as exc:
-        raise InputFileError(f"{path}: not a terrain-odom model file ({exc})") from None
+    arrays = _read_arrays(path)
     cfg = _check_metadata(path, _metadata(path, arrays), expected)  # versions before the arrays
-    missing = set(MODEL_ARRAYS) - set(arrays)
-    if missing:
-        raise InputFileError(f"{path}: not a terrain-odom model file (no {sorted(missing)})")
+    _check_arrays(path, cfg, arrays)
     try:
         return TerrainClassifier.from_arrays(cfg, arrays)
     except ValueError as exc:
         raise InputFileError(f"{path}: inconsistent model file ({exc})") from None
 
 
-def _metadata(path: Path, arrays: dict[str, np.ndarray]) -> dict[str, Any]:
-    """Return the decoded ``metadata`` array of a model file."""
+def _read_arrays(path: Path) -> dict[str, Any]:
+    """Return the members of an ``.npz`` file: arrays, or bytes for members that are not.
+
+    Raises
+    ------
+    InputFileError
+        The file is missing, unreadable, not a zip archive, damaged or truncated,
+        or holds object arrays (which are never unpickled).
+    """
     try:
-        meta = json.loads(str(arrays["metadata"]))
-    except KeyError:
-        raise InputFileError(f"{path}: not a terrain-odom model file (no metadata)") from None
-    except json.JSONDecodeError:
+        with path.open("rb") as handle:
+            magic = handle.read(len(_ZIP_MAGIC))
+            handle.seek(0)
+            if zipfile.is_zipfile(handle):
+                with np.load(handle, allow_pickle=False) as data:
+                    return {name: data[name] for name in data.files}
+    except FileNotFoundError:
+        raise InputFileError(f"{path}: model file not found") from None
+    except OSError as exc:
+        raise InputFileError(f"{path}: cannot read model file ({exc.strerror or exc})") from None
+    except (zipfile.BadZipFile, EOFError, zlib.error, NotImplementedError, RuntimeError) as exc:
+        raise InputFileError(f"{path}: damaged model file ({exc})") from None
+    except ValueError:  # numpy's message would suggest unpickling: never for a model
+        raise InputFileError(
+            f"{path}: not a terrain-odom model file (a member is not a plain .npy array)"
+        ) from None
+    if magic == _ZIP_MAGIC:
+        raise InputFileError(
+            f"{path}: truncated or damaged model file (an .npz archive without its end: "
+            "an interrupted copy or download?)"
+        )
+    raise InputFileError(
+        f"{path}: not a terrain-odom model file (not an .npz archive); "
+        "give a model written by 'terrain-odom train'"
+    )
+
+
+def _metadata(path: Path, arrays: dict[str, Any]) -> dict[str, Any]:
+    """Return the decoded ``metadata`` array of a model file."""
+    raw = arrays.get("metadata")
+    if not isinstance(raw, np.ndarray):
+        raise InputFileError(f"{path}: not a terrain-odom model file (no metadata)")
+    try:
+        meta = json.loads(str(raw))
+    except (json.JSONDecodeError, RecursionError):
         meta = None
     if not isinstance(meta, dict):
         raise InputFileError(f"{path}: not a terrain-odom model file (bad metadata)")
     return meta
+
+
+def _check_arrays(path: Path, cfg: ClassifierConfig, arrays: dict[str, Any]) -> None:
+    """Raise unless the model's arrays have the types and shapes a model of ``cfg`` has."""
+    missing = set(MODEL_ARRAYS) - {k for k, v in arrays.items() if isinstance(v, np.ndarray)}
+    if missing:
+        raise InputFileError(f"{path}: not a terrain-odom model file (no {sorted(missing)})")
+    features = arrays["features"]
+    if features.dtype.kind not in "fiu" or features.ndim != 2 or not features.size:
+        raise InputFileError(
+            f"{path}: inconsistent model file: features are {features.dtype} of shape "
+            f"{features.shape}, not numbers of shape (samples, features)"
+        )
+    width = features.shape[1]
+    scaled = (width,) if cfg.scale else (0,)  # empty without scaling
+    for name in ("scaler_mean", "scaler_scale"):
+        scaler = arrays[name]
+        if scaler.dtype.kind not in "fiu" or scaler.shape != scaled:
+            raise InputFileError(
+                f"{path}: inconsistent model file: features and scaler disagree ({name} is "
+                f"{scaler.dtype} of shape {scaler.shape}; {width} feature columns "
+                f"{'need' if cfg.scale else 'without scaling need'} numbers of shape {scaled}); "
+                "retrain the model with 'terrain-odom train'"
+            )
+    if not all(np.isfinite(arrays[n]).all() for n in ("features", "scaler_mean", "scaler_scale")):
+        raise InputFileError(f"{path}: inconsistent model file: non-finite features or scaler")
+    if not (arrays["scaler_scale"] > 0).all():
+        raise InputFileError(f"{path}: inconsistent model file: a scaler_scale is not > 0")
 
 
 def _check_metadata(

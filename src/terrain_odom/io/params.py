@@ -38,6 +38,7 @@ import numpy as np
 import yaml
 
 from terrain_odom.config import IcrState
+from terrain_odom.config.loader import read_yaml
 from terrain_odom.errors import InputFileError
 from terrain_odom.estimation.icr_ekf import IcrPriors
 from terrain_odom.io.atomic import write_atomic
@@ -218,12 +219,7 @@ def read_params(path: str | Path) -> ModelParams:
         If the file is missing, not YAML, or has unknown/missing keys.
     """
     path = Path(path)
-    try:
-        data = yaml.safe_load(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise InputFileError(f"{path}: parameter file not found") from None
-    except yaml.YAMLError:
-        raise InputFileError(f"{path}: not valid YAML") from None
+    data = read_yaml(path, kind="parameter file", error=InputFileError)
     if not isinstance(data, dict):
         raise InputFileError(f"{path}: expected a mapping with keys {sorted(_V2_KEYS)}")
     version = data.get("format_version")
