@@ -48,6 +48,7 @@ from terrain_odom.io.params import (
     derived_quantities,
     write_params,
 )
+from terrain_odom.io.paths import check_outputs
 from terrain_odom.io.report import write_json
 from terrain_odom.kinematics import MODELS, get_model
 from terrain_odom.records import WheelLog
@@ -66,6 +67,9 @@ __all__ = [
 
 LogSource = str | Path | WheelLog
 """A wheel-log CSV path, or an already loaded :class:`WheelLog`."""
+
+COMPARE_FILES = ("compare.md", "compare.json", "compare.png")
+"""Files :func:`compare` writes into its ``out_dir`` (besides ``params_MODEL.yaml``)."""
 
 ALL = "all"  # group name of evaluation windows when fits are not per terrain
 
@@ -209,6 +213,14 @@ class CompareReport:
             "models": {name: m.to_dict() for name, m in self.models.items()},
             "markdown": self.markdown,
         }
+
+
+def _paths(
+    logs: Sequence[LogSource], eval_logs: Sequence[LogSource], config_path: str | Path | None
+) -> list[str | Path | None]:
+    """Return the files read by :func:`fit` or :func:`compare` (logs given as paths, config)."""
+    read = [src for src in (*logs, *eval_logs) if not isinstance(src, WheelLog)]
+    return [*read, config_path]
 
 
 def _load(
@@ -394,6 +406,8 @@ def fit(
     -------
     FitReport
     """
+    if out is not None:
+        check_outputs(_paths(logs, eval_logs, config_path), [out])
     cfg = config if config is not None else load_config(config_path)
     try:
         m = get_model(model)
@@ -483,11 +497,14 @@ def compare(
         The tables (``markdown``), per model its sets and held-out errors per
         group, and the settings.
     """
-    cfg = config if config is not None else load_config(config_path)
     names = list(models) if models is not None else list(MODELS)
     for name in names:
         if name not in MODELS:
             raise ConfigError(f"unknown kinematic model {name!r}; choose from {sorted(MODELS)}")
+    if out_dir is not None:
+        files = [f"params_{name}.yaml" for name in names] + list(COMPARE_FILES)
+        check_outputs(_paths(logs, eval_logs, config_path), [Path(out_dir) / f for f in files])
+    cfg = config if config is not None else load_config(config_path)
     h_t = _horizon(horizon)
     timing: dict[str, TimeCalibration] = {}
     train = _load(logs, cfg, "training", timing)
@@ -519,11 +536,10 @@ def compare(
         markdown=_markdown(results, b, h_t, h_e),
     )
     if target is not None:
-        write_text_atomic(target / "compare.md", report.markdown)
-        write_json(target / "compare.json", report.to_dict())
-        write_atomic(
-            target / "compare.png", lambda handle: _box_plot(handle, names, raw_errors, h_e)
-        )
+        md, js, png = (target / name for name in COMPARE_FILES)
+        write_text_atomic(md, report.markdown)
+        write_json(js, report.to_dict())
+        write_atomic(png, lambda handle: _box_plot(handle, names, raw_errors, h_e))
     return report
 
 

@@ -75,6 +75,7 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
         frames=not args.no_frames,
         patches=not args.no_patches,
         frame_format=args.frame_format,
+        inputs=(args.config,),
     )
     print(f"scenario {scenario.name} (seed {args.seed}): {scenario.description}")
     print(f"wheel log:    {out.log_csv} ({out.rows} rows, {out.pose_rows} poses)")
