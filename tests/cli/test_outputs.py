@@ -106,3 +106,28 @@ def test_write_errors_name_the_target(log: Path, capsys) -> None:
     )
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and str(target) in err and ".tmp" not in err
+
+
+def _named(out: Path, printed: str, pattern: str = "**/*") -> None:
+    """Check every file under ``out`` matching ``pattern`` is named in ``printed``."""
+    files = [p for p in out.glob(pattern) if p.is_file()]
+    assert files and [p for p in files if str(p) not in printed] == []
+
+
+def test_every_file_written_is_named(tmp_path: Path, capsys) -> None:
+    sim, run = tmp_path / "sim", tmp_path / "run"
+    assert main(["simulate", "--out", str(sim), "--duration", "6", "--no-patches"]) == 0
+    _named(sim, capsys.readouterr().out, "*")
+    log, truth = str(sim / "log.csv"), str(sim / "groundtruth.csv")
+    argv = ["--images", str(sim), "--groundtruth", truth, "--out", str(run)]
+    assert main(["run", "--wheels", log, *argv]) == 0
+    _named(run, capsys.readouterr().out)
+    assert (
+        main(["evaluate", "--log", log, "--run", str(run), "--config", str(sim / "config.yaml")])
+        == 0
+    )
+    assert f"written:    {run / 'evaluation.json'}" in capsys.readouterr().out
+    compared = tmp_path / "compare"
+    fit = ["--models", "idd", "roc", "--maxiter", "1", "--popsize", "5"]
+    assert main(["compare", "--log", log, "--eval", log, *fit, "--out", str(compared)]) == 0
+    _named(compared, capsys.readouterr().out)

@@ -87,6 +87,8 @@ class EvaluationResult:
         Number of 2-s prediction windows.
     prediction : dict of str to PredictionSummary
         2-s prediction errors of the nominal model and of the run.
+    output : Path or None
+        The JSON file written (``None``: nothing written).
     """
 
     log: Path
@@ -97,6 +99,7 @@ class EvaluationResult:
     models: dict[str, ModelErrors]
     prediction_windows: int
     prediction: dict[str, PredictionSummary]
+    output: Path | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """Return the content of ``evaluation.json``."""
@@ -267,6 +270,7 @@ def evaluate(
         models=models,
         prediction_windows=len(ahead),
         prediction=prediction,
+        output=target,
     )
     if target is not None:
         write_json(target, result.to_dict())

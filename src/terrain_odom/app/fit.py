@@ -9,6 +9,7 @@ computation lives in :mod:`terrain_odom.fitting.identify` and
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -188,6 +189,8 @@ class CompareReport:
         Per model, in the order compared.
     markdown : str
         The tables (``compare.md``).
+    outputs : tuple of Path
+        Files written (empty without ``out_dir``).
     """
 
     training_logs: tuple[str, ...]
@@ -198,6 +201,7 @@ class CompareReport:
     time_calibration: dict[str, TimeCalibration]
     models: dict[str, ModelComparison]
     markdown: str
+    outputs: tuple[Path, ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
         """Return the content of ``compare.json``."""
@@ -540,6 +544,8 @@ def compare(
         write_text_atomic(md, report.markdown)
         write_json(js, report.to_dict())
         write_atomic(png, lambda handle: _box_plot(handle, names, raw_errors, h_e))
+        params = tuple(target / f"params_{name}.yaml" for name in names)
+        report = dataclasses.replace(report, outputs=(md, js, png, *params))
     return report
 
 

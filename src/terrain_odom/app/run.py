@@ -106,12 +106,6 @@ class RunSummary:
     updates: int = 0
     terrain_changes: int = 0
 
-    @property
-    def written(self) -> tuple[Path, ...]:
-        """Every file written, in the order of the console listing."""
-        files = (self.trajectory_csv, self.trajectory_tum, self.frames_csv, self.report_json)
-        return tuple(p for p in (*files, self.report_md, *self.plots) if p is not None)
-
 
 def read_calibrated_log(wheels: str | Path, cfg: Config) -> tuple[WheelLog, TimeCalibration]:
     """Read a wheel log and apply ``cfg.time.pose_delay`` to it (estimated if ``auto``).

@@ -70,6 +70,8 @@ class SimOutput:
         Wheel-log rows, rows with a pose measurement, camera frames.
     patches : dict of str to int
         Training patches per terrain.
+    config_yaml : Path or None
+        ``config.yaml``, the robot and camera of the run.
     """
 
     simulation: Simulation = field(repr=False, compare=False)
@@ -85,6 +87,7 @@ class SimOutput:
     pose_rows: int
     frames: int
     patches: dict[str, int] = field(default_factory=dict)
+    config_yaml: Path | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """Return the content of ``simulation.json``."""
@@ -304,6 +307,7 @@ def write_simulation(
         pose_rows=int(np.isfinite(sim.measured_pose[:, 0]).sum()),
         frames=frame_count,
         patches=patch_counts,
+        config_yaml=out / "config.yaml",
     )
     write_json(output.metadata_json, output.to_dict())
     return output

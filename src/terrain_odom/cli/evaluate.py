@@ -12,6 +12,7 @@ from terrain_odom.cli.options import (
     add_pose_delay_option,
     load_config_option,
     print_pose_delay,
+    print_written,
 )
 
 if TYPE_CHECKING:
@@ -77,4 +78,5 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
     for name, entry in result.models.items():
         print(f"{name:<32} {_format_stats(entry)}")
     _print_prediction(result)
+    print_written("written:", [result.output])
     return 0

@@ -85,5 +85,7 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     if out.patches_dir is not None:
         counts = ", ".join(f"{k} {v}" for k, v in out.patches.items())
         print(f"patches:      {out.patches_dir} ({counts})")
+    print(f"config:       {out.config_yaml}")
+    print(f"map preview:  {out.map_preview}")
     print(f"metadata:     {out.metadata_json}")
     return 0
