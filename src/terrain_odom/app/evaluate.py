@@ -235,6 +235,7 @@ def evaluate(
         Evaluation horizon ``h_e``, m; ``config.evaluation.horizon`` if omitted.
     out : str or Path, optional
         Where to write the JSON result; ``run_dir/evaluation.json`` by default.
+        ``InputFileError`` before anything is read if it is an input.
 
     Returns
     -------

@@ -392,7 +392,9 @@ def fit(
     model : str
         A name from :data:`terrain_odom.kinematics.MODELS`.
     out : str or Path, optional
-        Parameter file to write (YAML, see :mod:`terrain_odom.io.params`).
+        Parameter file to write (YAML, see :mod:`terrain_odom.io.params`);
+        ``InputFileError`` before anything is read if it is one of the logs
+        or ``config_path``.
     horizon : str, float or Horizon, optional
         Training horizon ``h_t``: a distance like ``"2m"`` (default 2 m) or a
         duration like ``"2s"``.
@@ -489,7 +491,8 @@ def compare(
         Training and evaluation logs (with poses).
     out_dir : str or Path, optional
         Folder for ``compare.md``, ``compare.json``, ``compare.png`` and one
-        ``params_<model>.yaml`` per model (created if missing).
+        ``params_<model>.yaml`` per model (created if missing);
+        ``InputFileError`` before anything is read if one is an input.
     models : sequence of str, optional
         Models to compare (default: all of ``MODELS``; ``idd`` is only evaluated).
     horizon, by_terrain, options, config, config_path

@@ -234,7 +234,8 @@ def run(
         recorded in ``report.json`` ``time_calibration``.
     out_dir : str or Path
         Output directory (created): ``trajectory.csv`` (streamed row by row),
-        ``trajectory.tum`` and ``report.json``.
+        ``trajectory.tum`` and ``report.json``; ``InputFileError`` if a file
+        to write is one of the inputs (:func:`~terrain_odom.io.paths.check_outputs`).
     config : Config, optional
         Configuration; loaded from ``config_path`` (or the defaults) if omitted.
     config_path : str or Path, optional
@@ -281,10 +282,7 @@ def run(
     inputs = _read_inputs(
         wheels, config, config_path, terrain, images, model, groundtruth, estimator, priors
     )
-    read = [wheels, inputs.config_path, inputs.model, groundtruth, priors]
-    if images is not None:
-        read += [Path(images) / FRAMES_CSV, *(inputs.frames.files if inputs.frames else [])]
-    _check_run_outputs(out_dir, read)
+    _check_run_outputs(out_dir, inputs, [wheels, groundtruth, priors], images)
     out = _output_dir(out_dir)
     odometry = OnlineOdometry(
         inputs.cfg,
@@ -328,11 +326,23 @@ def run(
     )
 
 
-def _check_run_outputs(out_dir: str | Path, inputs: list[str | Path | None]) -> None:
-    """Refuse an output folder where :func:`run` would overwrite one of ``inputs``."""
+def _check_run_outputs(
+    out_dir: str | Path,
+    inputs: _Inputs,
+    files: list[str | Path | None],
+    images: str | Path | None,
+) -> None:
+    """Refuse an output folder where :func:`run` would overwrite an input.
+
+    The inputs are ``files``, the configuration and model files of ``inputs``
+    and, with ``images``, its ``frames.csv`` and every frame listed.
+    """
+    read = [*files, inputs.config_path, inputs.model]
+    if images is not None:
+        read += [Path(images) / FRAMES_CSV, *(inputs.frames.files if inputs.frames else [])]
     out = Path(out_dir)
     names = (TRAJECTORY_CSV, TRAJECTORY_TUM, FRAMES_CSV, REPORT_JSON, REPORT_MD)
-    check_outputs(inputs, [out / n for n in names] + [out / "plots" / n for n in PLOTS])
+    check_outputs(read, [out / n for n in names] + [out / "plots" / n for n in PLOTS])
 
 
 def _score(

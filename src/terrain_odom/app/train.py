@@ -234,7 +234,8 @@ def train(
     Raises
     ------
     InputFileError
-        Missing folder, fewer than 2 classes, a class without usable images.
+        Missing folder, fewer than 2 classes, a class without usable images;
+        ``out`` is one of the images or ``config_path`` (checked first).
     ConfigError
         ``k`` larger than the number of training samples.
     """
@@ -328,7 +329,8 @@ def report_accuracy(
     Raises
     ------
     InputFileError
-        As :func:`train`, or a class with fewer images than ``folds``.
+        As :func:`train` (a file to write in ``out_dir`` is an input), or a
+        class with fewer images than ``folds``.
     """
     cfg = ClassifierConfig() if cfg is None else cfg
     if folds < 2:
