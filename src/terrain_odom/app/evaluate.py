@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from terrain_odom.app.run import read_calibrated_log
+from terrain_odom.app.run import TRAJECTORY_CSV, read_calibrated_log
 from terrain_odom.config import Config, load_config
 from terrain_odom.errors import InputFileError
 from terrain_odom.estimation.time_offset import TimeCalibration
@@ -32,6 +32,7 @@ from terrain_odom.evaluation import (
 )
 from terrain_odom.io import read_trajectory_csv
 from terrain_odom.io.params import read_params
+from terrain_odom.io.paths import check_outputs
 from terrain_odom.io.report import path_or_none, report_header, write_json
 from terrain_odom.kinematics import get_model, twist_icr
 from terrain_odom.kinematics.slip import SlipModel, param_names
@@ -86,6 +87,8 @@ class EvaluationResult:
         Number of 2-s prediction windows.
     prediction : dict of str to PredictionSummary
         2-s prediction errors of the nominal model and of the run.
+    output : Path or None
+        The JSON file written (``None``: nothing written).
     """
 
     log: Path
@@ -96,6 +99,7 @@ class EvaluationResult:
     models: dict[str, ModelErrors]
     prediction_windows: int
     prediction: dict[str, PredictionSummary]
+    output: Path | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """Return the content of ``evaluation.json``."""
@@ -115,7 +119,7 @@ class EvaluationResult:
 
 
 def _read_run(run_dir: Path, log: WheelLog) -> dict[str, np.ndarray]:
-    path = run_dir / "trajectory.csv"
+    path = run_dir / TRAJECTORY_CSV
     if not path.is_file():
         raise InputFileError(f"{path}: no trajectory.csv in the run directory")
     traj = read_trajectory_csv(path)
@@ -231,6 +235,7 @@ def evaluate(
         Evaluation horizon ``h_e``, m; ``config.evaluation.horizon`` if omitted.
     out : str or Path, optional
         Where to write the JSON result; ``run_dir/evaluation.json`` by default.
+        ``InputFileError`` before anything is read if it is an input.
 
     Returns
     -------
@@ -238,6 +243,10 @@ def evaluate(
         Per model: translational (m/m) and angular (deg/m) error statistics
         and dead-reckoning ATE (m); 2-s prediction errors.
     """
+    target = _output_path(out, run_dir)
+    if target is not None:
+        trajectory = None if run_dir is None else Path(run_dir) / TRAJECTORY_CSV
+        check_outputs([wheels, config_path, trajectory, *(params or [])], [target])
     cfg = config if config is not None else load_config(config_path)
     log, timing = read_calibrated_log(wheels, cfg)
     h_e = cfg.evaluation.horizon if horizon is None else float(horizon)
@@ -262,8 +271,8 @@ def evaluate(
         models=models,
         prediction_windows=len(ahead),
         prediction=prediction,
+        output=target,
     )
-    target = _output_path(out, run_dir)
     if target is not None:
         write_json(target, result.to_dict())
     return result

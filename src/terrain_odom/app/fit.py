@@ -9,6 +9,7 @@ computation lives in :mod:`terrain_odom.fitting.identify` and
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -49,6 +50,7 @@ from terrain_odom.io.params import (
     derived_quantities,
     write_params,
 )
+from terrain_odom.io.paths import check_outputs
 from terrain_odom.io.report import write_json
 from terrain_odom.kinematics import MODELS, get_model
 from terrain_odom.records import WheelLog
@@ -67,6 +69,9 @@ __all__ = [
 
 LogSource = str | Path | WheelLog
 """A wheel-log CSV path, or an already loaded :class:`WheelLog`."""
+
+COMPARE_FILES = ("compare.md", "compare.json", "compare.png")
+"""Files :func:`compare` writes into its ``out_dir`` (besides ``params_MODEL.yaml``)."""
 
 ALL = "all"  # group name of evaluation windows when fits are not per terrain
 
@@ -185,6 +190,8 @@ class CompareReport:
         Per model, in the order compared.
     markdown : str
         The tables (``compare.md``).
+    outputs : tuple of Path
+        Files written (empty without ``out_dir``).
     """
 
     training_logs: tuple[str, ...]
@@ -195,6 +202,7 @@ class CompareReport:
     time_calibration: dict[str, TimeCalibration]
     models: dict[str, ModelComparison]
     markdown: str
+    outputs: tuple[Path, ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
         """Return the content of ``compare.json``."""
@@ -210,6 +218,14 @@ class CompareReport:
             "models": {name: m.to_dict() for name, m in self.models.items()},
             "markdown": self.markdown,
         }
+
+
+def _paths(
+    logs: Sequence[LogSource], eval_logs: Sequence[LogSource], config_path: str | Path | None
+) -> list[str | Path | None]:
+    """Return the files read by :func:`fit` or :func:`compare` (logs given as paths, config)."""
+    read = [src for src in (*logs, *eval_logs) if not isinstance(src, WheelLog)]
+    return [*read, config_path]
 
 
 def _load(
@@ -378,7 +394,9 @@ def fit(
     model : str
         A name from :data:`terrain_odom.kinematics.MODELS`.
     out : str or Path, optional
-        Parameter file to write (YAML, see :mod:`terrain_odom.io.params`).
+        Parameter file to write (YAML, see :mod:`terrain_odom.io.params`);
+        ``InputFileError`` before anything is read if it is one of the logs
+        or ``config_path``.
     horizon : str, float or Horizon, optional
         Training horizon ``h_t``: a distance like ``"2m"`` (default 2 m) or a
         duration like ``"2s"``.
@@ -396,6 +414,8 @@ def fit(
     -------
     FitReport
     """
+    if out is not None:
+        check_outputs(_paths(logs, eval_logs, config_path), [out])
     cfg = config if config is not None else load_config(config_path)
     try:
         m = get_model(model)
@@ -473,7 +493,8 @@ def compare(
         Training and evaluation logs (with poses).
     out_dir : str or Path, optional
         Folder for ``compare.md``, ``compare.json``, ``compare.png`` and one
-        ``params_<model>.yaml`` per model (created if missing).
+        ``params_<model>.yaml`` per model (created if missing);
+        ``InputFileError`` before anything is read if one is an input.
     models : sequence of str, optional
         Models to compare (default: all of ``MODELS``; ``idd`` is only evaluated).
     horizon, by_terrain, options, config, config_path
@@ -485,11 +506,14 @@ def compare(
         The tables (``markdown``), per model its sets and held-out errors per
         group, and the settings.
     """
-    cfg = config if config is not None else load_config(config_path)
     names = list(models) if models is not None else list(MODELS)
     for name in names:
         if name not in MODELS:
             raise ConfigError(f"unknown kinematic model {name!r}; choose from {sorted(MODELS)}")
+    if out_dir is not None:
+        files = [f"params_{name}.yaml" for name in names] + list(COMPARE_FILES)
+        check_outputs(_paths(logs, eval_logs, config_path), [Path(out_dir) / f for f in files])
+    cfg = config if config is not None else load_config(config_path)
     h_t = _horizon(horizon)
     timing: dict[str, TimeCalibration] = {}
     train = _load(logs, cfg, "training", timing)
@@ -521,11 +545,12 @@ def compare(
         markdown=_markdown(results, b, h_t, h_e),
     )
     if target is not None:
-        write_text_atomic(target / "compare.md", report.markdown)
-        write_json(target / "compare.json", report.to_dict())
-        write_atomic(
-            target / "compare.png", lambda handle: _box_plot(handle, names, raw_errors, h_e)
-        )
+        md, js, png = (target / name for name in COMPARE_FILES)
+        write_text_atomic(md, report.markdown)
+        write_json(js, report.to_dict())
+        write_atomic(png, lambda handle: _box_plot(handle, names, raw_errors, h_e))
+        params = tuple(target / f"params_{name}.yaml" for name in names)
+        report = dataclasses.replace(report, outputs=(md, js, png, *params))
     return report
 
 

@@ -32,6 +32,7 @@ from terrain_odom.io.classifier_file import default_model, load_classifier
 from terrain_odom.io.frames import FrameList, read_frames
 from terrain_odom.io.groundtruth import read_groundtruth
 from terrain_odom.io.params import read_priors
+from terrain_odom.io.paths import check_outputs
 from terrain_odom.io.report import path_or_none, report_header, to_jsonable, write_json
 from terrain_odom.io.trajectory import trajectory_columns
 from terrain_odom.records import GroundTruth, WheelLog
@@ -48,7 +49,11 @@ __all__ = [
 ]
 
 TRAJECTORY_CSV = "trajectory.csv"
+TRAJECTORY_TUM = "trajectory.tum"
 FRAMES_CSV = "frames.csv"
+REPORT_JSON = "report.json"
+REPORT_MD = "report.md"
+PLOTS = ("trajectory.png", "icr.png", "frames.png")  # in out/plots
 
 
 def images_config(images: str | Path) -> Path | None:
@@ -83,6 +88,8 @@ class RunSummary:
         The pose delay applied to the log.
     frames_csv : Path or None
         ``frames.csv``, when frames were classified.
+    plots : tuple of Path
+        PNG plots written (with ground truth).
     updates : int
         Pose measurements fused.
     terrain_changes : int
@@ -97,6 +104,7 @@ class RunSummary:
     report_md: Path | None = None
     time_calibration: TimeCalibration | None = None
     frames_csv: Path | None = None
+    plots: tuple[Path, ...] = ()
     updates: int = 0
     terrain_changes: int = 0
 
@@ -248,7 +256,8 @@ def run(
         recorded in ``report.json`` ``time_calibration``.
     out_dir : str or Path
         Output directory (created): ``trajectory.csv`` (streamed row by row),
-        ``trajectory.tum`` and ``report.json``.
+        ``trajectory.tum`` and ``report.json``; ``InputFileError`` if a file
+        to write is one of the inputs (:func:`~terrain_odom.io.paths.check_outputs`).
     config : Config, optional
         Configuration; loaded from ``config_path`` (or the defaults) if omitted.
     config_path : str or Path, optional
@@ -295,6 +304,7 @@ def run(
     inputs = _read_inputs(
         wheels, config, config_path, terrain, images, model, groundtruth, estimator, priors
     )
+    _check_run_outputs(out_dir, inputs, [wheels, groundtruth, priors], images)
     out = _output_dir(out_dir)
     odometry = OnlineOdometry(
         inputs.cfg,
@@ -307,7 +317,7 @@ def run(
     root = None if images is None else Path(images)
     result, pipeline, records = _stream(inputs, odometry, out, root, progress)
     log, states = inputs.log, result.states
-    tum_path = out / "trajectory.tum"
+    tum_path = out / TRAJECTORY_TUM
     write_tum(tum_path, log.t, *states[:, :3].T)
     seconds = time.perf_counter() - started
     report = _report(inputs, result, wheels, estimator, terrain, priors, seconds)
@@ -318,9 +328,9 @@ def run(
         frames = records if pipeline is not None else None
         plots = _score(out, inputs, inputs.gt, report, frames, use_roi)
         report["inputs"]["groundtruth"] = str(Path(groundtruth).resolve())
-    report_path = out / "report.json"
+    report_path = out / REPORT_JSON
     write_json(report_path, report)
-    md_path = out / "report.md"
+    md_path = out / REPORT_MD
     write_text_atomic(md_path, run_markdown(to_jsonable(report), plots))
     frames_csv = None if pipeline is None else out / FRAMES_CSV
     return RunSummary(
@@ -332,9 +342,29 @@ def run(
         md_path,
         inputs.timing,
         frames_csv=frames_csv,
+        plots=tuple(out / name for name in plots),
         updates=result.n_updates,
         terrain_changes=len(result.changes),
     )
+
+
+def _check_run_outputs(
+    out_dir: str | Path,
+    inputs: _Inputs,
+    files: list[str | Path | None],
+    images: str | Path | None,
+) -> None:
+    """Refuse an output folder where :func:`run` would overwrite an input.
+
+    The inputs are ``files``, the configuration and model files of ``inputs``
+    and, with ``images``, its ``frames.csv`` and every frame listed.
+    """
+    read = [*files, inputs.config_path, inputs.model]
+    if images is not None:
+        read += [Path(images) / FRAMES_CSV, *(inputs.frames.files if inputs.frames else [])]
+    out = Path(out_dir)
+    names = (TRAJECTORY_CSV, TRAJECTORY_TUM, FRAMES_CSV, REPORT_JSON, REPORT_MD)
+    check_outputs(read, [out / n for n in names] + [out / "plots" / n for n in PLOTS])
 
 
 def _score(
@@ -439,7 +469,7 @@ def _report(
         "terrain_changes": [asdict(c) for c in result.changes],
         "final_state": dict(zip(names, result.states[-1].tolist(), strict=True)),
         "final_std": dict(zip(names, result.stds[-1].tolist(), strict=True)),
-        "outputs": {"trajectory_csv": TRAJECTORY_CSV, "trajectory_tum": "trajectory.tum"},
+        "outputs": {"trajectory_csv": TRAJECTORY_CSV, "trajectory_tum": TRAJECTORY_TUM},
         "run_time_s": seconds,
     }
 

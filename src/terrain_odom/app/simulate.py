@@ -24,6 +24,7 @@ Layout of ``OUT``:
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -33,6 +34,7 @@ import numpy as np
 import yaml
 
 from terrain_odom.io import TrajectoryWriter
+from terrain_odom.io.paths import check_outputs
 from terrain_odom.io.report import report_header, write_json
 from terrain_odom.sim.simulation import Simulation, iter_frames, sample_patches
 
@@ -68,6 +70,8 @@ class SimOutput:
         Wheel-log rows, rows with a pose measurement, camera frames.
     patches : dict of str to int
         Training patches per terrain.
+    config_yaml : Path or None
+        ``config.yaml``, the robot and camera of the run.
     """
 
     simulation: Simulation = field(repr=False, compare=False)
@@ -83,6 +87,7 @@ class SimOutput:
     pose_rows: int
     frames: int
     patches: dict[str, int] = field(default_factory=dict)
+    config_yaml: Path | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """Return the content of ``simulation.json``."""
@@ -247,6 +252,7 @@ def write_simulation(
     frames: bool = True,
     patches: bool = True,
     frame_format: str = "png",
+    inputs: Iterable[str | Path | None] = (),
 ) -> SimOutput:
     """Write a simulated run to ``out`` (created if needed; files overwritten).
 
@@ -261,14 +267,24 @@ def write_simulation(
         Image format of the frames and the map preview: lossless PNG
         (default) or JPEG at quality 90 (about 6x smaller; training patches
         stay PNG).
+    inputs : iterable of str or Path, optional
+        Files the simulation was made from (e.g. its configuration), which
+        the output must not overwrite.
 
     Returns
     -------
     SimOutput
+
+    Raises
+    ------
+    InputFileError
+        A file to write is one of ``inputs``.
     """
     if frame_format not in FRAME_FORMATS:
         raise ValueError(f"frame_format must be one of {FRAME_FORMATS}, got {frame_format!r}")
     out = Path(out)
+    files = ("log.csv", "groundtruth.csv", "frames.csv", "config.yaml", "simulation.json")
+    check_outputs(inputs, [out / name for name in (*files, f"map.{frame_format}")])
     out.mkdir(parents=True, exist_ok=True)
     _write_log(sim, out / "log.csv")
     _write_truth(sim, out / "groundtruth.csv")
@@ -291,6 +307,7 @@ def write_simulation(
         pose_rows=int(np.isfinite(sim.measured_pose[:, 0]).sum()),
         frames=frame_count,
         patches=patch_counts,
+        config_yaml=out / "config.yaml",
     )
     write_json(output.metadata_json, output.to_dict())
     return output

@@ -28,6 +28,7 @@ from terrain_odom.errors import ConfigError, InputFileError
 from terrain_odom.io.atomic import write_atomic, write_text_atomic
 from terrain_odom.io.classifier_file import save_classifier
 from terrain_odom.io.images import read_image_rgb, scan_image_folder
+from terrain_odom.io.paths import check_outputs
 from terrain_odom.io.report import report_header, write_json
 from terrain_odom.vision.classifier import TerrainClassifier
 from terrain_odom.vision.dataset import LabelledFeatures, SkippedImage, extract_feature_sets
@@ -45,6 +46,9 @@ __all__ = [
 
 CV_SEED = 0
 """Seed of the fold shuffling: every report uses the same folds."""
+
+ACCURACY_FILES = ("accuracy.json", "accuracy.csv", "confusion.png")
+"""Files :func:`report_accuracy` writes into its ``out_dir``."""
 
 
 @dataclass(frozen=True)
@@ -201,6 +205,7 @@ def train(
     folds: int = 5,
     jobs: int | None = None,
     progress: bool | None = None,
+    config_path: str | Path | None = None,
 ) -> TrainSummary:
     """Train a terrain classifier on a labelled image folder and save it.
 
@@ -219,6 +224,8 @@ def train(
         Feature-extraction processes (default: all usable cores).
     progress : bool, optional
         Progress bar (default: on a terminal only).
+    config_path : str or Path, optional
+        The file ``cfg`` was read from, an input ``out`` must not overwrite.
 
     Returns
     -------
@@ -227,16 +234,17 @@ def train(
     Raises
     ------
     InputFileError
-        Missing folder, fewer than 2 classes, a class without usable images.
+        Missing folder, fewer than 2 classes, a class without usable images;
+        ``out`` is one of the images or ``config_path`` (checked first).
     ConfigError
         ``k`` larger than the number of training samples.
     """
     cfg = ClassifierConfig() if cfg is None else cfg
     out = Path(out)
     _check_output_file(out)
-    data = extract_feature_sets(
-        scan_image_folder(images), [cfg], read=read_image_rgb, jobs=jobs, progress=progress
-    )[0]
+    scan = scan_image_folder(images)
+    check_outputs([*scan.paths, config_path], [out])
+    data = extract_feature_sets(scan, [cfg], read=read_image_rgb, jobs=jobs, progress=progress)[0]
     model = TerrainClassifier(cfg).fit(data.features, data.labels, data.region)
     folds = min(folds, *data.counts().values())
     validation = cross_validate(data, folds=folds) if folds >= 2 else None
@@ -294,6 +302,7 @@ def report_accuracy(
     out_dir: str | Path | None = None,
     jobs: int | None = None,
     progress: bool | None = None,
+    config_path: str | Path | None = None,
 ) -> AccuracyReport:
     """Cross-validated confusion matrices of ``cfg`` and of Chen's recipe.
 
@@ -310,7 +319,7 @@ def report_accuracy(
         If given (an existing folder or one to create), write
         ``accuracy.json``, ``accuracy.csv`` and ``confusion.png`` there, each
         atomically.
-    jobs, progress
+    jobs, progress, config_path
         As in :func:`train`.
 
     Returns
@@ -320,17 +329,20 @@ def report_accuracy(
     Raises
     ------
     InputFileError
-        As :func:`train`, or a class with fewer images than ``folds``.
+        As :func:`train` (a file to write in ``out_dir`` is an input), or a
+        class with fewer images than ``folds``.
     """
     cfg = ClassifierConfig() if cfg is None else cfg
     if folds < 2:
         raise ConfigError(f"folds: must be >= 2, got {folds}")
     out_dir = None if out_dir is None else Path(out_dir)
+    scan = scan_image_folder(images)
     if out_dir is not None:
+        check_outputs([*scan.paths, config_path], [out_dir / name for name in ACCURACY_FILES])
         out_dir.mkdir(parents=True, exist_ok=True)
     paper = paper_config()
     chosen_data, paper_data = extract_feature_sets(
-        scan_image_folder(images), [cfg, paper], read=read_image_rgb, jobs=jobs, progress=progress
+        scan, [cfg, paper], read=read_image_rgb, jobs=jobs, progress=progress
     )
     report = AccuracyReport(
         images=Path(images),
@@ -343,7 +355,7 @@ def report_accuracy(
     )
     if out_dir is None:
         return report
-    outputs = (out_dir / "accuracy.json", out_dir / "accuracy.csv", out_dir / "confusion.png")
+    outputs = tuple(out_dir / name for name in ACCURACY_FILES)
     write_json(outputs[0], report.to_dict())
     write_text_atomic(outputs[1], accuracy_csv(report))
     write_atomic(outputs[2], lambda handle: plot_confusion(report, handle))

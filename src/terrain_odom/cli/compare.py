@@ -10,6 +10,7 @@ from terrain_odom.cli.options import (
     add_out_option,
     fit_arguments,
     print_pose_delays,
+    print_written,
 )
 
 
@@ -36,6 +37,5 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     )
     print_pose_delays(report.time_calibration)
     print(report.markdown, end="")
-    if args.out:
-        print(f"tables, box plot and parameter files in {args.out}")
+    print_written("written:", list(report.outputs))
     return 0

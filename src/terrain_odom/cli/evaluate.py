@@ -13,6 +13,7 @@ from terrain_odom.cli.options import (
     check_horizon,
     load_config_option,
     print_pose_delay,
+    print_written,
 )
 
 if TYPE_CHECKING:
@@ -78,4 +79,5 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
     for name, entry in result.models.items():
         print(f"{name:<32} {_format_stats(entry)}")
     _print_prediction(result)
+    print_written("written:", [result.output])
     return 0

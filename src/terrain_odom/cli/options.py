@@ -1,7 +1,8 @@
 """Options shared by several subcommands, and their loading.
 
 ``--config`` (the YAML configuration), ``--pose-delay`` (and the line that
-reports the delay applied), ``--out``, the optimiser options of ``fit`` and
+reports the delay applied), ``--out`` (and the lines naming the files
+written), the optimiser options of ``fit`` and
 ``compare``, and the classifier options of ``train`` and ``report accuracy``.
 Heavy modules are imported inside the functions, so building the parser
 stays fast.
@@ -12,7 +13,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypedDict
 
@@ -34,6 +35,16 @@ def add_config_option(p: argparse.ArgumentParser, help: str) -> None:
 def add_out_option(p: argparse.ArgumentParser, help: str, *, required: bool = False) -> None:
     """Add ``--out`` (where the subcommand writes; told by ``help``)."""
     p.add_argument("--out", required=required, help=help)
+
+
+def print_written(label: str, paths: Sequence[Path | None]) -> None:
+    """Print the files written under ``label`` (``"frames:"``), one a line, aligned.
+
+    ``None`` entries (files not written) are skipped; nothing is printed if
+    every entry is ``None``.
+    """
+    for i, path in enumerate(p for p in paths if p is not None):
+        print(f"{label if i == 0 else '':<12}{path}")
 
 
 def add_log_options(p: argparse.ArgumentParser) -> None:

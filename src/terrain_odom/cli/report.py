@@ -56,7 +56,12 @@ def _cmd_accuracy(args: argparse.Namespace) -> int:
     from terrain_odom.app.train import report_accuracy
 
     report = report_accuracy(
-        args.images, classifier_config(args), folds=args.folds, out_dir=args.out, jobs=args.jobs
+        args.images,
+        classifier_config(args),
+        folds=args.folds,
+        out_dir=args.out,
+        jobs=args.jobs,
+        config_path=args.config,
     )
     total = sum(report.counts.values())
     print(

@@ -10,6 +10,7 @@ from terrain_odom.cli.options import (
     add_out_option,
     load_config_option,
     print_pose_delay,
+    print_written,
 )
 
 
@@ -117,8 +118,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
     )
     print_pose_delay(summary.time_calibration)
     print(f"{summary.rows} rows in {summary.seconds:.2f} s")
-    print(f"trajectory: {summary.trajectory_csv}")
-    print(f"report:     {summary.report_json}")
-    if summary.report_md is not None:
-        print(f"            {summary.report_md}")
+    print_written("trajectory:", [summary.trajectory_csv, summary.trajectory_tum])
+    print_written("frames:", [summary.frames_csv])
+    print_written("report:", [summary.report_json, summary.report_md])
+    print_written("plots:", list(summary.plots))
     return 0

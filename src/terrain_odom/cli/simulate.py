@@ -81,6 +81,7 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
         frames=not args.no_frames,
         patches=not args.no_patches,
         frame_format=args.frame_format,
+        inputs=(args.config,),
     )
     print(f"scenario {scenario.name} (seed {seed}): {scenario.description}")
     print(f"wheel log:    {out.log_csv} ({out.rows} rows, {out.pose_rows} poses)")
@@ -90,5 +91,7 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     if out.patches_dir is not None:
         counts = ", ".join(f"{k} {v}" for k, v in out.patches.items())
         print(f"patches:      {out.patches_dir} ({counts})")
+    print(f"config:       {out.config_yaml}")
+    print(f"map preview:  {out.map_preview}")
     print(f"metadata:     {out.metadata_json}")
     return 0

@@ -45,7 +45,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 def _cmd_train(args: argparse.Namespace) -> int:
     from terrain_odom.app.train import train
 
-    summary = train(args.images, args.out, classifier_config(args), jobs=args.jobs)
+    summary = train(
+        args.images, args.out, classifier_config(args), jobs=args.jobs, config_path=args.config
+    )
     print(describe(summary.cfg))
     total = sum(summary.counts.values())
     print(f"{total} images: " + ", ".join(f"{k} {v}" for k, v in summary.counts.items()))

@@ -9,7 +9,16 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import BinaryIO
 
-__all__ = ["write_atomic", "write_text_atomic"]
+from terrain_odom.errors import TerrainOdomError
+
+__all__ = ["OutputFileError", "write_atomic", "write_text_atomic"]
+
+
+class OutputFileError(TerrainOdomError, OSError):
+    """A file cannot be written; ``filename`` is the target (never a temporary file)."""
+
+    def __str__(self) -> str:
+        return f"{self.filename}: cannot write ({self.strerror})"
 
 
 def write_atomic(path: str | os.PathLike[str], write: Callable[[BinaryIO], object]) -> None:
@@ -23,11 +32,17 @@ def write_atomic(path: str | os.PathLike[str], write: Callable[[BinaryIO], objec
     Raises
     ------
     FileNotFoundError
-        If the folder of ``path`` does not exist (naming that folder).
+        If the folder of ``path`` does not exist (naming that folder and
+        ``path``).
+    OutputFileError
+        On any other operating-system error (read-only folder, full disk,
+        ``path`` a folder, ...), naming ``path``.
     """
     path = Path(path)
     if not path.parent.is_dir():
-        raise FileNotFoundError(errno.ENOENT, "directory does not exist", str(path.parent))
+        raise FileNotFoundError(
+            errno.ENOENT, f"directory does not exist, cannot write {path}", str(path.parent)
+        )
     temporary = path.with_name(f".{path.name}.{secrets.token_hex(4)}.tmp")
     try:
         with open(temporary, "xb") as handle:
@@ -35,6 +50,8 @@ def write_atomic(path: str | os.PathLike[str], write: Callable[[BinaryIO], objec
             handle.flush()
             os.fsync(handle.fileno())
         os.replace(temporary, path)
+    except OSError as exc:
+        raise OutputFileError(exc.errno, exc.strerror, str(path)) from exc
     finally:
         temporary.unlink(missing_ok=True)
 

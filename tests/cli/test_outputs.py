@@ -1,0 +1,133 @@
+"""Outputs never destroy inputs: each command refuses an output path that is an input.
+
+Through the command line: exit code 2, one line on stderr naming both paths,
+no traceback, and every input byte-identical afterwards.
+"""
+
+from __future__ import annotations
+
+import shutil
+from collections.abc import Callable
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from terrain_odom.cli.main import main
+
+
+def _refused(argv: list[str], inputs: list[Path], capsys: pytest.CaptureFixture[str]) -> str:
+    """Run ``argv``; check it is refused and leaves ``inputs`` as they were; return stderr."""
+    before = {path: path.read_bytes() for path in inputs}
+    listing = {path.parent: sorted(path.parent.iterdir()) for path in inputs}
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "Traceback" not in err
+    assert err.startswith("terrain-odom: error: ") and "refusing to overwrite the input" in err
+    assert {path: path.read_bytes() for path in inputs} == before
+    assert {folder: sorted(folder.iterdir()) for folder in listing} == listing
+    return err
+
+
+@pytest.fixture
+def log(tmp_path: Path, examples_dir: Path) -> Path:
+    """Return a copy of the demo wheel log in ``tmp_path/run``."""
+    (tmp_path / "run").mkdir()
+    return Path(shutil.copy(examples_dir / "demo_log.csv", tmp_path / "run" / "log.csv"))
+
+
+def test_run_out_equal_to_the_images_folder(log: Path, capsys) -> None:
+    images = log.parent
+    frames = images / "frames.csv"
+    frames.write_text("t,file\n0.0,0.png\n")
+    cv2.imwrite(str(images / "0.png"), np.zeros((8, 8, 3), np.uint8))
+    argv = ["run", "--wheels", str(log), "--images", str(images), "--out", str(images)]
+    err = _refused(argv, [log, frames, images / "0.png"], capsys)
+    assert str(frames) in err
+
+
+def test_run_wheels_named_like_an_output(log: Path, capsys) -> None:
+    wheels = log.rename(log.parent / "trajectory.csv")
+    argv = ["run", "--wheels", str(wheels), "--out", str(wheels.parent)]
+    assert str(wheels) in _refused(argv, [wheels], capsys)
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        lambda log: ["evaluate", "--log", str(log), "--out", str(log)],
+        lambda log: ["fit", "--log", str(log), "--model", "idd", "--out", str(log)],
+        lambda log: ["compare", "--log", str(log), "--eval", str(log), "--out", str(log.parent)],
+    ],
+    ids=["evaluate", "fit", "compare"],
+)
+def test_out_equal_to_the_log(log: Path, argv: Callable[[Path], list[str]], capsys) -> None:
+    if argv(log)[0] == "compare":
+        log = log.rename(log.parent / "compare.json")
+    _refused(argv(log), [log], capsys)
+
+
+def test_evaluate_default_output_is_not_the_run(log: Path, capsys) -> None:
+    argv = ["evaluate", "--log", str(log), "--run", str(log.parent), "--out", str(log)]
+    _refused(argv, [log], capsys)
+
+
+def test_train_out_an_image(tmp_path: Path, capsys) -> None:
+    images = tmp_path / "images"
+    paths = []
+    for name in ("grass", "gravel"):
+        (images / name).mkdir(parents=True)
+        paths.append(images / name / "0.png")
+        cv2.imwrite(str(paths[-1]), np.zeros((8, 8, 3), np.uint8))
+    _refused(["train", "--images", str(images), "--out", str(paths[0])], paths, capsys)
+    config = tmp_path / "accuracy.json"
+    config.write_text("{}\n")  # valid YAML: the defaults
+    argv = ["report", "accuracy", "--images", str(images), "--config", str(config)]
+    _refused([*argv, "--out", str(tmp_path)], [config, *paths], capsys)
+    _refused(
+        ["train", "--images", str(images), "--config", str(config), "--out", str(config)],
+        [config],
+        capsys,
+    )
+
+
+def test_simulate_over_its_config(tmp_path: Path, examples_dir: Path, capsys) -> None:
+    config = Path(shutil.copy(examples_dir / "demo.yaml", tmp_path / "config.yaml"))
+    argv = ["simulate", "--config", str(config), "--out", str(tmp_path), "--duration", "1"]
+    _refused([*argv, "--no-frames", "--no-patches"], [config], capsys)
+
+
+def test_write_errors_name_the_target(log: Path, capsys) -> None:
+    target = log / "params.yaml"  # its parent is a regular file
+    assert (
+        main(["fit", "--log", str(log), "--model", "idd", "--maxiter", "1", "--out", str(target)])
+        == 2
+    )
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and str(target) in err and ".tmp" not in err
+
+
+def _named(out: Path, printed: str, pattern: str = "**/*") -> None:
+    """Check every file under ``out`` matching ``pattern`` is named in ``printed``."""
+    files = [p for p in out.glob(pattern) if p.is_file()]
+    assert files and [p for p in files if str(p) not in printed] == []
+
+
+def test_every_file_written_is_named(tmp_path: Path, capsys) -> None:
+    sim, run = tmp_path / "sim", tmp_path / "run"
+    assert main(["simulate", "--out", str(sim), "--duration", "6", "--no-patches"]) == 0
+    _named(sim, capsys.readouterr().out, "*")
+    log, truth = str(sim / "log.csv"), str(sim / "groundtruth.csv")
+    argv = ["--images", str(sim), "--groundtruth", truth, "--out", str(run)]
+    assert main(["run", "--wheels", log, *argv]) == 0
+    _named(run, capsys.readouterr().out)
+    assert (
+        main(["evaluate", "--log", log, "--run", str(run), "--config", str(sim / "config.yaml")])
+        == 0
+    )
+    assert f"written:    {run / 'evaluation.json'}" in capsys.readouterr().out
+    compared = tmp_path / "compare"
+    fit = ["--models", "idd", "roc", "--maxiter", "1", "--popsize", "5"]
+    assert main(["compare", "--log", log, "--eval", log, *fit, "--out", str(compared)]) == 0
+    _named(compared, capsys.readouterr().out)
