@@ -41,6 +41,7 @@ def inputs(tmp_path: Path, examples_dir: Path, monkeypatch: pytest.MonkeyPatch) 
     (tmp_path / "truncated.npz").write_bytes(model[: len(model) // 2])
     (tmp_path / "random.npz").write_bytes(np.random.default_rng(0).bytes(4096))
     (tmp_path / "mismatch.npz").write_bytes(_scaler_short_by_one(model))
+    (tmp_path / "narrow.npz").write_bytes(_one_column_fewer(model))
     (tmp_path / "binary.yaml").write_bytes(BINARY)
     (tmp_path / "nested.yaml").write_text(NESTED_YAML, encoding="utf-8")
     classes = tmp_path / "classes"
@@ -62,6 +63,18 @@ def _scaler_short_by_one(model: bytes) -> bytes:
     """Return the model file with one value fewer in its scaler than feature columns."""
     with np.load(io.BytesIO(model), allow_pickle=False) as data:
         arrays = {name: data[name] for name in data.files}
+    arrays["scaler_mean"] = arrays["scaler_mean"][:-1]
+    arrays["scaler_scale"] = arrays["scaler_scale"][:-1]
+    buffer = io.BytesIO()
+    np.savez(buffer, **arrays)
+    return buffer.getvalue()
+
+
+def _one_column_fewer(model: bytes) -> bytes:
+    """Return the model file with its features and scaler one column narrower (consistent)."""
+    with np.load(io.BytesIO(model), allow_pickle=False) as data:
+        arrays = {name: data[name] for name in data.files}
+    arrays["features"] = arrays["features"][:, :-1]
     arrays["scaler_mean"] = arrays["scaler_mean"][:-1]
     arrays["scaler_scale"] = arrays["scaler_scale"][:-1]
     buffer = io.BytesIO()
@@ -103,6 +116,7 @@ _RUN_IMAGES = ["run", "--wheels", "log.csv", "--images", "images", "--out", "out
         ("truncated.npz", ["truncated.npz: truncated or damaged model file"]),
         ("random.npz", ["random.npz: not a terrain-odom model file (not an .npz archive)"]),
         ("mismatch.npz", ["mismatch.npz: inconsistent model file", "scaler disagree"]),
+        ("narrow.npz", ["training features have 29 columns", "compute 30", "retrain"]),
     ],
 )
 def test_a_bad_model_file(capsys, inputs, model, fragments):
@@ -131,10 +145,10 @@ def test_a_file_that_is_no_yaml(capsys, inputs, use, name, problem):
     assert ("nested too deeply" in line) == (name == "nested.yaml")
 
 
-@pytest.mark.parametrize("horizon", ["0", "-1", "nan"])
+@pytest.mark.parametrize("horizon", ["0", "-1", "nan", "1e-300"])
 def test_evaluate_horizon_not_a_distance(capsys, inputs, horizon):
     argv = ["evaluate", "--log", "log.csv", "--out", "e.json", f"--horizon={horizon}"]
-    assert_one_line_exit_2(capsys, argv, inputs, "--horizon", "finite distance > 0 m", horizon)
+    assert_one_line_exit_2(capsys, argv, inputs, "--horizon", "finite distance >= 0.001 m", horizon)
 
 
 def test_simulate_negative_seed(capsys, inputs):
@@ -164,3 +178,15 @@ def test_a_real_process_prints_one_line(inputs, argv):
     assert proc.returncode == 2, proc.stderr
     assert "Traceback" not in proc.stderr
     assert len(proc.stderr.splitlines()) == 1, proc.stderr
+
+
+def test_ground_truth_of_a_run_shorter_than_a_window_is_one_line(
+    sample_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    short = tmp_path / "short.csv"  # 2 s of the sample run: < 2 m travelled
+    short.write_text("".join((sample_dir / "log.csv").read_text().splitlines(True)[:40]))
+    args = ["run", "--wheels", str(short), "--config", str(sample_dir / "config.yaml")]
+    truth = ["--groundtruth", str(sample_dir / "groundtruth.csv")]
+    assert main([*args, *truth, "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "no 2 m window" in err and "travels less than 2 m" in err

@@ -115,17 +115,21 @@ def _shows(timing: TimeCalibration) -> bool:
 
 
 def check_horizon(value: float | None, option: str = "--horizon") -> float | None:
-    """Return a command-line horizon, m, or raise unless it is a finite distance > 0.
+    """Return a command-line horizon, m, or raise unless it is a finite distance >= 1 mm.
 
     Raises
     ------
     ConfigError
-        ``value`` is 0, negative, NaN or infinite (None, not given, passes).
+        ``value`` is below :data:`~terrain_odom.evaluation.windows.MIN_HORIZON`,
+        NaN or infinite (None, not given, passes).
     """
     from terrain_odom.errors import ConfigError
+    from terrain_odom.evaluation.windows import MIN_HORIZON
 
-    if value is not None and not 0.0 < value < math.inf:
-        raise ConfigError(f"{option}: must be a finite distance > 0 m, got {value:g}")
+    if value is not None and not MIN_HORIZON <= value < math.inf:
+        raise ConfigError(
+            f"{option}: must be a finite distance >= {MIN_HORIZON:g} m, got {value:g}"
+        )
     return value
 
 

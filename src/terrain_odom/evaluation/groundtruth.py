@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from terrain_odom.errors import EstimationError
 from terrain_odom.evaluation.metrics import TwistFn, settling_time, summarize, window_errors
 from terrain_odom.evaluation.windows import Windows, spatial_windows
 from terrain_odom.kinematics import wrap_angle
@@ -206,10 +207,18 @@ def model_odometry_error(
         Per model: ``mean_position_error_m`` (mean end-of-window position
         error), the median/quartile summary in m/m and deg/m, and
         ``per_terrain`` mean position errors.
+
+    Raises
+    ------
+    EstimationError
+        The run travels less than ``horizon`` (no window to score).
     """
     windows = spatial_windows(log, horizon)
     if len(windows) == 0:
-        raise ValueError(f"{log.source}: no {horizon} m window to evaluate (too short a run)")
+        raise EstimationError(
+            f"{log.source}: no {horizon:g} m window to score against the ground truth (the run "
+            f"travels less than {horizon:g} m)"
+        )
     start_terrain = np.asarray(terrain, dtype=str)[windows.start]
     out: dict[str, dict[str, Any]] = {}
     for name, make in models.items():

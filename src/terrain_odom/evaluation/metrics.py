@@ -206,7 +206,7 @@ def _chunks(n_steps: np.ndarray) -> list[np.ndarray]:
     Windows are bucketed by ``ceil(log2(n_steps))``; each bucket is split so
     that ``len(chunk) * 2**bucket <= _CHUNK_ELEMENTS`` (at least one window).
     """
-    bucket = np.ceil(np.log2(n_steps)).astype(int)
+    bucket = np.ceil(np.log2(np.maximum(n_steps, 1))).astype(int)  # a 0-step window: 1
     chunks: list[np.ndarray] = []
     for b in np.unique(bucket):
         idx = np.flatnonzero(bucket == b)

@@ -29,6 +29,7 @@ from terrain_odom.records import WheelLog
 
 __all__ = [
     "DEFAULT_HORIZON",
+    "MIN_HORIZON",
     "PREDICTION_HORIZON",
     "Windows",
     "spatial_windows",
@@ -39,6 +40,7 @@ __all__ = [
 ]
 
 DEFAULT_HORIZON = 2.0  # m, Baril et al.'s spatial window h_e
+MIN_HORIZON = 1e-3  # m: shorter windows are lost in the rounding of the path length
 PREDICTION_HORIZON = 2.0  # s, the 2016 slip-model paper's prediction horizon
 
 
@@ -106,8 +108,8 @@ def spatial_windows(log: WheelLog, horizon: float = DEFAULT_HORIZON) -> Windows:
     >>> w.start.tolist(), w.end.tolist(), w.length.tolist()
     ([0, 1, 2, 3], [2, 3, 4, 5], [1.0, 1.0, 1.0, 1.0])
     """
-    if not horizon > 0.0:
-        raise ValueError(f"window horizon must be > 0 m, got {horizon}")
+    if not horizon >= MIN_HORIZON:
+        raise ValueError(f"window horizon must be >= {MIN_HORIZON:g} m, got {horizon}")
     runs = log.segment_runs()
     path = _measured_path(log, runs)
     return _windows_reaching(log, runs, path, path, horizon)

@@ -93,6 +93,7 @@ class FrameClassifier:
         use_roi: bool = True,
         time_full_frame: bool = False,
     ) -> None:
+        _check_feature_width(classifier)
         self.classifier = classifier
         self.camera = camera
         self.roi = roi
@@ -214,3 +215,25 @@ class FrameClassifier:
         centre = [(camera.width - 1) / 2.0, (camera.height - 1) / 2.0]
         ahead = float(np.hypot(*camera.backproject([centre])[0]))
         return ahead if np.isfinite(ahead) else 0.0
+
+
+def _check_feature_width(classifier: TerrainClassifier) -> None:
+    """Refuse a model whose training features are not what its settings describe.
+
+    Raises
+    ------
+    InputFileError
+        The width of the training features differs from that of the features
+        its configuration computes (a damaged or hand-made model file).
+    """
+    cfg = classifier.cfg
+    probe = np.random.default_rng(0).integers(0, 256, (64, 64, 3), dtype=np.uint8)
+    expected = image_features(probe, cfg).shape[1]
+    width = classifier.training_features.shape[1]
+    if width != expected:
+        raise InputFileError(
+            f"the model's training features have {width} columns, but its settings "
+            f"(features {cfg.features}, n_t {cfg.n_t}, pyramid_levels {cfg.pyramid_levels}) "
+            f"compute {expected}: a damaged or hand-made model file; retrain it with "
+            "'terrain-odom train'"
+        )
