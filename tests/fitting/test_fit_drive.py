@@ -29,3 +29,17 @@ def test_edd_sym_on_held_out_grass_runs(drive_dir, warthog_yaml):
     assert s.rotation.median <= 0.7
     assert s.translation.median < 0.5 * base.translation.median
     assert s.rotation.median < 0.2 * base.rotation.median
+
+
+def test_roc_on_real_grass_is_flagged_at_its_beta_2_bound(
+    drive_dir, warthog_yaml, tmp_path, capsys
+):
+    """ROC's beta_2 goes to its bound 0 on the five grass runs (it is then edd-sym): flagged."""
+    from terrain_odom.cli.main import main
+
+    logs = [str(p) for p in sorted(drive_dir.glob("warthog_wheels_grass*.csv"))]
+    out = tmp_path / "roc.yaml"
+    args = ["fit", "--model", "roc", "--log", *logs, "--config", str(warthog_yaml)]
+    assert main([*args, "--out", str(out)]) == 0
+    assert "at a search bound: beta_2" in capsys.readouterr().out
+    assert "at_bounds: [beta_2]" in out.read_text()

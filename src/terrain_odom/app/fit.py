@@ -299,6 +299,7 @@ def _fit_sets(
                 "duration_s": result.duration,
                 "seconds": result.seconds,
             },
+            result.at_bounds,
         )
         fits[key] = result
     if not sets:
@@ -467,10 +468,20 @@ def _fmt_stats(s: ErrorSummary) -> tuple[str, str]:
     )
 
 
+BOUND_MARK = "!"
+"""Marks a parameter at or within 1 % of a search bound in the compare tables."""
+
+
 def _fmt_params(model: str, ps: ParamSet, track_width: float) -> str:
     values = {**ps.params, **derived_quantities(model, ps.params, track_width)}
     short = {"steering_efficiency": "c", "eccentricity": "e"}
-    return ", ".join(f"{short.get(k, k)}={v:.3f}" for k, v in values.items()) or "-"
+    return (
+        ", ".join(
+            f"{short.get(k, k)}={v:.3f}{BOUND_MARK if k in ps.at_bounds else ''}"
+            for k, v in values.items()
+        )
+        or "-"
+    )
 
 
 def compare(
@@ -575,7 +586,8 @@ def _markdown(
             error_rows.append([name, g, summary.translation.count, t, r, f"{fit_s:.1f}"])
     lines = [
         f"Parameters per model and terrain (trained on h_t = {h_t} segments; "
-        f"c = (y_l - y_r) / B with B = {track_width:g} m, e = eccentricity)",
+        f"c = (y_l - y_r) / B with B = {track_width:g} m, e = eccentricity; "
+        f"{BOUND_MARK}: at or within 1 % of a search bound)",
         "",
         table(["model", *head], param_rows),
         "",

@@ -37,6 +37,11 @@ def _print_sets(report: FitReport) -> None:
             f"{mp.model}{where}: {values}\n  loss {f.loss:.4g} on {f.segments} segments "
             f"({f.length:.0f} m, {f.duration:.0f} s of log), fitted in {f.seconds:.2f} s"
         )
+        if ps.at_bounds:
+            print(
+                f"  at a search bound: {', '.join(ps.at_bounds)} (not determined by the data, "
+                "or the optimum lies beyond the bound)"
+            )
     for terrain in report.skipped:
         print(f"terrain {terrain}: no training segment, not fitted")
 

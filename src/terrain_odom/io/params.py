@@ -61,7 +61,7 @@ PARAMS_FORMAT_VERSION = 2
 ANY_TERRAIN = "*"  # key of the single set of a file without per-terrain sets
 _V1_KEYS = {"format_version", "model", "params", "track_width"}
 _INFO_KEYS = {"horizon", "sigma", "bounds", "evaluation"}
-_SET_KEYS = {"params", "fit", "derived"}
+_SET_KEYS = {"params", "fit", "derived", "at_bounds"}
 _V2_KEYS = _V1_KEYS | _INFO_KEYS | _SET_KEYS | {"terrains"}
 _FIT_KEYS = ("loss", "segments", "length_m", "duration_s", "seconds")
 
@@ -77,10 +77,14 @@ class ParamSet:
     fit : dict of str to float
         Training figures (``loss``, ``segments``, ``length_m``, ``duration_s``,
         ``seconds``); empty for hand-written files.
+    at_bounds : tuple of str
+        Parameters the fit left at or within 1 % of a search bound (the data
+        do not determine them, or the optimum lies beyond the bound).
     """
 
     params: dict[str, float]
     fit: dict[str, float] = field(default_factory=dict)
+    at_bounds: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -207,7 +211,11 @@ def _read_set(data: dict, names: tuple[str, ...], where: str, model: str) -> Par
     if unknown:
         raise InputFileError(f"{where}: fit: unknown key(s) {unknown}; allowed: {list(_FIT_KEYS)}")
     _mapping(data.get("derived") or {}, f"{where}: derived")
-    return ParamSet(params, {str(k): _number(v, f"{where}: fit.{k}") for k, v in fit.items()})
+    bounded = data.get("at_bounds") or []
+    if not isinstance(bounded, list) or not set(map(str, bounded)) <= set(names):
+        raise InputFileError(f"{where}: at_bounds must list parameter names of {list(names)}")
+    fitted = {str(k): _number(v, f"{where}: fit.{k}") for k, v in fit.items()}
+    return ParamSet(params, fitted, tuple(map(str, bounded)))
 
 
 def read_params(path: str | Path) -> ModelParams:
@@ -270,6 +278,8 @@ def _set_entry(mp: ModelParams, ps: ParamSet) -> dict[str, Any]:
     derived = derived_quantities(mp.model, ps.params, mp.track_width)
     if derived:
         entry["derived"] = derived
+    if ps.at_bounds:
+        entry["at_bounds"] = list(ps.at_bounds)
     return entry
 
 
