@@ -142,7 +142,7 @@ def test_without_a_config_in_the_folder_the_built_in_defaults_are_used(tmp_path,
     assert "camera configuration says 640x480" in capsys.readouterr().err
     assert main([*args, "--out", str(out), "--no-roi"]) == 0
     printed = capsys.readouterr().out
-    assert "config:" not in printed and "model:" in printed
+    assert "found in the --images folder" not in printed and "model:" in printed
     report = json.loads((out / "report.json").read_text())
     assert report["inputs"]["config"] is None
 
@@ -161,7 +161,9 @@ def test_an_explicit_config_and_model_win_over_the_defaults(tmp_path, capsys, ex
         args += ["--config", str(other), "--model", str(model)]
     assert main(args) == 0
     printed = capsys.readouterr().out
-    assert ("config:" in printed) != explicit and ("model:" in printed) != explicit
+    assert ("found in the --images folder" in printed) != explicit and (
+        "model:" in printed
+    ) != explicit
     inputs = json.loads((out / "report.json").read_text())["inputs"]
     expected_config = other if explicit else images / "config.yaml"
     assert inputs["config"] == str(expected_config.resolve())

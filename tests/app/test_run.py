@@ -66,7 +66,9 @@ def test_run_returns_summary_with_existing_paths(log_path: Path, tmp_path: Path)
     assert summary.report_md == out_dir / "report.md"
     for path in (summary.trajectory_csv, summary.trajectory_tum, summary.report_json):
         assert path.is_file(), path
+    assert summary.config_yaml == out_dir / "config.yaml"
     assert sorted(p.name for p in out_dir.iterdir()) == [
+        "config.yaml",
         "report.json",
         "report.md",
         "trajectory.csv",
@@ -140,7 +142,7 @@ def test_interrupted_run_keeps_streamed_rows(
     assert len(text.splitlines()) == INTERRUPT_AFTER + 1
     # the report is written atomically after the loop: never reached, and no temp files
     assert not (out_dir / "report.json").exists()
-    assert sorted(p.name for p in out_dir.iterdir()) == ["trajectory.csv"]
+    assert sorted(p.name for p in out_dir.iterdir()) == ["config.yaml", "trajectory.csv"]
 
 
 def test_interrupt_does_not_clobber_previous_report(

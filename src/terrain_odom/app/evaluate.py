@@ -9,9 +9,9 @@ from typing import Any
 
 import numpy as np
 
-from terrain_odom.app.run import TRAJECTORY_CSV, read_calibrated_log
+from terrain_odom.app.run import TRAJECTORY_CSV, read_calibrated_log, run_config
 from terrain_odom.config import Config, load_config
-from terrain_odom.errors import InputFileError
+from terrain_odom.errors import ConfigError, InputFileError
 from terrain_odom.estimation.time_offset import TimeCalibration
 from terrain_odom.evaluation import (
     AteResult,
@@ -201,6 +201,35 @@ def _output_path(out: str | Path | None, run_dir: str | Path | None) -> Path | N
     return Path(run_dir) / "evaluation.json" if run_dir else None
 
 
+def _evaluation_config(
+    run_dir: str | Path | None, config: Config | None, config_path: str | Path | None
+) -> Config:
+    """Return the configuration to evaluate with: the run's own unless one is given.
+
+    A given configuration (``config_path``: one the user chose) must agree with
+    the run's on the robot geometry.
+
+    Raises
+    ------
+    ConfigError
+        The given configuration's wheel radius or track width differs from the run's.
+    """
+    recorded = None if run_dir is None else run_config(run_dir)
+    if config is None and config_path is None:
+        return load_config(recorded)
+    cfg = config if config is not None else load_config(config_path)
+    if recorded is not None and config_path is not None:
+        used = load_config(recorded).robot
+        for name in ("wheel_radius", "track_width"):
+            mine, theirs = getattr(cfg.robot, name), getattr(used, name)
+            if mine != theirs:
+                raise ConfigError(
+                    f"{config_path}: robot.{name} {mine:g} m, but the run was made with "
+                    f"{theirs:g} m ({recorded}); leave out --config to use the run's"
+                )
+    return cfg
+
+
 def evaluate(
     run_dir: str | Path | None,
     wheels: str | Path,
@@ -247,7 +276,7 @@ def evaluate(
     if target is not None:
         trajectory = None if run_dir is None else Path(run_dir) / TRAJECTORY_CSV
         check_outputs([wheels, config_path, trajectory, *(params or [])], [target])
-    cfg = config if config is not None else load_config(config_path)
+    cfg = _evaluation_config(run_dir, config, config_path)
     log, timing = read_calibrated_log(wheels, cfg)
     h_e = cfg.evaluation.horizon if horizon is None else float(horizon)
     windows = _evaluation_windows(log, h_e)

@@ -8,6 +8,7 @@ its inputs, calls the pure core (``kinematics``, ``estimation``,
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import enum
 import time
 from dataclasses import asdict, dataclass
@@ -19,7 +20,7 @@ from tqdm import tqdm
 
 from terrain_odom.app.frames import FRAME_COLUMNS, FramePipeline, FrameRecord, one_thread
 from terrain_odom.app.groundtruth import GroundTruthReport, groundtruth_section
-from terrain_odom.config import Config, config_to_dict, load_config
+from terrain_odom.config import Config, TimeConfig, config_to_dict, dump_config, load_config
 from terrain_odom.errors import ConfigError, InputFileError
 from terrain_odom.estimation.icr_ekf import IcrPriors
 from terrain_odom.estimation.odometry import OdometryResult, OdometryRow, run_odometry
@@ -45,6 +46,7 @@ __all__ = [
     "run",
     "images_config",
     "read_calibrated_log",
+    "run_config",
     "check_plausible",
 ]
 
@@ -52,6 +54,8 @@ TRAJECTORY_CSV = "trajectory.csv"
 TRAJECTORY_TUM = "trajectory.tum"
 FRAMES_CSV = "frames.csv"
 REPORT_JSON = "report.json"
+RUN_CONFIG = "config.yaml"
+"""The configuration a run used, written into its folder."""
 REPORT_MD = "report.md"
 PLOTS = ("trajectory.png", "icr.png", "frames.png")  # in out/plots
 
@@ -94,6 +98,9 @@ class RunSummary:
         Pose measurements fused.
     terrain_changes : int
         Confirmed terrain changes applied.
+    config_yaml : Path or None
+        ``config.yaml``: the configuration the run used, its pose delay
+        resolved (what ``evaluate --run`` reads).
     """
 
     trajectory_csv: Path
@@ -107,6 +114,22 @@ class RunSummary:
     plots: tuple[Path, ...] = ()
     updates: int = 0
     terrain_changes: int = 0
+    config_yaml: Path | None = None
+
+
+def _write_run_config(out: Path, cfg: Config, timing: TimeCalibration) -> Path:
+    """Write the configuration used into the run's folder, its pose delay resolved, s."""
+    resolved = dataclasses.replace(cfg, time=TimeConfig(pose_delay=timing.pose_delay))
+    path = out / RUN_CONFIG
+    header = "# The configuration this run used (terrain-odom run); evaluate --run reads it.\n"
+    write_text_atomic(path, header + dump_config(resolved))
+    return path
+
+
+def run_config(run_dir: str | Path) -> Path | None:
+    """Return a run folder's ``config.yaml``, or None for a run written without one."""
+    path = Path(run_dir) / RUN_CONFIG
+    return path if path.is_file() else None
 
 
 def read_calibrated_log(wheels: str | Path, cfg: Config) -> tuple[WheelLog, TimeCalibration]:
@@ -306,6 +329,7 @@ def run(
     )
     _check_run_outputs(out_dir, inputs, [wheels, groundtruth, priors], images)
     out = _output_dir(out_dir)
+    config_yaml = _write_run_config(out, inputs.cfg, inputs.timing)
     odometry = OnlineOdometry(
         inputs.cfg,
         inputs.classifier,
@@ -343,6 +367,7 @@ def run(
         inputs.timing,
         frames_csv=frames_csv,
         plots=tuple(out / name for name in plots),
+        config_yaml=config_yaml,
         updates=result.n_updates,
         terrain_changes=len(result.changes),
     )
@@ -363,7 +388,7 @@ def _check_run_outputs(
     if images is not None:
         read += [Path(images) / FRAMES_CSV, *(inputs.frames.files if inputs.frames else [])]
     out = Path(out_dir)
-    names = (TRAJECTORY_CSV, TRAJECTORY_TUM, FRAMES_CSV, REPORT_JSON, REPORT_MD)
+    names = (TRAJECTORY_CSV, TRAJECTORY_TUM, FRAMES_CSV, REPORT_JSON, REPORT_MD, RUN_CONFIG)
     check_outputs(read, [out / n for n in names] + [out / "plots" / n for n in PLOTS])
 
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import math
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 from terrain_odom.cli.options import (
@@ -61,13 +62,20 @@ def _print_prediction(result: EvaluationResult) -> None:
         print(f"{name:<32} {shown}")
 
 
+def _run_config(args: argparse.Namespace) -> Path | None:
+    """Return the run's own ``config.yaml`` when ``--run`` is given without ``--config``."""
+    from terrain_odom.app.run import run_config
+
+    return run_config(args.run) if args.run is not None and args.config is None else None
+
+
 def _cmd_evaluate(args: argparse.Namespace) -> int:
     from terrain_odom.app.evaluate import evaluate
 
     result = evaluate(
         args.run,
         args.log,
-        config=load_config_option(args),
+        config=load_config_option(args, _run_config(args)),
         config_path=args.config,
         params=args.params,
         horizon=check_horizon(args.horizon),

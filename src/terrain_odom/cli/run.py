@@ -121,5 +121,6 @@ def _cmd_run(args: argparse.Namespace) -> int:
     print_written("trajectory:", [summary.trajectory_csv, summary.trajectory_tum])
     print_written("frames:", [summary.frames_csv])
     print_written("report:", [summary.report_json, summary.report_md])
+    print_written("run config:", [summary.config_yaml])
     print_written("plots:", list(summary.plots))
     return 0

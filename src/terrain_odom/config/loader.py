@@ -13,7 +13,7 @@ from terrain_odom.config.fields import _build
 from terrain_odom.config.sections import FORMAT_VERSION, MAX_POSE_DELAY, Config, TimeConfig
 from terrain_odom.errors import ConfigError, TerrainOdomError
 
-__all__ = ["load_config", "read_yaml", "config_to_dict", "with_pose_delay"]
+__all__ = ["load_config", "read_yaml", "config_to_dict", "dump_config", "with_pose_delay"]
 
 
 def _check_pose_delay(delay: float | Literal["auto"], where: str) -> None:
@@ -162,3 +162,17 @@ def load_config(path: str | Path | None = None) -> Config:
 def config_to_dict(cfg: Config) -> dict[str, Any]:
     """Return the configuration as plain data (for reports and YAML)."""
     return dataclasses.asdict(cfg)
+
+
+def dump_config(cfg: Config) -> str:
+    """Return the configuration as YAML text that :func:`load_config` reads back equal."""
+    return yaml.safe_dump(_plain(config_to_dict(cfg)), sort_keys=False)
+
+
+def _plain(value: Any) -> Any:
+    """Tuples to lists, recursively (YAML's safe dumper writes no tuples)."""
+    if isinstance(value, dict):
+        return {k: _plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    return value
