@@ -178,7 +178,7 @@ def test_no_terrain_skips_classification(sim, tmp_path):
     assert report["frames"]["classification"].startswith("skipped")
 
 
-def test_missing_and_unreadable_frames_are_reported_and_skipped(sim, tmp_path):
+def test_missing_and_unreadable_frames_are_reported_and_skipped(sim, tmp_path, capsys):
     rows = [(f"{k / FRAME_RATE_HZ}", f"frames/{k:06d}.png") for k in range(6)]
     rows[2] = ("0.4", "frames/gone.png")
     rows[4] = ("0.8", "frames/broken.png")
@@ -192,9 +192,13 @@ def test_missing_and_unreadable_frames_are_reported_and_skipped(sim, tmp_path):
     assert report["frames"]["classified"] == 4
     assert report["frames"]["skipped"]["missing_or_unreadable"] == 2
     assert len(_rows(tmp_path / "out" / "frames.csv")) == 4
+    printed = capsys.readouterr().out
+    assert "4 of 6 frames classified (skipped: 2 missing or unreadable)" in printed
+    assert "  skipped frames/gone.png (missing)" in printed
+    assert "  skipped frames/broken.png (unreadable" in printed
 
 
-def test_frames_outside_the_log_are_skipped_with_a_count(sim, tmp_path):
+def test_frames_outside_the_log_are_skipped_with_a_count(sim, tmp_path, capsys):
     rows = [("-1.0", "frames/000000.png"), ("0.2", "frames/000001.png")]
     rows += [("0.4", "frames/000002.png"), ("99.0", "frames/000003.png")]
     rows += [("100.0", "frames/000004.png")]
@@ -206,6 +210,17 @@ def test_frames_outside_the_log_are_skipped_with_a_count(sim, tmp_path):
     assert skipped["after_last_wheel_sample"] == 2
     assert report["frames"]["classified"] == 2
     assert [r["t"] for r in _rows(tmp_path / "out" / "frames.csv")] == ["0.2", "0.4"]
+    printed = capsys.readouterr().out
+    assert "2 of 5 frames classified (skipped: 1 before the first wheel sample, 2 after" in printed
+
+
+def test_frames_none_of_which_is_in_the_log_span_are_an_error(sim, tmp_path, capsys):
+    rows = [(f"{1000.0 * k / FRAME_RATE_HZ}", f"frames/{k:06d}.png") for k in range(1, 4)]
+    images, log = _short(sim, tmp_path, rows)  # milliseconds: 200, 400, 600 "s"
+    assert _run(sim, tmp_path / "out", images=images, log=log) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "none of the 3 frames (t = 200-600 s)" in err
+    assert "milliseconds" in err and not (tmp_path / "out" / "trajectory.csv").exists()
 
 
 def test_model_with_other_feature_settings_stops_before_processing(sim, tmp_path, capsys):

@@ -42,6 +42,7 @@ from terrain_odom.vision.classifier import TerrainClassifier
 
 __all__ = [
     "TerrainSource",
+    "FrameCounts",
     "RunSummary",
     "run",
     "images_config",
@@ -101,6 +102,8 @@ class RunSummary:
     config_yaml : Path or None
         ``config.yaml``: the configuration the run used, its pose delay
         resolved (what ``evaluate --run`` reads).
+    frames : FrameCounts or None
+        What became of the camera frames (with ``images``).
     """
 
     trajectory_csv: Path
@@ -115,6 +118,7 @@ class RunSummary:
     updates: int = 0
     terrain_changes: int = 0
     config_yaml: Path | None = None
+    frames: FrameCounts | None = None
 
 
 def _write_run_config(out: Path, cfg: Config, timing: TimeCalibration) -> Path:
@@ -233,12 +237,51 @@ def _read_inputs(
         if model is None:
             model = default_model()
         frame_list = read_frames(images)
+        _check_frame_times(frame_list, log, images)
         classifier = load_classifier(model)
     if slip and not np.any(log.has_yaw):
         raise InputFileError(f"{log.source}: --estimator slip-ekf needs a 'yaw' column with values")
     return _Inputs(
         cfg, config_path, log, timing, gt, labels, icr_priors, frame_list, classifier, model
     )
+
+
+def _check_frame_times(frames: FrameList, log: WheelLog, images: str | Path) -> None:
+    """Refuse frames none of which lies within the wheel log's time span.
+
+    Raises
+    ------
+    InputFileError
+        Naming both spans and the likely causes (a clock offset, milliseconds).
+    """
+    t = frames.t
+    if t.size and not np.any((t >= log.t[0]) & (t <= log.t[-1])):
+        raise InputFileError(
+            f"{images}: none of the {t.size} frames (t = {t.min():g}-{t.max():g} s) lies in the "
+            f"wheel log's span ({log.t[0]:g}-{log.t[-1]:g} s): a clock offset between camera and "
+            "wheels, or frame times in milliseconds?"
+        )
+
+
+@dataclass(frozen=True)
+class FrameCounts:
+    """What became of a run's camera frames.
+
+    Attributes
+    ----------
+    total, classified : int
+        Frames listed, and frames classified.
+    before, after : int
+        Frames skipped before the first or after the last wheel sample.
+    problems : tuple of str
+        Missing or unreadable frames, ``"file (problem)"``, skipped.
+    """
+
+    total: int
+    classified: int
+    before: int
+    after: int
+    problems: tuple[str, ...]
 
 
 def _output_dir(out_dir: str | Path) -> Path:
@@ -368,6 +411,7 @@ def run(
         frames_csv=frames_csv,
         plots=tuple(out / name for name in plots),
         config_yaml=config_yaml,
+        frames=_frame_counts(result, pipeline),
         updates=result.n_updates,
         terrain_changes=len(result.changes),
     )
@@ -560,6 +604,18 @@ def _relative(path: Path, root: Path) -> str:
         return path.relative_to(root).as_posix()
     except ValueError:
         return str(path)
+
+
+def _frame_counts(result: OdometryResult, pipeline: FramePipeline | None) -> FrameCounts | None:
+    if pipeline is None:
+        return None
+    return FrameCounts(
+        len(pipeline.frames),
+        len(pipeline.ms_total),
+        result.frames_before,
+        result.frames_after,
+        tuple(f"{p['file']} ({p['problem']})" for p in pipeline.problems),
+    )
 
 
 def _frames_report(

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+from typing import TYPE_CHECKING
 
 from terrain_odom.cli.options import (
     add_config_option,
@@ -12,6 +13,9 @@ from terrain_odom.cli.options import (
     print_pose_delay,
     print_written,
 )
+
+if TYPE_CHECKING:
+    from terrain_odom.app.run import FrameCounts
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -118,9 +122,28 @@ def _cmd_run(args: argparse.Namespace) -> int:
     )
     print_pose_delay(summary.time_calibration)
     print(f"{summary.rows} rows in {summary.seconds:.2f} s")
+    if summary.frames is not None:
+        _print_frames(summary.frames)
     print_written("trajectory:", [summary.trajectory_csv, summary.trajectory_tum])
     print_written("frames:", [summary.frames_csv])
     print_written("report:", [summary.report_json, summary.report_md])
     print_written("run config:", [summary.config_yaml])
     print_written("plots:", list(summary.plots))
     return 0
+
+
+def _print_frames(counts: FrameCounts) -> None:
+    """Print how many frames were used, and which were skipped and why."""
+    reasons = [
+        f"{n} {why}"
+        for n, why in (
+            (counts.before, "before the first wheel sample"),
+            (counts.after, "after the last"),
+            (len(counts.problems), "missing or unreadable"),
+        )
+        if n
+    ]
+    skipped = f" (skipped: {', '.join(reasons)})" if reasons else ""
+    print(f"{counts.classified} of {counts.total} frames classified{skipped}")
+    for problem in counts.problems:
+        print(f"  skipped {problem}")
