@@ -395,11 +395,7 @@ def run(
         frames = records if pipeline is not None else None
         plots = _score(out, inputs, inputs.gt, report, frames, use_roi)
         report["inputs"]["groundtruth"] = str(Path(groundtruth).resolve())
-    report_path = out / REPORT_JSON
-    write_json(report_path, report)
-    md_path = out / REPORT_MD
-    write_text_atomic(md_path, run_markdown(to_jsonable(report), plots))
-    frames_csv = None if pipeline is None else out / FRAMES_CSV
+    report_path, md_path = _write_reports(out, report, plots)
     return RunSummary(
         out / TRAJECTORY_CSV,
         tum_path,
@@ -408,13 +404,21 @@ def run(
         seconds,
         md_path,
         inputs.timing,
-        frames_csv=frames_csv,
+        frames_csv=None if pipeline is None else out / FRAMES_CSV,
         plots=tuple(out / name for name in plots),
         config_yaml=config_yaml,
         frames=_frame_counts(result, pipeline),
         updates=result.n_updates,
         terrain_changes=len(result.changes),
     )
+
+
+def _write_reports(out: Path, report: dict[str, Any], plots: list[str]) -> tuple[Path, Path]:
+    """Write ``report.json`` and ``report.md`` atomically; return their paths."""
+    report_path, md_path = out / REPORT_JSON, out / REPORT_MD
+    write_json(report_path, report)
+    write_text_atomic(md_path, run_markdown(to_jsonable(report), plots))
+    return report_path, md_path
 
 
 def _check_run_outputs(
