@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 
 from terrain_odom.app.run import TRAJECTORY_CSV, read_calibrated_log, run_config
-from terrain_odom.config import Config, load_config
+from terrain_odom.config import Config, RobotConfig, load_config
 from terrain_odom.errors import ConfigError, InputFileError
 from terrain_odom.estimation.time_offset import TimeCalibration
 from terrain_odom.evaluation import (
@@ -31,7 +31,7 @@ from terrain_odom.evaluation import (
     window_errors,
 )
 from terrain_odom.io import read_trajectory_csv
-from terrain_odom.io.params import read_params
+from terrain_odom.io.params import check_geometry, read_params
 from terrain_odom.io.paths import check_outputs
 from terrain_odom.io.report import path_or_none, report_header, write_json
 from terrain_odom.kinematics import get_model, twist_icr
@@ -178,10 +178,12 @@ def _run_models(
 
 
 def _params_model(
-    path: str | Path, log: WheelLog, windows: Windows, track_width: float
+    path: str | Path, log: WheelLog, windows: Windows, robot: RobotConfig
 ) -> tuple[str, ModelErrors]:
     """Errors of the constant model of a parameter file (per-terrain sets row by row)."""
     mp = read_params(path)
+    check_geometry(mp, robot.wheel_radius, robot.track_width, path)
+    track_width = robot.track_width
     model = get_model(mp.model)
     values = mp.rows(log)  # (N, k): each row's terrain set (per-terrain files)
     b = mp.track_width or track_width
@@ -290,7 +292,7 @@ def evaluate(
     if run_dir is not None:
         name, models[name], prediction[name] = _run_models(Path(run_dir), log, windows, ahead, cfg)
     for path in params or []:
-        name, models[name] = _params_model(path, log, windows, b)
+        name, models[name] = _params_model(path, log, windows, cfg.robot)
     result = EvaluationResult(
         log=Path(wheels).resolve(),
         run=None if run_dir is None else Path(run_dir).resolve(),

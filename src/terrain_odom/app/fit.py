@@ -228,6 +228,13 @@ def _paths(
     return [*read, config_path]
 
 
+def _recorded_delay(timing: dict[str, TimeCalibration]) -> float | dict[str, float]:
+    """Return the pose delay the logs were read with, s: one value, or one per differing log."""
+    delays = {source: t.pose_delay for source, t in timing.items()}
+    values = set(delays.values())
+    return values.pop() if len(values) == 1 else delays
+
+
 def _load(
     sources: Sequence[LogSource], cfg: Config, role: str, timing: dict[str, TimeCalibration]
 ) -> list[WheelLog]:
@@ -430,6 +437,8 @@ def fit(
     b = cfg.robot.track_width
     sets, fits, skipped = _fit_sets(m.name, train, h_t, by_terrain, opt, b)
     info: dict[str, Any] = {
+        "wheel_radius": cfg.robot.wheel_radius,
+        "pose_delay": _recorded_delay(timing),
         "horizon": str(h_t),
         "sigma": None if opt.sigma is None else np.asarray(opt.sigma, dtype=float).tolist(),
         "bounds": {
@@ -539,7 +548,7 @@ def compare(
     raw_errors: dict[str, dict[str, list[WindowErrors]]] = {}
     for name in names:
         sets, _, skipped = _fit_sets(name, train, h_t, by_terrain, opt, b)
-        mp = ModelParams(name, sets, b, {"horizon": str(h_t)})
+        mp = ModelParams(name, sets, b, {"wheel_radius": cfg.robot.wheel_radius, "horizon": str(h_t)})
         raw_errors[name] = _group_errors(mp, evals, h_e, b)
         errors = {g: summarize(e) for g, e in raw_errors[name].items()}
         results[name] = ModelComparison(mp, skipped, errors)

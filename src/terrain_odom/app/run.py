@@ -218,10 +218,10 @@ def _read_inputs(
             "--priors seeds the ICR EKF (--estimator icr-ekf); the slip EKF's parameters "
             "l1 .. l6 are not ICRs"
         )
-    icr_priors = None if priors is None else read_priors(priors)
     if config is None and config_path is None and images is not None:
         config_path = images_config(images)
     cfg = config if config is not None else load_config(config_path)
+    icr_priors = None if priors is None else read_priors(priors, cfg.robot)
     log, timing = read_calibrated_log(wheels, cfg)
     gt = _read_groundtruth(groundtruth, log) if groundtruth is not None else None
     use_frames = images is not None and terrain is not TerrainSource.NONE

@@ -37,9 +37,9 @@ from typing import Any, BinaryIO
 import numpy as np
 import yaml
 
-from terrain_odom.config import IcrState
+from terrain_odom.config import IcrState, RobotConfig
 from terrain_odom.config.loader import read_yaml
-from terrain_odom.errors import InputFileError
+from terrain_odom.errors import ConfigError, InputFileError
 from terrain_odom.estimation.icr_ekf import IcrPriors
 from terrain_odom.io.atomic import write_atomic
 from terrain_odom.kinematics import eccentricity, get_model, steering_efficiency
@@ -55,12 +55,13 @@ __all__ = [
     "derived_quantities",
     "icr_priors",
     "read_priors",
+    "check_geometry",
 ]
 
 PARAMS_FORMAT_VERSION = 2
 ANY_TERRAIN = "*"  # key of the single set of a file without per-terrain sets
 _V1_KEYS = {"format_version", "model", "params", "track_width"}
-_INFO_KEYS = {"horizon", "sigma", "bounds", "evaluation"}
+_INFO_KEYS = {"horizon", "sigma", "bounds", "evaluation", "wheel_radius", "pose_delay"}
 _SET_KEYS = {"params", "fit", "derived", "at_bounds"}
 _V2_KEYS = _V1_KEYS | _INFO_KEYS | _SET_KEYS | {"terrains"}
 _FIT_KEYS = ("loss", "segments", "length_m", "duration_s", "seconds")
@@ -100,7 +101,9 @@ class ModelParams:
     track_width : float, optional
         Nominal track width ``B``, m.
     info : dict
-        Informational entries (``horizon``, ``sigma``, ``bounds``, ``evaluation``).
+        Entries about the fit: ``wheel_radius`` (m) and ``pose_delay`` (s, or
+        per log) the logs were read with, ``horizon``, ``sigma``, ``bounds``,
+        ``evaluation``.
     """
 
     model: str
@@ -304,7 +307,13 @@ def write_params(path: str | Path, mp: ModelParams) -> None:
     }
     if mp.track_width is not None:
         data["track_width"] = float(mp.track_width)
-    data.update({k: mp.info[k] for k in ("horizon", "sigma", "bounds") if k in mp.info})
+    data.update(
+        {
+            k: mp.info[k]
+            for k in ("wheel_radius", "pose_delay", "horizon", "sigma", "bounds")
+            if k in mp.info
+        }
+    )
     if mp.per_terrain:
         data["terrains"] = {name: _set_entry(mp, ps) for name, ps in mp.sets.items()}
     else:
@@ -342,15 +351,47 @@ def icr_priors(params: ModelParams) -> IcrPriors:
     return IcrPriors(start=next(iter(states.values())))
 
 
-def read_priors(path: str | Path) -> IcrPriors:
+def check_geometry(
+    params: ModelParams, wheel_radius: float, track_width: float, path: str | Path
+) -> None:
+    """Refuse a parameter file fitted with another robot geometry than the one in use.
+
+    Raises
+    ------
+    ConfigError
+        The file's ``wheel_radius`` or ``track_width`` (where recorded) differs
+        from the configuration's; the message names both.
+    """
+    recorded = {"wheel_radius": params.info.get("wheel_radius"), "track_width": params.track_width}
+    used = {"wheel_radius": wheel_radius, "track_width": track_width}
+    for name, value in recorded.items():
+        if value is not None and not math.isclose(float(value), used[name], rel_tol=1e-9):
+            raise ConfigError(
+                f"{path}: fitted with robot.{name} {float(value):g} m, but the configuration in "
+                f"use says {used[name]:g} m: give the configuration it was fitted with (--config)"
+            )
+
+
+def read_priors(path: str | Path, robot: RobotConfig | None = None) -> IcrPriors:
     """Read a parameter file of ``terrain-odom fit --model icr|icr-slip`` as EKF priors.
+
+    Parameters
+    ----------
+    path : str or Path
+        The parameter file.
+    robot : RobotConfig, optional
+        The geometry in use, checked against the file's (:func:`check_geometry`).
 
     Raises
     ------
     InputFileError
         If the file is missing or malformed, or its model has no ICR state.
+    ConfigError
+        If it was fitted with another robot geometry.
     """
     params = read_params(path)
+    if robot is not None:
+        check_geometry(params, robot.wheel_radius, robot.track_width, path)
     try:
         return icr_priors(params)
     except ValueError as exc:
