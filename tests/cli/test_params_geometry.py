@@ -41,3 +41,16 @@ def test_evaluate_params_with_another_geometry_is_refused(
     assert main([*args, "--config", str(warthog_yaml)]) == 2
     assert "fitted with robot.wheel_radius 0.1 m" in capsys.readouterr().err
     assert main([*args, "--config", str(examples_dir / "demo.yaml")]) == 0
+
+
+def test_prior_terrains_the_run_never_meets_are_reported(examples_dir, tmp_path, capsys):
+    demo, config = examples_dir / "demo_log.csv", str(examples_dir / "demo.yaml")
+    priors = tmp_path / "priors.yaml"
+    fit = ["fit", "--model", "icr", "--by-terrain", "--log", str(demo), "--config", config]
+    assert main([*fit, "--maxiter", "20", "--out", str(priors)]) == 0
+    grass_only = tmp_path / "grass.csv"  # the demo's first 45 s: grass
+    grass_only.write_text("".join(demo.read_text().splitlines(True)[:901]))
+    capsys.readouterr()
+    run = ["run", "--wheels", str(grass_only), "--config", config, "--priors", str(priors)]
+    assert main([*run, "--out", str(tmp_path / "out")]) == 0
+    assert "priors never used: gravel (no such terrain in this run)" in capsys.readouterr().out

@@ -548,7 +548,9 @@ def compare(
     raw_errors: dict[str, dict[str, list[WindowErrors]]] = {}
     for name in names:
         sets, _, skipped = _fit_sets(name, train, h_t, by_terrain, opt, b)
-        mp = ModelParams(name, sets, b, {"wheel_radius": cfg.robot.wheel_radius, "horizon": str(h_t)})
+        mp = ModelParams(
+            name, sets, b, {"wheel_radius": cfg.robot.wheel_radius, "horizon": str(h_t)}
+        )
         raw_errors[name] = _group_errors(mp, evals, h_e, b)
         errors = {g: summarize(e) for g, e in raw_errors[name].items()}
         results[name] = ModelComparison(mp, skipped, errors)

@@ -104,6 +104,9 @@ class RunSummary:
         resolved (what ``evaluate --run`` reads).
     frames : FrameCounts or None
         What became of the camera frames (with ``images``).
+    unused_priors : tuple of str
+        Terrains of a per-terrain prior file that the run can never meet (not
+        in the log's labels, or not a class of the terrain classifier).
     """
 
     trajectory_csv: Path
@@ -119,6 +122,7 @@ class RunSummary:
     terrain_changes: int = 0
     config_yaml: Path | None = None
     frames: FrameCounts | None = None
+    unused_priors: tuple[str, ...] = ()
 
 
 def _write_run_config(out: Path, cfg: Config, timing: TimeCalibration) -> Path:
@@ -408,6 +412,7 @@ def run(
         plots=tuple(out / name for name in plots),
         config_yaml=config_yaml,
         frames=_frame_counts(result, pipeline),
+        unused_priors=_unused_priors(inputs),
         updates=result.n_updates,
         terrain_changes=len(result.changes),
     )
@@ -608,6 +613,19 @@ def _relative(path: Path, root: Path) -> str:
         return path.relative_to(root).as_posix()
     except ValueError:
         return str(path)
+
+
+def _unused_priors(inputs: _Inputs) -> tuple[str, ...]:
+    """Return the prior terrains no label of this run can name (log labels or classifier classes)."""
+    if inputs.priors is None or not inputs.priors.terrains:
+        return ()
+    if inputs.labels is not None:
+        known = set(inputs.labels)
+    elif inputs.classifier is not None:
+        known = set(inputs.classifier.classes)
+    else:
+        return ()
+    return tuple(sorted(set(inputs.priors.terrains) - known))
 
 
 def _frame_counts(result: OdometryResult, pipeline: FramePipeline | None) -> FrameCounts | None:

@@ -124,6 +124,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
     print(f"{summary.rows} rows in {summary.seconds:.2f} s")
     if summary.frames is not None:
         _print_frames(summary.frames)
+    if summary.unused_priors:
+        unused = ", ".join(summary.unused_priors)
+        print(f"priors never used: {unused} (no such terrain in this run)")
     print_written("trajectory:", [summary.trajectory_csv, summary.trajectory_tum])
     print_written("frames:", [summary.frames_csv])
     print_written("report:", [summary.report_json, summary.report_md])
