@@ -18,10 +18,10 @@ from typing import Any, BinaryIO
 import numpy as np
 
 from terrain_odom import __version__
-from terrain_odom.app.run import check_plausible
+from terrain_odom.app.run import calibrate_log
 from terrain_odom.config import Config, load_config
 from terrain_odom.errors import ConfigError, InputFileError
-from terrain_odom.estimation.time_offset import TimeCalibration, calibrate_pose_delay
+from terrain_odom.estimation.time_offset import TimeCalibration
 from terrain_odom.evaluation import (
     ErrorSummary,
     WindowErrors,
@@ -250,8 +250,7 @@ def _load(
             raise InputFileError(
                 f"{log.source}: no pose measurements (x, y, yaw); a {role} log needs them"
             )
-        check_plausible(log, cfg)
-        log, calibration = calibrate_pose_delay(log, cfg.time.pose_delay, cfg.robot.track_width)
+        log, calibration = calibrate_log(log, cfg)
         timing[log.source] = calibration
         logs.append(log)
     if not logs:

@@ -47,6 +47,7 @@ __all__ = [
     "run",
     "images_config",
     "read_calibrated_log",
+    "calibrate_log",
     "run_config",
     "check_plausible",
 ]
@@ -151,7 +152,19 @@ def read_calibrated_log(wheels: str | Path, cfg: Config) -> tuple[WheelLog, Time
     EstimationError
         ``auto`` on a log whose delay cannot be estimated.
     """
-    log = read_wheel_log(wheels, wheel_radius=cfg.robot.wheel_radius)
+    return calibrate_log(read_wheel_log(wheels, wheel_radius=cfg.robot.wheel_radius), cfg)
+
+
+def calibrate_log(log: WheelLog, cfg: Config) -> tuple[WheelLog, TimeCalibration]:
+    """Check a log read with ``cfg`` (:func:`check_plausible`), then apply its pose delay.
+
+    Raises
+    ------
+    InputFileError
+        Its wheels and poses disagree.
+    EstimationError
+        ``auto`` on a log whose delay cannot be estimated.
+    """
     check_plausible(log, cfg)
     return calibrate_pose_delay(log, cfg.time.pose_delay, cfg.robot.track_width)
 
@@ -629,6 +642,7 @@ def _unused_priors(inputs: _Inputs) -> tuple[str, ...]:
 
 
 def _frame_counts(result: OdometryResult, pipeline: FramePipeline | None) -> FrameCounts | None:
+    """Return what became of the frames (the figures of the report's ``frames`` section)."""
     if pipeline is None:
         return None
     return FrameCounts(
@@ -644,7 +658,8 @@ def _frames_report(
     result: OdometryResult, pipeline: FramePipeline | None, use_roi: bool
 ) -> dict[str, Any]:
     """Return the ``frames`` section of a run's report.json."""
-    if pipeline is None:
+    counts = _frame_counts(result, pipeline)
+    if pipeline is None or counts is None:
         return {"classification": "skipped (--no-terrain: frames not read)"}
     ms = np.asarray(pipeline.ms_total)
     unusable = sum(
@@ -652,12 +667,12 @@ def _frames_report(
     )
     return {
         "classification": "region of interest" if use_roi else "whole frame (--no-roi)",
-        "total": len(pipeline.frames),
-        "classified": int(ms.size),
+        "total": counts.total,
+        "classified": counts.classified,
         "skipped": {
-            "before_first_wheel_sample": result.frames_before,
-            "after_last_wheel_sample": result.frames_after,
-            "missing_or_unreadable": len(pipeline.problems),
+            "before_first_wheel_sample": counts.before,
+            "after_last_wheel_sample": counts.after,
+            "missing_or_unreadable": len(counts.problems),
             "roi_outside_or_too_small": unusable,
         },
         "roi_status": dict(sorted(pipeline.roi_counts.items())),

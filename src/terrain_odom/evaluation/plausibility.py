@@ -168,14 +168,16 @@ def check_log(
     iv = _intervals(log, track_width, lim.span, lim.max_interval)
     pos, yaw = np.isfinite(iv.pose_travel), np.isfinite(iv.pose_turn)
     findings = _still(iv, pos, lim) or _travel(iv, pos, lim)
-    findings += _yaw(iv, yaw, lim)
+    scale, corr = _yaw_fit(iv, yaw)
+    findings += _yaw(iv, yaw, scale, corr, lim)
     return Plausibility(
         tuple(findings),
         step,
         top,
         float(np.sum(iv.wheel_travel[pos])),
         float(np.sum(iv.pose_travel[pos])),
-        *_yaw_fit(iv, yaw),
+        scale,
+        corr,
     )
 
 
@@ -292,11 +294,13 @@ def _yaw_fit(iv: _Intervals, yaw: np.ndarray) -> tuple[float, float]:
     return mw / ww, mw / np.sqrt(ww * mm)
 
 
-def _yaw(iv: _Intervals, yaw: np.ndarray, lim: PlausibilityLimits) -> list[Finding]:
+def _yaw(
+    iv: _Intervals, yaw: np.ndarray, scale: float, corr: float, lim: PlausibilityLimits
+) -> list[Finding]:
+    """Judge the fitted turn ``scale`` and correlation ``corr`` (:func:`_yaw_fit`), if turned."""
     turned = min(np.sum(np.abs(iv.wheel_turn[yaw])), np.sum(np.abs(iv.pose_turn[yaw])))
     if turned < lim.min_turn:
         return []
-    scale, corr = _yaw_fit(iv, yaw)
     if corr <= -lim.min_correlation:
         return [
             Finding(
