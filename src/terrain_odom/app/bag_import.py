@@ -256,7 +256,7 @@ def _plan(
     for option, (topic, accepted) in topics.items():
         if topic is not None:
             conns = topic_connections(reader, bag, topic, option, accepted)
-            connections += conns
+            connections += [c for c in conns if c not in connections]
             types[topic] = conns[0].msgtype
     stamps = StampRule(options.stamps)
     wheels = WheelStream(f"{bag}: --wheels-topic {options.wheels_topic}", stamps)
@@ -383,7 +383,7 @@ def _write_config(
 ) -> tuple[str, ...]:
     """Write ``config.yaml``; return the keys the user must fill."""
     data: dict[str, Any] = dict(read_yaml(Path(options.config)) or {}) if options.config else {}
-    fill = [f"robot.{k}" for k, v in robot.items() if v is None]
+    fill = ["robot.track_width"] if robot["track_width"] is None else []
     data["robot"] = {**data.get("robot", {}), **{k: v for k, v in robot.items() if v is not None}}
     _pose_noise(data, collect)
     if options.image_topic is not None:
