@@ -40,13 +40,26 @@ def _known_bag(folder: Path, kind: str) -> Path:
     """Wheels, two PoseStamped, three Imu headings (one on a pose row), in receive order."""
     records = _wheel_records()
     records += [
-        ("/pose", "geometry_msgs/msg/PoseStamped", BASE + 250_000_000,
-         M.pose_stamped(BASE + 250_000_000, 1.0, 2.0, 0.3)),
-        ("/pose", "geometry_msgs/msg/PoseStamped", BASE + 1_200_000_000,
-         M.pose_stamped(BASE + 1_200_000_000, 5.0, -1.0, -3.0)),
+        (
+            "/pose",
+            "geometry_msgs/msg/PoseStamped",
+            BASE + 250_000_000,
+            M.pose_stamped(BASE + 250_000_000, 1.0, 2.0, 0.3),
+        ),
+        (
+            "/pose",
+            "geometry_msgs/msg/PoseStamped",
+            BASE + 1_200_000_000,
+            M.pose_stamped(BASE + 1_200_000_000, 5.0, -1.0, -3.0),
+        ),
         ("/imu", "sensor_msgs/msg/Imu", BASE + 320_000_000, M.imu(BASE + 320_000_000, 2.0)),
         ("/imu", "sensor_msgs/msg/Imu", BASE + 250_000_000, M.imu(BASE + 250_000_000, 1.0)),
-        ("/imu", "sensor_msgs/msg/Imu", BASE - 1000, M.imu(BASE - 1000, 1.0)),  # 1 us before the wheels
+        (
+            "/imu",
+            "sensor_msgs/msg/Imu",
+            BASE - 1000,
+            M.imu(BASE - 1000, 1.0),
+        ),  # 1 us before the wheels
     ]
     records.sort(key=lambda r: r[2])
     name = "known.bag" if kind == "ros1" else f"known_{kind}"
@@ -86,7 +99,9 @@ def test_known_bag_imports_exactly(tmp_path: Path, kind: str) -> None:
     np.testing.assert_allclose(log.pose[row[0.75]], [1.0, 2.0, 0.3])  # pose yaw beats the Imu
     np.testing.assert_allclose(log.pose[row[0.82]], [np.nan, np.nan, 2.0])  # heading-only row
     np.testing.assert_allclose(log.pose[row[1.7]], [5.0, -1.0, -3.0])
-    assert log.segment.tolist() == [0] * 13 + [1] * 5  # 0.6-s gap after k = 9; the pose at 1.7 s is 0.3 s into it
+    assert (
+        log.segment.tolist() == [0] * 13 + [1] * 5
+    )  # 0.6-s gap after k = 9; the pose at 1.7 s is 0.3 s into it
     assert result.rows == 18 and result.segments == 2 and result.heading_rows == 3
     report = json.loads(result.import_json.read_text())
     assert report["time_origin_ns"] == SEC * 10**9
@@ -110,17 +125,28 @@ def test_receive_stamps_keep_bag_order(tmp_path: Path) -> None:
 
 def test_twists_become_track_speeds(tmp_path: Path) -> None:
     records = [
-        ("/odom", "nav_msgs/msg/Odometry", BASE + k * STEP,
-         M.odometry(BASE + k * STEP, twist=(1.0, 0.5 * k), sigma=(0.1, 0.2, 0.05)))
+        (
+            "/odom",
+            "nav_msgs/msg/Odometry",
+            BASE + k * STEP,
+            M.odometry(BASE + k * STEP, twist=(1.0, 0.5 * k), sigma=(0.1, 0.2, 0.05)),
+        )
         for k in range(5)
     ] + [
-        ("/cmd", "geometry_msgs/msg/TwistStamped", BASE + k * STEP,
-         M.twist_stamped(BASE + k * STEP, -0.5, 1.0))
+        (
+            "/cmd",
+            "geometry_msgs/msg/TwistStamped",
+            BASE + k * STEP,
+            M.twist_stamped(BASE + k * STEP, -0.5, 1.0),
+        )
         for k in range(5)
     ]
     bag = write_bag(tmp_path / "t.mcap.d", "mcap", records)
     odom = import_bag(
-        bag, tmp_path / "a", ImportOptions("/odom", pose_topic="/odom", track_width=0.8), progress=False
+        bag,
+        tmp_path / "a",
+        ImportOptions("/odom", pose_topic="/odom", track_width=0.8),
+        progress=False,
     )
     log = read_wheel_log(odom.log_csv)
     omega = 0.5 * np.arange(5)
@@ -144,13 +170,23 @@ def _pose_bag(folder: Path, pose_records: list) -> Path:
 
 def test_tf_pose_between_the_frames_asked_for(tmp_path: Path) -> None:
     records = [
-        ("/tf", "tf2_msgs/msg/TFMessage", BASE + 3 * STEP,
-         M.tf(BASE + 3 * STEP, [("odom", "base_link", 1.0, 2.0, 0.4), ("map", "odom", 9, 9, 1)])),
-        ("/tf", "tf2_msgs/msg/TFMessage", BASE + 5 * STEP,
-         M.tf(BASE + 5 * STEP, [("map", "odom", 7.0, 7.0, 1.0)])),
+        (
+            "/tf",
+            "tf2_msgs/msg/TFMessage",
+            BASE + 3 * STEP,
+            M.tf(BASE + 3 * STEP, [("odom", "base_link", 1.0, 2.0, 0.4), ("map", "odom", 9, 9, 1)]),
+        ),
+        (
+            "/tf",
+            "tf2_msgs/msg/TFMessage",
+            BASE + 5 * STEP,
+            M.tf(BASE + 5 * STEP, [("map", "odom", 7.0, 7.0, 1.0)]),
+        ),
     ]
     bag = _pose_bag(tmp_path, records)
-    opts = ImportOptions("/odom", pose_topic="/tf", track_width=0.5, pose_frames=("/odom", "base_link"))
+    opts = ImportOptions(
+        "/odom", pose_topic="/tf", track_width=0.5, pose_frames=("/odom", "base_link")
+    )
     log = read_wheel_log(import_bag(bag, tmp_path / "out", opts, progress=False).log_csv)
     assert np.count_nonzero(log.has_pose) == 1
     np.testing.assert_allclose(log.pose[3], [1.0, 2.0, 0.4])
@@ -161,12 +197,18 @@ def test_tf_pose_between_the_frames_asked_for(tmp_path: Path) -> None:
 
 def test_pose_with_covariance(tmp_path: Path) -> None:
     records = [
-        ("/amcl", "geometry_msgs/msg/PoseWithCovarianceStamped", BASE + 2 * STEP,
-         M.pose_cov_stamped(BASE + 2 * STEP, 3.0, 4.0, -0.5, 0.3))
+        (
+            "/amcl",
+            "geometry_msgs/msg/PoseWithCovarianceStamped",
+            BASE + 2 * STEP,
+            M.pose_cov_stamped(BASE + 2 * STEP, 3.0, 4.0, -0.5, 0.3),
+        )
     ]
     result = import_bag(
-        _pose_bag(tmp_path, records), tmp_path / "out",
-        ImportOptions("/odom", pose_topic="/amcl", track_width=0.5), progress=False,
+        _pose_bag(tmp_path, records),
+        tmp_path / "out",
+        ImportOptions("/odom", pose_topic="/amcl", track_width=0.5),
+        progress=False,
     )
     log = read_wheel_log(result.log_csv)
     np.testing.assert_allclose(log.pose[2], [3.0, 4.0, -0.5])
@@ -178,19 +220,48 @@ def test_navsatfix_to_local_east_north(tmp_path: Path) -> None:
     a, e2 = 6378137.0, 0.00669437999014
     east, north = a * math.pi / 180e3, a * (1 - e2) * math.pi / 180e3
     records = [
-        ("/fix", "sensor_msgs/msg/NavSatFix", BASE + STEP, M.nav_sat_fix(BASE + STEP, 0, 0, status=-1)),
-        ("/fix", "sensor_msgs/msg/NavSatFix", BASE + 2 * STEP, M.nav_sat_fix(BASE + 2 * STEP, 0, 0, sigma=0.4)),
-        ("/fix", "sensor_msgs/msg/NavSatFix", BASE + 4 * STEP, M.nav_sat_fix(BASE + 4 * STEP, 0, 0.001)),
-        ("/fix", "sensor_msgs/msg/NavSatFix", BASE + 6 * STEP, M.nav_sat_fix(BASE + 6 * STEP, 0.001, 0)),
+        (
+            "/fix",
+            "sensor_msgs/msg/NavSatFix",
+            BASE + STEP,
+            M.nav_sat_fix(BASE + STEP, 0, 0, status=-1),
+        ),
+        (
+            "/fix",
+            "sensor_msgs/msg/NavSatFix",
+            BASE + 2 * STEP,
+            M.nav_sat_fix(BASE + 2 * STEP, 0, 0, sigma=0.4),
+        ),
+        (
+            "/fix",
+            "sensor_msgs/msg/NavSatFix",
+            BASE + 4 * STEP,
+            M.nav_sat_fix(BASE + 4 * STEP, 0, 0.001),
+        ),
+        (
+            "/fix",
+            "sensor_msgs/msg/NavSatFix",
+            BASE + 6 * STEP,
+            M.nav_sat_fix(BASE + 6 * STEP, 0.001, 0),
+        ),
     ]
     bag = _pose_bag(tmp_path, records)
-    result = import_bag(bag, tmp_path / "out", ImportOptions("/odom", pose_topic="/fix", track_width=0.5), progress=False)
+    result = import_bag(
+        bag,
+        tmp_path / "out",
+        ImportOptions("/odom", pose_topic="/fix", track_width=0.5),
+        progress=False,
+    )
     log = read_wheel_log(result.log_csv)
     np.testing.assert_allclose(log.pose[[2, 4, 6], :2], [[0, 0], [east, 0], [0, north]], atol=1e-3)
     assert np.isnan(log.pose[:, 2]).all()  # GPS has no heading
-    assert result.skipped["--pose-topic /fix"] == {"GPS fix without a solution (status < 0 or NaN)": 1}
+    assert result.skipped["--pose-topic /fix"] == {
+        "GPS fix without a solution (status < 0 or NaN)": 1
+    }
     assert load_config(result.config_yaml).ekf.sigma_r.x == pytest.approx(0.4)
-    origin = ImportOptions("/odom", pose_topic="/fix", track_width=0.5, gps_origin=(0.0, -0.001, 0.0))
+    origin = ImportOptions(
+        "/odom", pose_topic="/fix", track_width=0.5, gps_origin=(0.0, -0.001, 0.0)
+    )
     log = read_wheel_log(import_bag(bag, tmp_path / "o2", origin, progress=False).log_csv)
     np.testing.assert_allclose(log.pose[2, :2], [east, 0], atol=1e-3)
 
@@ -202,8 +273,18 @@ def test_images_and_camera_info(tmp_path: Path) -> None:
     records = [
         ("/cam/image_raw", "sensor_msgs/msg/Image", BASE + 3 * STEP, M.image(BASE + 3 * STEP, raw)),
         ("/cam/image_raw", "sensor_msgs/msg/Image", BASE + 2 * STEP, M.image(BASE + 2 * STEP, raw)),
-        ("/cam/camera_info", "sensor_msgs/msg/CameraInfo", BASE, M.camera_info(BASE, 32, 24, 40.0, 15.5, 11.5)),
-        ("/cam/compressed", "sensor_msgs/msg/CompressedImage", BASE + STEP, M.compressed_image(BASE + STEP, jpeg)),
+        (
+            "/cam/camera_info",
+            "sensor_msgs/msg/CameraInfo",
+            BASE,
+            M.camera_info(BASE, 32, 24, 40.0, 15.5, 11.5),
+        ),
+        (
+            "/cam/compressed",
+            "sensor_msgs/msg/CompressedImage",
+            BASE + STEP,
+            M.compressed_image(BASE + STEP, jpeg),
+        ),
     ]
     bag = _pose_bag(tmp_path, records)
     opts = ImportOptions("/odom", image_topic="/cam/image_raw", track_width=0.5, image_format="png")
@@ -212,8 +293,17 @@ def test_images_and_camera_info(tmp_path: Path) -> None:
     assert [round(t, 6) for t in frames.t] == [0.7, 0.8]  # sorted by stamp
     np.testing.assert_array_equal(cv2.imread(str(frames.files[0])), raw)  # png: lossless, BGR kept
     cfg = yaml.safe_load(result.config_yaml.read_text())
-    assert cfg["camera"] == {"width": 32, "height": 24, "fx": 40.0, "fy": 40.0, "cx": 15.5, "cy": 11.5}
-    assert result.fill_keys == tuple(f"camera.mount_{k}" for k in ("x", "y", "height", "pitch", "yaw"))
+    assert cfg["camera"] == {
+        "width": 32,
+        "height": 24,
+        "fx": 40.0,
+        "fy": 40.0,
+        "cx": 15.5,
+        "cy": 11.5,
+    }
+    assert result.fill_keys == tuple(
+        f"camera.mount_{k}" for k in ("x", "y", "height", "pitch", "yaw")
+    )
     assert "FILL IN" in result.config_yaml.read_text()
     comp = ImportOptions("/odom", image_topic="/cam/compressed", track_width=0.5)
     import_bag(bag, tmp_path / "c", comp, progress=False)
@@ -233,16 +323,36 @@ def test_inspect_lists_types_counts_rates_and_roles(tmp_path: Path) -> None:
 @pytest.mark.parametrize(
     ("options", "message"),
     [
-        (ImportOptions("/nope", wheel_radius=0.5), r"--wheels-topic /nope: no such topic .*/joint_states"),
-        (ImportOptions("/imu"), r"--wheels-topic /imu: type sensor_msgs/Imu, expected sensor_msgs/JointState"),
+        (
+            ImportOptions("/nope", wheel_radius=0.5),
+            r"--wheels-topic /nope: no such topic .*/joint_states",
+        ),
+        (
+            ImportOptions("/imu"),
+            r"--wheels-topic /imu: type sensor_msgs/Imu, expected sensor_msgs/JointState",
+        ),
         (ImportOptions("/joint_states"), r"JointState \(rad/s\): give --wheel-radius"),
-        (ImportOptions("/joint_states", wheel_radius=0.5, heading_topic="/pose"), r"--heading-topic /pose: type geometry_msgs/PoseStamped, expected sensor_msgs/Imu"),
-        (ImportOptions("/joint_states", wheel_radius=0.5, left_joints=("*rear*",)), r"do not split into left \['\*rear\*'\]"),
-        (ImportOptions("/joint_states", wheel_radius=-1.0), r"--wheel-radius must be finite and > 0"),
-        (ImportOptions("/joint_states", wheel_radius=0.5, stamps="bag"), r"--stamps must be one of"),
+        (
+            ImportOptions("/joint_states", wheel_radius=0.5, heading_topic="/pose"),
+            r"--heading-topic /pose: type geometry_msgs/PoseStamped, expected sensor_msgs/Imu",
+        ),
+        (
+            ImportOptions("/joint_states", wheel_radius=0.5, left_joints=("*rear*",)),
+            r"do not split into left \['\*rear\*'\]",
+        ),
+        (
+            ImportOptions("/joint_states", wheel_radius=-1.0),
+            r"--wheel-radius must be finite and > 0",
+        ),
+        (
+            ImportOptions("/joint_states", wheel_radius=0.5, stamps="bag"),
+            r"--stamps must be one of",
+        ),
     ],
 )
-def test_bad_options_and_topics_are_one_line(tmp_path: Path, options: ImportOptions, message: str) -> None:
+def test_bad_options_and_topics_are_one_line(
+    tmp_path: Path, options: ImportOptions, message: str
+) -> None:
     bag = _known_bag(tmp_path, "ros1")
     with pytest.raises((InputFileError, ConfigError), match=message) as info:
         import_bag(bag, tmp_path / "out", options, progress=False)
@@ -252,17 +362,31 @@ def test_bad_options_and_topics_are_one_line(tmp_path: Path, options: ImportOpti
 @pytest.mark.parametrize(
     ("records", "options", "message"),
     [
-        ([("/js", "sensor_msgs/msg/JointState", BASE, M.joint_state(BASE, JOINTS, []))],
-         ImportOptions("/js", wheel_radius=0.5), r"/js: a JointState without velocities"),
-        ([("/imu", "sensor_msgs/msg/Imu", BASE, M.imu(BASE, None))],
-         ImportOptions("/odom", heading_topic="/imu", track_width=0.5), r"/imu: an Imu topic without orientation"),
-        ([("/fix", "sensor_msgs/msg/NavSatFix", BASE, M.nav_sat_fix(BASE, 1, 1, status=-1))],
-         ImportOptions("/odom", pose_topic="/fix", track_width=0.5), r"/fix: a NavSatFix topic without fixes"),
-        ([("/tf", "tf2_msgs/msg/TFMessage", BASE, M.tf(BASE, []))],
-         ImportOptions("/odom", pose_topic="/tf", track_width=0.5), r"/tf is a tf2_msgs/TFMessage: give --pose-frames"),
+        (
+            [("/js", "sensor_msgs/msg/JointState", BASE, M.joint_state(BASE, JOINTS, []))],
+            ImportOptions("/js", wheel_radius=0.5),
+            r"/js: a JointState without velocities",
+        ),
+        (
+            [("/imu", "sensor_msgs/msg/Imu", BASE, M.imu(BASE, None))],
+            ImportOptions("/odom", heading_topic="/imu", track_width=0.5),
+            r"/imu: an Imu topic without orientation",
+        ),
+        (
+            [("/fix", "sensor_msgs/msg/NavSatFix", BASE, M.nav_sat_fix(BASE, 1, 1, status=-1))],
+            ImportOptions("/odom", pose_topic="/fix", track_width=0.5),
+            r"/fix: a NavSatFix topic without fixes",
+        ),
+        (
+            [("/tf", "tf2_msgs/msg/TFMessage", BASE, M.tf(BASE, []))],
+            ImportOptions("/odom", pose_topic="/tf", track_width=0.5),
+            r"/tf is a tf2_msgs/TFMessage: give --pose-frames",
+        ),
     ],
 )
-def test_unusable_messages_are_one_line(tmp_path: Path, records: list, options: ImportOptions, message: str) -> None:
+def test_unusable_messages_are_one_line(
+    tmp_path: Path, records: list, options: ImportOptions, message: str
+) -> None:
     with pytest.raises((InputFileError, ConfigError), match=message):
         import_bag(_pose_bag(tmp_path, records), tmp_path / "out", options, progress=False)
 
@@ -277,14 +401,18 @@ def test_topic_without_messages(tmp_path: Path) -> None:
         import_bag(path, tmp_path / "out", ImportOptions("/odom", track_width=0.5), progress=False)
 
 
-@pytest.mark.parametrize("name", ["notabag.bag", "notabag.mcap", "notabag.txt", "folder", "missing.bag"])
+@pytest.mark.parametrize(
+    "name", ["notabag.bag", "notabag.mcap", "notabag.txt", "folder", "missing.bag"]
+)
 def test_not_a_bag(tmp_path: Path, name: str) -> None:
     path = tmp_path / name
     if name == "folder":
         path.mkdir()
     elif name != "missing.bag":
         path.write_text("hello\n")
-    with pytest.raises(InputFileError, match=r"(not a readable ROS bag|no such file).*expected a ROS 1"):
+    with pytest.raises(
+        InputFileError, match=r"(not a readable ROS bag|no such file).*expected a ROS 1"
+    ):
         import_bag(path, tmp_path / "out", ImportOptions("/odom", track_width=0.5), progress=False)
 
 

@@ -218,7 +218,9 @@ def _output_paths(out: Path) -> dict[str, Path]:
 def _check_options(options: ImportOptions) -> None:
     """Raise ConfigError on an option outside its range."""
     if options.stamps not in STAMP_CHOICES:
-        raise ConfigError(f"--stamps must be one of {', '.join(STAMP_CHOICES)}, got {options.stamps!r}")
+        raise ConfigError(
+            f"--stamps must be one of {', '.join(STAMP_CHOICES)}, got {options.stamps!r}"
+        )
     if not 0.0 < options.max_gap < math.inf:
         raise ConfigError(f"--max-gap must be finite and > 0 s, got {options.max_gap}")
     if options.image_format not in FRAME_FORMATS:
@@ -229,7 +231,9 @@ def _check_options(options: ImportOptions) -> None:
             raise ConfigError(f"--{name.replace('_', '-')} must be finite and > 0 m, got {value}")
     origin = options.gps_origin
     if origin is not None and not (abs(origin[0]) <= 90 and abs(origin[1]) <= 180):
-        raise ConfigError(f"--gps-origin: latitude within +-90, longitude within +-180; got {origin}")
+        raise ConfigError(
+            f"--gps-origin: latitude within +-90, longitude within +-180; got {origin}"
+        )
 
 
 def _robot(options: ImportOptions) -> dict[str, float | None]:
@@ -274,7 +278,7 @@ def _plan(
 
 
 def _camera_info_topic(reader: Any, options: ImportOptions) -> str | None:
-    """The camera-info topic given, else the image topic's sibling ``camera_info`` if present."""
+    """Return the camera-info topic given, else the image topic's sibling ``camera_info`` if present."""
     if options.camera_info_topic is not None or options.image_topic is None:
         return options.camera_info_topic
     sibling = options.image_topic.rsplit("/", 1)[0] + "/camera_info"
@@ -307,7 +311,7 @@ def _wheel_geometry(
 def _pose_stream(
     bag: str | Path, options: ImportOptions, types: dict[str, str], stamps: StampRule
 ) -> PoseStream | None:
-    """The pose stream, checking that a ``/tf`` pose topic comes with ``--pose-frames``."""
+    """Return the pose stream, checking that a ``/tf`` pose topic comes with ``--pose-frames``."""
     if options.pose_topic is None:
         return None
     if types[options.pose_topic] == TF_MESSAGE and options.pose_frames is None:
@@ -358,7 +362,9 @@ def _merge(collect: _Collect, options: ImportOptions, bag: str | Path) -> Merged
             f"{collect.wheels.where}: no message with a usable stamp "
             f"({_skips(collect.wheels.skipped)})"
         )
-    poses = collect.poses.pose_rows(collect.types[options.pose_topic]) if collect.poses else None
+    poses = None
+    if collect.poses is not None and options.pose_topic is not None:
+        poses = collect.poses.pose_rows(collect.types[options.pose_topic])
     headings = collect.headings.heading_rows() if collect.headings else None
     return merge_streams(wheels, poses, headings, max_gap=options.max_gap, source=str(bag))
 
@@ -411,8 +417,15 @@ def _pose_noise(data: dict[str, Any], collect: _Collect) -> None:
 def _camera(data: dict[str, Any], camera: Intrinsics | None) -> list[str]:
     """Set the camera intrinsics; return the camera keys to fill."""
     if camera is None:
-        return ["camera.width", "camera.height", "camera.fx", "camera.fy", "camera.cx", "camera.cy",
-                *CAMERA_MOUNT_KEYS]
+        return [
+            "camera.width",
+            "camera.height",
+            "camera.fx",
+            "camera.fy",
+            "camera.cx",
+            "camera.cy",
+            *CAMERA_MOUNT_KEYS,
+        ]
     known = {k: getattr(camera, k) for k in ("width", "height", "fx", "fy", "cx", "cy")}
     data["camera"] = {**data.get("camera", {}), **known}
     return list(CAMERA_MOUNT_KEYS)
@@ -455,12 +468,14 @@ def _report(
     merged: MergedLog,
     result: ImportResult,
 ) -> dict[str, Any]:
-    """The content of ``import.json``."""
+    """Return the content of ``import.json``."""
     log = merged.log
     return {
         **report_header("import"),
         "bag": str(Path(bag).resolve()),
-        "topics": {topic: msgtype.replace("/msg/", "/") for topic, msgtype in collect.types.items()},
+        "topics": {
+            topic: msgtype.replace("/msg/", "/") for topic, msgtype in collect.types.items()
+        },
         "stamps": options.stamps,
         "time_origin_ns": merged.origin_ns,
         "time_span_s": [float(log.t[0]), float(log.t[-1])],
@@ -475,7 +490,9 @@ def _report(
             "wheel_messages_out_of_order": merged.out_of_order,
         },
         "skipped": result.skipped,
-        "gps_origin": list(collect.poses.origin_used) if collect.poses and collect.poses.origin_used else None,
+        "gps_origin": list(collect.poses.origin_used)
+        if collect.poses and collect.poses.origin_used
+        else None,
         "camera_distortion": list(collect.camera.distortion) if collect.camera else None,
         "fill_in_config": list(result.fill_keys),
         "seconds": round(result.seconds, 3),

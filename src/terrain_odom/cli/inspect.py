@@ -31,7 +31,9 @@ def _cmd_inspect(args: argparse.Namespace) -> int:
     for t in summary.topics:
         rate = f"{t.rate:.1f}" if t.rate is not None else "-"
         roles = ", ".join(t.roles) or "-"
-        rows.append((t.topic, short_type(t.msgtype), str(t.count), rate, f"{t.duration:.1f}", roles))
+        rows.append(
+            (t.topic, short_type(t.msgtype), str(t.count), rate, f"{t.duration:.1f}", roles)
+        )
     widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
     for r in rows:
         print("  ".join(cell.ljust(w) for cell, w in zip(r, widths, strict=True)).rstrip())

@@ -40,7 +40,8 @@ def _encode(msg: Any, fmt: str, where: str) -> bytes:
     except (ImageConversionError, ImageFormatError, ValueError, cv2.error) as exc:
         raise InputFileError(f"{where}: cannot decode the image ({exc})") from None
     if image.dtype != np.uint8:  # 16-bit or float images: scale to 8 bit for the classifier
-        image = cv2.normalize(image, None, 0, 255, cv2.NORM_MINMAX).astype(np.uint8)
+        low, high = float(image.min()), float(image.max())
+        image = ((image - low) * (255.0 / max(high - low, 1e-12))).astype(np.uint8)
     ok, data = cv2.imencode(f".{fmt}", image)
     if not ok:
         raise InputFileError(f"{where}: cannot encode the image as {fmt}")
@@ -57,9 +58,7 @@ def _color_space(msg: Any) -> str | None:
     return None if not encoding or single else "bgr8"
 
 
-def write_frame(
-    msg: Any, msgtype: str, path: str | os.PathLike[str], fmt: str, where: str
-) -> None:
+def write_frame(msg: Any, msgtype: str, path: str | os.PathLike[str], fmt: str, where: str) -> None:
     """Write one image message to ``path`` in ``fmt`` (``jpg`` or ``png``), atomically.
 
     Parameters
@@ -76,7 +75,9 @@ def write_frame(
     write_atomic(path, lambda handle: handle.write(data))
 
 
-def write_frames_csv(path: str | os.PathLike[str], t: Sequence[float], files: Sequence[str]) -> None:
+def write_frames_csv(
+    path: str | os.PathLike[str], t: Sequence[float], files: Sequence[str]
+) -> None:
     """Write ``frames.csv`` (``t,file``; t to 1 microsecond) sorted by time, atomically."""
     order = np.argsort(np.asarray(t, dtype=float), kind="stable")
     lines = ["t,file", *(f"{t[i]:.6f},{Path(files[i]).as_posix()}" for i in order)]

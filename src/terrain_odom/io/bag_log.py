@@ -53,7 +53,7 @@ class MergedLog:
 
 
 def time_origin_ns(stamp_ns: np.ndarray) -> int:
-    """The log's time origin: the first stamp rounded down to a whole second, ns.
+    """Return the log's time origin: the first stamp rounded down to a whole second, ns.
 
     Examples
     --------

@@ -116,14 +116,16 @@ def stamp_ns(stamp: Any) -> int:
 
 
 def match_joints(names: Sequence[str], patterns: Sequence[str]) -> list[int]:
-    """Indices of the joint ``names`` matching any of the shell ``patterns`` (``fnmatch``).
+    """Return the indices of the joint ``names`` matching any of the shell ``patterns`` (``fnmatch``).
 
     Examples
     --------
     >>> match_joints(["front_left_wheel", "rear_left_wheel", "front_right_wheel"], ["*left*"])
     [0, 1]
     """
-    return [i for i, name in enumerate(names) if any(fnmatch.fnmatchcase(name, p) for p in patterns)]
+    return [
+        i for i, name in enumerate(names) if any(fnmatch.fnmatchcase(name, p) for p in patterns)
+    ]
 
 
 def joint_speeds(
@@ -163,7 +165,7 @@ def planar_pose(pose: Any) -> tuple[float, float, float]:
 
 
 def pose_sigmas(covariance: Sequence[float]) -> tuple[float, float, float]:
-    """Standard deviations of x, y, yaw from a row-major 6x6 pose covariance (NaN if not > 0).
+    """Return the std devs of x, y, yaw of a row-major 6x6 pose covariance (NaN if not > 0).
 
     Examples
     --------
@@ -195,7 +197,7 @@ def imu_yaw(msg: Any) -> float | None:
 
 
 def fix_status(msg: Any) -> int:
-    """The ``NavSatStatus`` of a ``NavSatFix``: < 0 means no fix."""
+    """Return the ``NavSatStatus`` of a ``NavSatFix``: < 0 means no fix."""
     return int(msg.status.status)
 
 
@@ -235,8 +237,8 @@ def enu_from_geodetic(
 
 def intrinsics(msg: Any) -> Intrinsics:
     """Intrinsics of a ``CameraInfo`` message (ROS 2 ``k``/``d`` or ROS 1 ``K``/``D``)."""
-    k = np.asarray(getattr(msg, "k", None) if hasattr(msg, "k") else msg.K, dtype=float)
-    d = getattr(msg, "d", None) if hasattr(msg, "d") else msg.D
+    k = np.asarray(msg.k if hasattr(msg, "k") else msg.K, dtype=float)
+    d = msg.d if hasattr(msg, "d") else msg.D
     return Intrinsics(
         width=int(msg.width),
         height=int(msg.height),

@@ -127,7 +127,9 @@ def open_bag(path: str | os.PathLike[str]) -> Iterator[AnyReader]:
         reader = AnyReader([p], default_typestore=get_typestore(Stores.ROS2_HUMBLE))
         reader.open()
     except (AnyReaderError, OSError, ValueError, KeyError) as exc:
-        raise InputFileError(f"{path}: not a readable ROS bag ({_reason(exc)}); {_EXPECTED}") from None
+        raise InputFileError(
+            f"{path}: not a readable ROS bag ({_reason(exc)}); {_EXPECTED}"
+        ) from None
     try:
         yield reader
     finally:
@@ -141,9 +143,13 @@ def _reason(exc: BaseException) -> str:
 
 
 def topic_connections(
-    reader: AnyReader, path: str | os.PathLike[str], topic: str, option: str, accepted: Sequence[str]
+    reader: AnyReader,
+    path: str | os.PathLike[str],
+    topic: str,
+    option: str,
+    accepted: Sequence[str],
 ) -> list[Connection]:
-    """The connections of ``topic``, checked to exist, to have messages and an accepted type.
+    """Return the connections of ``topic``, checked to exist, to have messages and an accepted type.
 
     Raises
     ------
@@ -223,14 +229,14 @@ def summarize_bag(path: str | os.PathLike[str], progress: bool | None = None) ->
         for name in sorted({c.topic for c in reader.connections}):
             conns = [c for c in reader.connections if c.topic == name]
             msgtype = conns[0].msgtype
-            span = spans.get(name)
+            seen = spans.get(name)
             topics.append(
                 TopicSummary(
                     topic=name,
                     msgtype=msgtype,
                     count=sum(c.msgcount for c in conns),
-                    start_ns=span[0] if span else None,
-                    end_ns=span[1] if span else None,
+                    start_ns=seen[0] if seen else None,
+                    end_ns=seen[1] if seen else None,
                     roles=roles_of(msgtype),
                 )
             )

@@ -27,7 +27,6 @@ from terrain_odom.io.bag_messages import (
     ODOMETRY,
     POSE_COV_STAMPED,
     TF_MESSAGE,
-    TWIST_STAMPED,
     enu_from_geodetic,
     fix_status,
     imu_yaw,
@@ -51,7 +50,7 @@ class StampRule:
     kind: str = "header"
 
     def of(self, message: BagMessage, header: Any | None = None) -> int | None:
-        """The stamp (ns) of ``message`` (``header``: another header than the message's own).
+        """Return the stamp (ns) of ``message`` (``header``: another header than the message's own).
 
         None for a header stamp of 0 (never set by the sender).
         """
@@ -95,7 +94,7 @@ class _Stream:
         self.skipped[reason] = self.skipped.get(reason, 0) + 1
 
     def rows(self, width: int) -> StampedRows:
-        """The stamps and values kept so far; values of shape (N, width) (or (N,) if 0)."""
+        """Return the stamps and values kept so far; values of shape (N, width) (or (N,) if 0)."""
         shape = (len(self.value_list), width) if width else (len(self.value_list),)
         values = np.asarray(self.value_list, dtype=float).reshape(shape)
         return StampedRows(np.asarray(self.stamp_list, dtype=np.int64), values)
@@ -228,7 +227,9 @@ class PoseStream(_Stream):
         first = int(np.argmin(geo.stamp_ns))
         self.origin_used = self.origin or tuple(float(v) for v in geo.values[first])  # type: ignore[assignment]
         assert self.origin_used is not None
-        enu = enu_from_geodetic(*geo.values.T, origin=self.origin_used)
+        enu = enu_from_geodetic(
+            geo.values[:, 0], geo.values[:, 1], geo.values[:, 2], self.origin_used
+        )
         values = np.column_stack([enu[:, 0], enu[:, 1], np.full(len(geo), np.nan)])
         return StampedRows(geo.stamp_ns, values)
 

@@ -77,12 +77,12 @@ class MessageFactory:
         self.t = self.store.types
 
     def header(self, ns: int, frame: str = "") -> Any:
-        """A ``std_msgs/Header`` stamped ``ns`` nanoseconds."""
+        """Build a ``std_msgs/Header`` stamped ``ns`` nanoseconds."""
         stamp = self.t["builtin_interfaces/msg/Time"](sec=ns // 10**9, nanosec=ns % 10**9)
         return self.t["std_msgs/msg/Header"](stamp=stamp, frame_id=frame)
 
     def quaternion(self, yaw: float) -> Any:
-        """The rotation by ``yaw`` about z."""
+        """Build the rotation by ``yaw`` about z."""
         return self.t["geometry_msgs/msg/Quaternion"](
             x=0.0, y=0.0, z=math.sin(yaw / 2), w=math.cos(yaw / 2)
         )
@@ -100,7 +100,7 @@ class MessageFactory:
         )
 
     def joint_state(self, ns: int, names: Sequence[str], velocity: Sequence[float]) -> Any:
-        """A ``JointState`` with velocities (rad/s), positions zero."""
+        """Build a ``JointState`` with velocities (rad/s), positions zero."""
         return self.t[JOINT_STATE](
             header=self.header(ns),
             name=list(names),
@@ -116,7 +116,7 @@ class MessageFactory:
         twist: Sequence[float] = (0.0, 0.0),
         sigma: Sequence[float] = (0.0, 0.0, 0.0),
     ) -> Any:
-        """An ``Odometry``: pose ``x, y, yaw``, twist ``v, omega``, pose std devs ``x, y, yaw``."""
+        """Build a ``Odometry``: pose ``x, y, yaw``, twist ``v, omega``, pose std devs ``x, y, yaw``."""
         cov = np.zeros(36)
         cov[[0, 7, 35]] = np.square(sigma)
         t = self.t
@@ -130,15 +130,15 @@ class MessageFactory:
         )
 
     def twist_stamped(self, ns: int, v: float, omega: float) -> Any:
-        """A ``TwistStamped`` body twist."""
+        """Build a ``TwistStamped`` body twist."""
         return self.t[TWIST_STAMPED](header=self.header(ns), twist=self._twist(v, omega))
 
     def pose_stamped(self, ns: int, x: float, y: float, yaw: float) -> Any:
-        """A ``PoseStamped``."""
+        """Build a ``PoseStamped``."""
         return self.t[POSE_STAMPED](header=self.header(ns, "map"), pose=self._pose(x, y, yaw))
 
     def pose_cov_stamped(self, ns: int, x: float, y: float, yaw: float, sigma: float) -> Any:
-        """A ``PoseWithCovarianceStamped`` with std dev ``sigma`` on x, y and yaw."""
+        """Build a ``PoseWithCovarianceStamped`` with std dev ``sigma`` on x, y and yaw."""
         cov = np.zeros(36)
         cov[[0, 7, 35]] = sigma**2
         pose = self.t["geometry_msgs/msg/PoseWithCovariance"](
@@ -147,7 +147,7 @@ class MessageFactory:
         return self.t[POSE_COV_STAMPED](header=self.header(ns, "map"), pose=pose)
 
     def tf(self, ns: int, transforms: Sequence[tuple[str, str, float, float, float]]) -> Any:
-        """A ``TFMessage`` of ``(parent, child, x, y, yaw)`` transforms."""
+        """Build a ``TFMessage`` of ``(parent, child, x, y, yaw)`` transforms."""
         t = self.t
         stamped = [
             t["geometry_msgs/msg/TransformStamped"](
@@ -164,7 +164,7 @@ class MessageFactory:
     def nav_sat_fix(
         self, ns: int, lat: float, lon: float, alt: float = 0.0, status: int = 0, sigma: float = 0.0
     ) -> Any:
-        """A ``NavSatFix`` (``status`` < 0: no fix); ``sigma`` > 0 gives a diagonal covariance."""
+        """Build a ``NavSatFix`` (``status`` < 0: no fix); ``sigma`` > 0 gives a diagonal covariance."""
         cov = np.zeros(9)
         cov[[0, 4, 8]] = sigma**2
         return self.t[NAV_SAT_FIX](
@@ -178,7 +178,7 @@ class MessageFactory:
         )
 
     def imu(self, ns: int, yaw: float | None, sigma: float = 0.01) -> Any:
-        """An ``Imu`` with orientation ``yaw`` (None: no orientation, covariance[0] = -1)."""
+        """Build a ``Imu`` with orientation ``yaw`` (None: no orientation, covariance[0] = -1)."""
         cov = np.zeros(9)
         cov[0], cov[8] = (-1.0, 0.0) if yaw is None else (sigma**2, sigma**2)
         return self.t[IMU](
@@ -192,7 +192,7 @@ class MessageFactory:
         )
 
     def image(self, ns: int, bgr: np.ndarray, frame: str = "camera") -> Any:
-        """A raw ``Image`` (``bgr8``) of an 8-bit BGR array."""
+        """Build a raw ``Image`` (``bgr8``) of an 8-bit BGR array."""
         h, w = bgr.shape[:2]
         return self.t[IMAGE](
             header=self.header(ns, frame),
@@ -205,7 +205,7 @@ class MessageFactory:
         )
 
     def compressed_image(self, ns: int, data: bytes, fmt: str = "jpeg") -> Any:
-        """A ``CompressedImage`` holding already-encoded bytes."""
+        """Build a ``CompressedImage`` holding already-encoded bytes."""
         return self.t[COMPRESSED_IMAGE](
             header=self.header(ns, "camera"),
             format=fmt,
@@ -213,7 +213,7 @@ class MessageFactory:
         )
 
     def camera_info(self, ns: int, width: int, height: int, fx: float, cx: float, cy: float) -> Any:
-        """A ``CameraInfo`` (square pixels, no distortion)."""
+        """Build a ``CameraInfo`` (square pixels, no distortion)."""
         k = np.array([fx, 0.0, cx, 0.0, fx, cy, 0.0, 0.0, 1.0])
         p = np.array([fx, 0.0, cx, 0.0, 0.0, fx, cy, 0.0, 0.0, 0.0, 1.0, 0.0])
         roi = self.t["sensor_msgs/msg/RegionOfInterest"](
