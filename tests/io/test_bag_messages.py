@@ -39,7 +39,9 @@ def test_joint_speeds_average_each_side() -> None:
     names = ["front_left", "rear_left", "front_right", "rear_right", "caster"]
     left, right = match_joints(names, ["*left"]), match_joints(names, ["front_right", "rear_r*"])
     assert (left, right) == ([0, 1], [2, 3])
-    assert joint_speeds([1.0, 2.0, -3.0, -5.0, 99.0], left, right, 0.2) == pytest.approx((0.3, -0.8))
+    assert joint_speeds([1.0, 2.0, -3.0, -5.0, 99.0], left, right, 0.2) == pytest.approx(
+        (0.3, -0.8)
+    )
 
 
 def test_pose_sigmas_of_the_diagonal() -> None:

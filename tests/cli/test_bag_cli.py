@@ -1,0 +1,114 @@
+"""``terrain-odom inspect`` and ``terrain-odom import``: what they print, exit codes, bad input."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from terrain_odom.cli.main import main
+from terrain_odom.io.bag_writer import MessageFactory, write_bag
+from terrain_odom.io.wheel_log import read_wheel_log
+
+M = MessageFactory()
+BASE = 1_700_000_000 * 10**9
+
+
+@pytest.fixture
+def bag(tmp_path: Path) -> Path:
+    """A 1-s MCAP bag: Odometry at 20 Hz, Imu at 10 Hz."""
+    records = [
+        (
+            "/odom",
+            "nav_msgs/msg/Odometry",
+            BASE + k * 50_000_000,
+            M.odometry(BASE + k * 50_000_000, twist=(0.5, 0.2)),
+        )
+        for k in range(21)
+    ] + [
+        (
+            "/imu/data",
+            "sensor_msgs/msg/Imu",
+            BASE + k * 100_000_000 + 7_000_000,
+            M.imu(BASE + k * 100_000_000 + 7_000_000, 0.1 * k),
+        )
+        for k in range(10)
+    ]
+    folder = write_bag(tmp_path / "rec", "mcap", sorted(records, key=lambda r: r[2]))
+    return next(folder.glob("*.mcap"))
+
+
+def test_inspect_prints_every_topic_with_its_roles(
+    bag: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(["inspect", str(bag)]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[0] == f"bag:      {bag} (MCAP)"
+    assert out[1] == "messages: 31 over 1.0 s"
+    assert out[3].split() == ["/imu/data", "sensor_msgs/Imu", "10", "10.0", "0.9", "heading"]
+    assert out[4].split() == ["/odom", "nav_msgs/Odometry", "21", "20.0", "1.0", "wheels,", "pose"]
+
+
+def test_import_prints_counts_and_files(
+    bag: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out_dir = tmp_path / "out"
+    argv = [
+        "import",
+        str(bag),
+        "--out",
+        str(out_dir),
+        "--wheels-topic",
+        "/odom",
+        "--heading-topic",
+        "/imu/data",
+        "--track-width",
+        "0.4",
+    ]
+    assert main(argv) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].startswith(
+        "31 rows over 1.0 s (1 segment): 0 with x, y, 10 with yaw; 0 frames;"
+    )
+    assert lines[1:] == [
+        f"log:        {out_dir / 'log.csv'}",
+        f"config:     {out_dir / 'config.yaml'}",
+        f"report:     {out_dir / 'import.json'}",
+    ]
+    log = read_wheel_log(out_dir / "log.csv")
+    np.testing.assert_allclose([log.v_l[0], log.v_r[0]], [0.46, 0.54])  # 0.5 -+ 0.2 * 0.4 / 2
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        (
+            ["--wheels-topic", "/imu/data"],
+            "--wheels-topic /imu/data: type sensor_msgs/Imu, expected",
+        ),
+        (["--wheels-topic", "/odom"], "body twist (nav_msgs/Odometry): give --track-width"),
+        (
+            ["--wheels-topic", "/cmd_vel", "--track-width", "1"],
+            "--wheels-topic /cmd_vel: no such topic",
+        ),
+        (["--wheels-topic", "/odom", "--track-width", "1", "--max-gap", "0"], "--max-gap must be"),
+    ],
+)
+def test_bad_input_is_one_line_exit_2(
+    bag: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str], extra: list[str], message: str
+) -> None:
+    assert main(["import", str(bag), "--out", str(tmp_path / "o"), *extra]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and message in err and err.startswith("terrain-odom: error: ")
+
+
+def test_not_a_bag_is_one_line_exit_2(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    path = tmp_path / "log.bag"
+    path.write_text("t,v_l,v_r\n")
+    assert main(["inspect", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert (
+        err
+        == f"terrain-odom: error: {path}: not a readable ROS bag (File magic is invalid.); expected a ROS 1 .bag file, a ROS 2 bag folder (metadata.yaml) or a .mcap file\n"
+    )
