@@ -17,7 +17,7 @@ BASE = 1_700_000_000 * 10**9
 
 @pytest.fixture
 def bag(tmp_path: Path) -> Path:
-    """A 1-s MCAP bag: Odometry at 20 Hz, Imu at 10 Hz."""
+    """Write a 1-s MCAP bag: Odometry at 20 Hz, Imu at 10 Hz."""
     records = [
         (
             "/odom",
