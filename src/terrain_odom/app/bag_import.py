@@ -482,7 +482,7 @@ def _report(
         "max_gap_s": options.max_gap,
         "counts": {
             "rows": result.rows,
-            "wheel_messages": len(collect.wheels.stamp_list),
+            "wheel_messages": len(collect.wheels.stamps_kept),
             "pose_rows": result.pose_rows,
             "heading_rows": result.heading_rows,
             "frames": result.frames,

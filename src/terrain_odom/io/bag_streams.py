@@ -2,8 +2,9 @@
 
 :class:`WheelStream`, :class:`PoseStream` and :class:`HeadingStream` each
 take the messages of one topic (:meth:`add`) and keep only the few numbers
-per message the wheel log needs (a stamp and two or three floats), so a
-long bag is read in one pass at small memory; :meth:`rows` returns them as
+per message the wheel log needs (a stamp and two or three floats, in
+compact arrays: 24-32 bytes a message), so a long bag is read in one pass
+at small memory; :meth:`rows` returns them as
 :class:`~terrain_odom.io.bag_log.StampedRows`. Each raises a one-line
 :class:`~terrain_odom.errors.InputFileError` naming the topic on a message
 it cannot use (a ``JointState`` without velocities or without the joints
@@ -13,6 +14,7 @@ asked for, an ``Imu`` without orientation on every message, a
 
 from __future__ import annotations
 
+from array import array
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -78,26 +80,32 @@ class _Stream:
 
     where: str
     stamps: StampRule
-    stamp_list: list[int] = field(default_factory=list)
-    value_list: list[Any] = field(default_factory=list)
+    stamps_kept: array[int] = field(default_factory=lambda: array("q"))
+    values_kept: array[float] = field(default_factory=lambda: array("d"))
     skipped: dict[str, int] = field(default_factory=dict)
 
-    def _keep(self, message: BagMessage, value: Any, header: Any | None = None) -> None:
+    def _keep(
+        self, message: BagMessage, value: float | Sequence[float], header: Any | None = None
+    ) -> None:
+        """Keep a value (a float, or a fixed number of floats per message) at the message's stamp."""
         stamp = self.stamps.of(message, header)
         if stamp is None:
             self._skip("header stamp 0 (unset; --stamps receive uses the bag's time)")
             return
-        self.stamp_list.append(stamp)
-        self.value_list.append(value)
+        self.stamps_kept.append(stamp)
+        if isinstance(value, float):
+            self.values_kept.append(value)
+        else:
+            self.values_kept.extend(value)
 
     def _skip(self, reason: str) -> None:
         self.skipped[reason] = self.skipped.get(reason, 0) + 1
 
     def rows(self, width: int) -> StampedRows:
         """Return the stamps and values kept so far; values of shape (N, width) (or (N,) if 0)."""
-        shape = (len(self.value_list), width) if width else (len(self.value_list),)
-        values = np.asarray(self.value_list, dtype=float).reshape(shape)
-        return StampedRows(np.asarray(self.stamp_list, dtype=np.int64), values)
+        n = len(self.stamps_kept)
+        values = np.array(self.values_kept, dtype=float).reshape((n, width) if width else (n,))
+        return StampedRows(np.array(self.stamps_kept, dtype=np.int64), values)
 
 
 @dataclass
@@ -206,7 +214,7 @@ class PoseStream(_Stream):
             If ``/tf`` had no transform between the frames asked for, or a
             NavSatFix topic no fix with a solution.
         """
-        if topic_type == TF_MESSAGE and not self.stamp_list:
+        if topic_type == TF_MESSAGE and not self.stamps_kept:
             assert self.frames is not None
             seen = ", ".join(f"{p} -> {c}" for p, c in sorted(self.frames_seen)) or "none"
             raise InputFileError(
@@ -218,7 +226,7 @@ class PoseStream(_Stream):
         return self._enu_rows()
 
     def _enu_rows(self) -> StampedRows:
-        if not self.stamp_list:
+        if not self.stamps_kept:
             raise InputFileError(
                 f"{self.where}: a NavSatFix topic without fixes (every message has status < 0 "
                 "or NaN position); expected at least one fix with a solution"
@@ -263,7 +271,7 @@ class HeadingStream(_Stream):
         InputFileError
             If no message had an orientation.
         """
-        if not self.stamp_list and "Imu without orientation" in self.skipped:
+        if not self.stamps_kept and "Imu without orientation" in self.skipped:
             raise InputFileError(
                 f"{self.where}: an Imu topic without orientation (orientation_covariance[0] "
                 "= -1 on every message); expected an orientation for the heading"
