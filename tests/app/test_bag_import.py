@@ -10,6 +10,7 @@ import cv2
 import numpy as np
 import pytest
 import yaml
+from scipy.spatial.transform import Rotation
 
 from terrain_odom.app.bag_import import ImportOptions, import_bag, inspect_bag
 from terrain_odom.config import load_config
@@ -425,3 +426,45 @@ def test_never_overwrites_an_input(tmp_path: Path) -> None:
     with pytest.raises(InputFileError, match="refusing to overwrite the input"):
         import_bag(bag, tmp_path / "out", opts, progress=False)
     assert cfg.read_text() == "robot: {wheel_radius: 0.5}\n"
+
+
+def test_camera_mount_from_tf_static(tmp_path: Path) -> None:
+    # base_link -> camera_link: 0.3 m ahead, 0.1 m left, 0.4 m up, pitched 30 deg down, turned
+    # 10 deg left; camera_link -> camera_optical: the ROS optical rotation (z forward, y down)
+    pitch, yaw = math.radians(30), math.radians(10)
+    q = Rotation.from_euler("ZY", [yaw, pitch]).as_quat()
+    records = [
+        (
+            "/tf_static",
+            "tf2_msgs/msg/TFMessage",
+            BASE,
+            M.tf_static(
+                BASE,
+                [
+                    ("base_link", "camera_link", (0.3, 0.1, 0.4), q),
+                    ("camera_link", "camera_optical", (0.0, 0.0, 0.0), (-0.5, 0.5, -0.5, 0.5)),
+                ],
+            ),
+        ),
+        (
+            "/cam/image_raw",
+            "sensor_msgs/msg/Image",
+            BASE + STEP,
+            M.image(BASE + STEP, np.zeros((4, 6, 3), np.uint8), frame="camera_optical"),
+        ),
+    ]
+    opts = ImportOptions("/odom", image_topic="/cam/image_raw", track_width=0.5)
+    result = import_bag(_pose_bag(tmp_path, records), tmp_path / "out", opts, progress=False)
+    camera = load_config(result.config_yaml).camera
+    got = [
+        camera.mount_x,
+        camera.mount_y,
+        camera.mount_height,
+        camera.mount_pitch,
+        camera.mount_yaw,
+    ]
+    np.testing.assert_allclose(got, [0.3, 0.1, 0.4, pitch, yaw], atol=1e-9)
+    assert result.fill_keys == tuple(
+        f"camera.{k}" for k in ("width", "height", "fx", "fy", "cx", "cy")
+    )
+    assert "mount_height is above base_link's origin" in result.config_yaml.read_text()

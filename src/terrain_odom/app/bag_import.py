@@ -39,7 +39,10 @@ from terrain_odom.io.bag_messages import (
     ROLE_TYPES,
     TF_MESSAGE,
     Intrinsics,
+    camera_mount,
+    chain_transform,
     intrinsics,
+    transform_matrix,
 )
 from terrain_odom.io.bag_reader import (
     BagMessage,
@@ -58,6 +61,7 @@ from terrain_odom.io.wheel_log import write_wheel_log
 __all__ = ["ImportOptions", "ImportResult", "import_bag", "inspect_bag"]
 
 STAMP_CHOICES = ("header", "receive")
+TF_STATIC = "/tf_static"
 CAMERA_MOUNT_KEYS = (
     "camera.mount_x",
     "camera.mount_y",
@@ -87,6 +91,9 @@ class ImportOptions:
         Shell patterns of the JointState joints of each side (averaged).
     pose_frames : (str, str), optional
         Parent and child frame of the ``/tf`` pose.
+    base_frame : str
+        The robot's frame, for the camera mounting from ``/tf_static``
+        (the image's ``frame_id`` in it).
     gps_origin : (float, float, float), optional
         ENU origin: latitude, longitude (deg), altitude (m).
     stamps : {'header', 'receive'}
@@ -108,6 +115,7 @@ class ImportOptions:
     left_joints: tuple[str, ...] = ("*left*",)
     right_joints: tuple[str, ...] = ("*right*",)
     pose_frames: tuple[str, str] | None = None
+    base_frame: str = "base_link"
     gps_origin: tuple[float, float, float] | None = None
     stamps: str = "header"
     max_gap: float = 0.5
@@ -166,6 +174,8 @@ class _Collect:
     types: dict[str, str]
     images: list[tuple[int, str]] = field(default_factory=list)
     camera: Intrinsics | None = None
+    static: dict[tuple[str, str], np.ndarray] = field(default_factory=dict)
+    image_frame: str | None = None
 
 
 def import_bag(
@@ -262,6 +272,10 @@ def _plan(
             conns = topic_connections(reader, bag, topic, option, accepted)
             connections += [c for c in conns if c not in connections]
             types[topic] = conns[0].msgtype
+    if options.image_topic is not None:
+        connections += [
+            c for c in reader.connections if c.topic == TF_STATIC and c not in connections
+        ]
     stamps = StampRule(options.stamps)
     wheels = WheelStream(f"{bag}: --wheels-topic {options.wheels_topic}", stamps)
     _wheel_geometry(wheels, types[options.wheels_topic], options, robot)
@@ -341,6 +355,10 @@ def _dispatch(collect: _Collect, message: BagMessage, options: ImportOptions, ou
         _frame(collect, message, options, out)
     if message.msgtype == CAMERA_INFO and collect.camera is None:
         collect.camera = intrinsics(message.msg)
+    if topic == TF_STATIC and message.msgtype == TF_MESSAGE:
+        for tr in message.msg.transforms:
+            pair = (tr.header.frame_id.lstrip("/"), tr.child_frame_id.lstrip("/"))
+            collect.static[pair] = transform_matrix(tr.transform)
 
 
 def _frame(collect: _Collect, message: BagMessage, options: ImportOptions, out: Path) -> None:
@@ -348,6 +366,8 @@ def _frame(collect: _Collect, message: BagMessage, options: ImportOptions, out: 
     stamp = StampRule(options.stamps).of(message)
     if stamp is None:
         return
+    if collect.image_frame is None:
+        collect.image_frame = message.msg.header.frame_id.lstrip("/")
     name = f"frames/{len(collect.images):06d}.{options.image_format}"
     where = f"--image-topic {message.topic}"
     write_frame(message.msg, message.msgtype, out / name, options.image_format, where)
@@ -392,9 +412,16 @@ def _write_config(
     fill = ["robot.track_width"] if robot["track_width"] is None else []
     data["robot"] = {**data.get("robot", {}), **{k: v for k, v in robot.items() if v is not None}}
     _pose_noise(data, collect)
-    if options.image_topic is not None:
-        fill += _camera(data, collect.camera)
     header = [f"# terrain-odom import of {bag}"]
+    if options.image_topic is not None:
+        mount = _mount(collect, options.base_frame)
+        fill += _camera(data, collect.camera, mount)
+        if mount is not None:
+            header.append(
+                f"# camera.mount_* from {TF_STATIC} ({options.base_frame} -> "
+                f"{collect.image_frame}); mount_height is above {options.base_frame}'s origin: "
+                "add its height above the ground unless it is on the ground"
+            )
     if fill:
         header.append("# FILL IN (the bag does not tell them): " + ", ".join(fill))
     text = "\n".join(header) + "\n" + yaml.safe_dump(data, sort_keys=False)
@@ -414,21 +441,32 @@ def _pose_noise(data: dict[str, Any], collect: _Collect) -> None:
         ekf["sigma_r"] = {**ekf.get("sigma_r", {}), **sigma}
 
 
-def _camera(data: dict[str, Any], camera: Intrinsics | None) -> list[str]:
-    """Set the camera intrinsics; return the camera keys to fill."""
+def _mount(collect: _Collect, base_frame: str) -> dict[str, float] | None:
+    """Return the camera mounting from ``/tf_static`` (base frame -> the image frame), if there."""
+    frame = collect.image_frame
+    pose = chain_transform(collect.static, base_frame.lstrip("/"), frame) if frame else None
+    if pose is None or frame is None:
+        return None
+    return camera_mount(pose, optical="optical" in frame)
+
+
+def _camera(
+    data: dict[str, Any], camera: Intrinsics | None, mount: dict[str, float] | None
+) -> list[str]:
+    """Set the camera intrinsics and mounting that are known; return the camera keys to fill."""
+    fill: list[str] = []
+    known: dict[str, Any] = {}
     if camera is None:
-        return [
-            "camera.width",
-            "camera.height",
-            "camera.fx",
-            "camera.fy",
-            "camera.cx",
-            "camera.cy",
-            *CAMERA_MOUNT_KEYS,
-        ]
-    known = {k: getattr(camera, k) for k in ("width", "height", "fx", "fy", "cx", "cy")}
-    data["camera"] = {**data.get("camera", {}), **known}
-    return list(CAMERA_MOUNT_KEYS)
+        fill += [f"camera.{k}" for k in ("width", "height", "fx", "fy", "cx", "cy")]
+    else:
+        known.update({k: getattr(camera, k) for k in ("width", "height", "fx", "fy", "cx", "cy")})
+    if mount is None:
+        fill += CAMERA_MOUNT_KEYS
+    else:
+        known.update(mount)
+    if known:
+        data["camera"] = {**data.get("camera", {}), **known}
+    return fill
 
 
 def _result(

@@ -55,6 +55,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "--pose-frames", nargs=2, metavar=("PARENT", "CHILD"), help="frames of the /tf pose"
     )
     p.add_argument(
+        "--base-frame",
+        default="base_link",
+        help="the robot's frame: the camera mounting is read from /tf_static as the image's "
+        "frame in it (default base_link)",
+    )
+    p.add_argument(
         "--gps-origin",
         nargs=3,
         type=float,
@@ -94,6 +100,7 @@ def _cmd_import(args: argparse.Namespace) -> int:
         left_joints=tuple(args.left_joints),
         right_joints=tuple(args.right_joints),
         pose_frames=tuple(args.pose_frames) if args.pose_frames else None,
+        base_frame=args.base_frame,
         gps_origin=tuple(args.gps_origin) if args.gps_origin else None,
         stamps=args.stamps,
         max_gap=args.max_gap,

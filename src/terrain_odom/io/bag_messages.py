@@ -51,6 +51,9 @@ __all__ = [
     "fix_status",
     "enu_from_geodetic",
     "intrinsics",
+    "transform_matrix",
+    "chain_transform",
+    "camera_mount",
 ]
 
 JOINT_STATE = "sensor_msgs/msg/JointState"
@@ -248,3 +251,73 @@ def intrinsics(msg: Any) -> Intrinsics:
         cy=float(k[5]),
         distortion=tuple(float(v) for v in d),
     )
+
+
+def transform_matrix(transform: Any) -> np.ndarray:
+    """Return the 4x4 homogeneous matrix of a ``geometry_msgs/Transform`` (child frame in the parent)."""
+    q, t = transform.rotation, transform.translation
+    x, y, z, w = np.array([q.x, q.y, q.z, q.w], dtype=float) / math.hypot(q.x, q.y, q.z, q.w)
+    matrix = np.eye(4)
+    matrix[:3, :3] = [
+        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+    ]
+    matrix[:3, 3] = [t.x, t.y, t.z]
+    return matrix
+
+
+def chain_transform(
+    edges: dict[tuple[str, str], np.ndarray], source: str, target: str
+) -> np.ndarray | None:
+    """Return the pose of frame ``target`` in frame ``source`` through a tree of transforms, or None.
+
+    ``edges`` maps ``(parent, child)`` to the child's pose in the parent
+    (:func:`transform_matrix`); edges are followed both ways.
+
+    Examples
+    --------
+    >>> shift = np.eye(4); shift[0, 3] = 1.0
+    >>> float(chain_transform({("a", "b"): shift, ("c", "b"): shift}, "a", "c")[0, 3])
+    0.0
+    """
+    links: dict[str, list[tuple[str, np.ndarray]]] = {}
+    for (parent, child), matrix in edges.items():
+        links.setdefault(parent, []).append((child, matrix))
+        links.setdefault(child, []).append((parent, np.linalg.inv(matrix)))
+    found = {source: np.eye(4)}
+    queue = [source]
+    while queue:
+        frame = queue.pop(0)
+        for nxt, matrix in links.get(frame, []):
+            if nxt not in found:
+                found[nxt] = found[frame] @ matrix
+                queue.append(nxt)
+    return found.get(target)
+
+
+def camera_mount(pose: np.ndarray, optical: bool) -> dict[str, float]:
+    """Return the ``camera.mount_*`` keys of a camera frame's pose in the robot's base frame.
+
+    ``optical``: the frame follows the optical convention (z forward, x
+    right, y down, as an image's ``header.frame_id`` usually does), else the
+    body convention (x forward). ``mount_height`` is the height above the
+    base frame's origin; roll is not modelled.
+
+    Examples
+    --------
+    >>> down = np.eye(4); down[:3, :3] = [[0, -1, 0], [-1, 0, 0], [0, 0, -1]]; down[2, 3] = 0.5
+    >>> {k: round(v, 4) for k, v in camera_mount(down, optical=True).items()}
+    {'mount_x': 0.0, 'mount_y': 0.0, 'mount_height': 0.5, 'mount_pitch': 1.5708, 'mount_yaw': 0.0}
+    """
+    axis = pose[:3, 2] if optical else pose[:3, 0]
+    pitch = -math.asin(max(-1.0, min(1.0, float(axis[2]))))
+    level = math.hypot(float(axis[0]), float(axis[1]))
+    yaw = math.atan2(float(axis[1]), float(axis[0])) if level > 1e-9 else 0.0
+    return {
+        "mount_x": float(pose[0, 3]),
+        "mount_y": float(pose[1, 3]),
+        "mount_height": float(pose[2, 3]),
+        "mount_pitch": pitch,
+        "mount_yaw": yaw,
+    }

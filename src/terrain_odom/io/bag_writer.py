@@ -161,6 +161,24 @@ class MessageFactory:
         ]
         return t[TF_MESSAGE](transforms=stamped)
 
+    def tf_static(
+        self, ns: int, transforms: Sequence[tuple[str, str, Sequence[float], Sequence[float]]]
+    ) -> Any:
+        """Build a ``TFMessage`` of ``(parent, child, (x, y, z), (qx, qy, qz, qw))`` transforms."""
+        t = self.t
+        stamped = [
+            t["geometry_msgs/msg/TransformStamped"](
+                header=self.header(ns, parent),
+                child_frame_id=child,
+                transform=t["geometry_msgs/msg/Transform"](
+                    translation=self._vector(*xyz),
+                    rotation=t["geometry_msgs/msg/Quaternion"](x=q[0], y=q[1], z=q[2], w=q[3]),
+                ),
+            )
+            for parent, child, xyz, q in transforms
+        ]
+        return t[TF_MESSAGE](transforms=stamped)
+
     def nav_sat_fix(
         self, ns: int, lat: float, lon: float, alt: float = 0.0, status: int = 0, sigma: float = 0.0
     ) -> Any:
@@ -191,7 +209,7 @@ class MessageFactory:
             linear_acceleration_covariance=np.zeros(9),
         )
 
-    def image(self, ns: int, bgr: np.ndarray, frame: str = "camera") -> Any:
+    def image(self, ns: int, bgr: np.ndarray, frame: str = "camera_optical") -> Any:
         """Build a raw ``Image`` (``bgr8``) of an 8-bit BGR array."""
         h, w = bgr.shape[:2]
         return self.t[IMAGE](
