@@ -57,8 +57,9 @@ from terrain_odom.io.bag_streams import HeadingStream, PoseStream, StampRule, Wh
 from terrain_odom.io.paths import check_outputs
 from terrain_odom.io.report import report_header, write_json
 from terrain_odom.io.wheel_log import write_wheel_log
+from terrain_odom.records import WheelLog
 
-__all__ = ["ImportOptions", "ImportResult", "import_bag", "inspect_bag"]
+__all__ = ["ImportOptions", "ImportResult", "import_bag", "inspect_bag", "read_bag_log"]
 
 STAMP_CHOICES = ("header", "receive")
 TF_STATIC = "/tf_static"
@@ -201,19 +202,47 @@ def import_bag(
     if out.exists() and not out.is_dir():
         raise InputFileError(f"{out}: --out must be a directory, but a file of that name exists")
     out.mkdir(parents=True, exist_ok=True)
-    with open_bag(bag) as reader:
-        connections, collect = _plan(reader, bag, options, robot)
-        if options.image_topic is not None:
-            (out / "frames").mkdir(exist_ok=True)
-        for message in stream_messages(reader, bag, connections, progress):
-            _dispatch(collect, message, options, out)
-    merged = _merge(collect, options, bag)
+    collect, merged = _read(bag, options, robot, out, progress)
     write_wheel_log(paths["log"], merged.log)
     frames_csv = _write_frames(collect, merged, paths["frames"]) if options.image_topic else None
     fill = _write_config(paths["config"], collect, options, robot, bag)
     result = _result(paths, frames_csv, collect, merged, fill, time.perf_counter() - start)
     write_json(paths["import"], _report(bag, options, collect, merged, result))
     return result
+
+
+def read_bag_log(bag: str | Path, options: ImportOptions, progress: bool | None = None) -> WheelLog:
+    """Return the wheel log :func:`import_bag` would write, in memory (direct use of a bag).
+
+    Options as for :func:`import_bag`, without an image topic (frames need
+    a folder: import them).
+
+    Raises
+    ------
+    InputFileError, ConfigError
+        As :func:`import_bag`.
+    """
+    if options.image_topic is not None:
+        raise ConfigError("a bag's frames need a folder: import it (terrain-odom import)")
+    _check_options(options)
+    return _read(bag, options, _robot(options), None, progress)[1].log
+
+
+def _read(
+    bag: str | Path,
+    options: ImportOptions,
+    robot: dict[str, float | None],
+    out: Path | None,
+    progress: bool | None,
+) -> tuple[_Collect, MergedLog]:
+    """One pass over the bag's selected topics (frames written into ``out``); the merged log."""
+    with open_bag(bag) as reader:
+        connections, collect = _plan(reader, bag, options, robot)
+        if out is not None and options.image_topic is not None:
+            (out / "frames").mkdir(exist_ok=True)
+        for message in stream_messages(reader, bag, connections, progress):
+            _dispatch(collect, message, options, out)
+    return collect, _merge(collect, options, bag)
 
 
 def _output_paths(out: Path) -> dict[str, Path]:
@@ -292,12 +321,19 @@ def _plan(
 
 
 def _camera_info_topic(reader: Any, options: ImportOptions) -> str | None:
-    """Return the camera-info topic given, else the image topic's sibling ``camera_info`` if present."""
+    """Return the camera-info topic given, else the image topic's sibling ``camera_info`` if present.
+
+    The sibling of ``/cam/image_raw`` is ``/cam/camera_info``; of an
+    image_transport topic ``/cam/image_raw/compressed`` too.
+    """
     if options.camera_info_topic is not None or options.image_topic is None:
         return options.camera_info_topic
-    sibling = options.image_topic.rsplit("/", 1)[0] + "/camera_info"
-    found = any(c.topic == sibling and c.msgtype == CAMERA_INFO for c in reader.connections)
-    return sibling if found else None
+    parent = options.image_topic.rsplit("/", 1)[0]
+    candidates = [parent + "/camera_info"]
+    if options.image_topic.endswith("/compressed"):
+        candidates.append(parent.rsplit("/", 1)[0] + "/camera_info")
+    infos = {c.topic for c in reader.connections if c.msgtype == CAMERA_INFO}
+    return next((topic for topic in candidates if topic in infos), None)
 
 
 def _wheel_geometry(
@@ -342,7 +378,9 @@ def _pose_stream(
     )
 
 
-def _dispatch(collect: _Collect, message: BagMessage, options: ImportOptions, out: Path) -> None:
+def _dispatch(
+    collect: _Collect, message: BagMessage, options: ImportOptions, out: Path | None
+) -> None:
     """Hand one message to the stream of its topic (a topic may serve several roles)."""
     topic = message.topic
     if topic == options.wheels_topic:
@@ -351,7 +389,7 @@ def _dispatch(collect: _Collect, message: BagMessage, options: ImportOptions, ou
         collect.poses.add(message)
     if topic == options.heading_topic and collect.headings is not None:
         collect.headings.add(message)
-    if topic == options.image_topic:
+    if topic == options.image_topic and out is not None:
         _frame(collect, message, options, out)
     if message.msgtype == CAMERA_INFO and collect.camera is None:
         collect.camera = intrinsics(message.msg)

@@ -19,7 +19,9 @@ from rosbags.rosbag1 import Writer as Writer1
 from rosbags.rosbag2 import StoragePlugin
 from rosbags.rosbag2 import Writer as Writer2
 from rosbags.typesys import Stores, get_typestore
+from scipy.spatial.transform import Rotation
 
+from terrain_odom.config import CameraConfig
 from terrain_odom.io.bag_messages import (
     CAMERA_INFO,
     COMPRESSED_IMAGE,
@@ -33,8 +35,10 @@ from terrain_odom.io.bag_messages import (
     TF_MESSAGE,
     TWIST_STAMPED,
 )
+from terrain_odom.io.frames import FrameList
+from terrain_odom.records import WheelLog
 
-__all__ = ["BAG_KINDS", "MessageFactory", "Record", "write_bag"]
+__all__ = ["BAG_KINDS", "MessageFactory", "Record", "log_records", "write_bag"]
 
 #: ``ros1`` (a .bag file), ``sqlite3`` and ``mcap`` (ROS 2 bag folders).
 BAG_KINDS = ("ros1", "sqlite3", "mcap")
@@ -222,10 +226,12 @@ class MessageFactory:
             data=np.ascontiguousarray(bgr, dtype=np.uint8).reshape(-1),
         )
 
-    def compressed_image(self, ns: int, data: bytes, fmt: str = "jpeg") -> Any:
+    def compressed_image(
+        self, ns: int, data: bytes, fmt: str = "jpeg", frame: str = "camera_optical"
+    ) -> Any:
         """Build a ``CompressedImage`` holding already-encoded bytes."""
         return self.t[COMPRESSED_IMAGE](
-            header=self.header(ns, "camera"),
+            header=self.header(ns, frame),
             format=fmt,
             data=np.frombuffer(data, dtype=np.uint8),
         )
@@ -250,3 +256,72 @@ class MessageFactory:
             binning_y=0,
             roi=roi,
         )
+
+
+# Body axes (x forward, y left, z up) of the optical axes (x right, y down, z forward), as columns.
+_OPTICAL = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
+
+
+def _camera_records(m: MessageFactory, ns: int, camera: CameraConfig) -> list[Record]:
+    """``CameraInfo`` and the ``/tf_static`` mounting (``base_footprint`` -> ``camera_optical``)."""
+    body = Rotation.from_euler("ZY", [camera.mount_yaw, camera.mount_pitch]).as_matrix()
+    q = Rotation.from_matrix(body @ _OPTICAL).as_quat()
+    xyz = (camera.mount_x, camera.mount_y, camera.mount_height)
+    info = m.camera_info(ns, camera.width, camera.height, camera.fx, camera.cx, camera.cy)
+    return [
+        ("/camera/camera_info", CAMERA_INFO, ns, info),
+        (
+            "/tf_static",
+            TF_MESSAGE,
+            ns,
+            m.tf_static(ns, [("base_footprint", "camera_optical", xyz, q)]),
+        ),
+    ]
+
+
+def log_records(
+    log: WheelLog,
+    wheel_radius: float,
+    *,
+    frames: FrameList | None = None,
+    camera: CameraConfig | None = None,
+    origin_s: int = 1_700_000_000,
+) -> list[Record]:
+    """Return a wheel log (and its frames) as the records a robot would write, in time order.
+
+    Wheels: ``/joint_states`` (``left_wheel``, ``right_wheel``: speed /
+    ``wheel_radius``, rad/s); poses: ``/pose`` (``PoseStamped``, rows with
+    ``x, y, yaw``); frames: ``/camera/image/compressed`` (the files' bytes;
+    JPEG or PNG); the camera: ``/camera/camera_info`` and ``/tf_static``.
+    Stamps: ``origin_s`` + ``t``; receive time = stamp.
+    """
+    m = MessageFactory()
+    ns = origin_s * 10**9 + np.round(log.t * 1e9).astype(np.int64)
+    records: list[Record] = []
+    for k in range(len(log)):
+        omega = (log.v_l[k] / wheel_radius, log.v_r[k] / wheel_radius)
+        records.append(
+            (
+                "/joint_states",
+                JOINT_STATE,
+                int(ns[k]),
+                m.joint_state(int(ns[k]), ["left_wheel", "right_wheel"], omega),
+            )
+        )
+        if log.has_pose[k]:
+            records.append(
+                (
+                    "/pose",
+                    POSE_STAMPED,
+                    int(ns[k]),
+                    m.pose_stamped(int(ns[k]), *map(float, log.pose[k])),
+                )
+            )
+    if camera is not None:
+        records += _camera_records(m, int(ns[0]), camera)
+    for t, path in zip(frames.t if frames else [], frames.files if frames else [], strict=True):
+        stamp = origin_s * 10**9 + int(round(float(t) * 1e9))
+        fmt = "png" if path.suffix.lower() == ".png" else "jpeg"
+        msg = m.compressed_image(stamp, path.read_bytes(), fmt)
+        records.append(("/camera/image/compressed", COMPRESSED_IMAGE, stamp, msg))
+    return sorted(records, key=lambda r: r[2])
