@@ -112,3 +112,56 @@ def test_not_a_bag_is_one_line_exit_2(tmp_path: Path, capsys: pytest.CaptureFixt
         err
         == f"terrain-odom: error: {path}: not a readable ROS bag (File magic is invalid.); expected a ROS 1 .bag file, a ROS 2 bag folder (metadata.yaml) or a .mcap file\n"
     )
+
+
+def test_run_reads_a_bag_through_the_import(
+    bag: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    topics = ["--wheels-topic", "/odom", "--heading-topic", "/imu/data", "--track-width", "0.4"]
+    direct = tmp_path / "direct"
+    assert (
+        main(
+            ["run", "--wheels", str(bag), "--out", str(direct), "--estimator", "slip-ekf", *topics]
+        )
+        == 0
+    )
+    out = capsys.readouterr().out
+    assert f"log:        {direct / 'bag' / 'log.csv'}" in out
+    assert main(["import", str(bag), "--out", str(tmp_path / "imp"), *topics]) == 0
+    argv = [
+        "run",
+        "--wheels",
+        str(tmp_path / "imp" / "log.csv"),
+        "--config",
+        str(tmp_path / "imp" / "config.yaml"),
+        "--out",
+        str(tmp_path / "csv"),
+        "--estimator",
+        "slip-ekf",
+    ]
+    assert main(argv) == 0
+    assert (direct / "trajectory.csv").read_text() == (
+        tmp_path / "csv" / "trajectory.csv"
+    ).read_text()
+
+
+@pytest.mark.parametrize(
+    ("wheels", "extra", "message"),
+    [
+        ("bag", [], "is a ROS bag: give --wheels-topic"),
+        ("csv", ["--wheels-topic", "/odom"], "--wheels-topic reads a ROS bag, but --wheels"),
+    ],
+)
+def test_run_bag_options_misused(
+    bag: Path,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    wheels: str,
+    extra: list[str],
+    message: str,
+) -> None:
+    csv = tmp_path / "log.csv"
+    csv.write_text("t,v_l,v_r\n0,1,1\n0.1,1,1\n")
+    path = bag if wheels == "bag" else csv
+    assert main(["run", "--wheels", str(path), "--out", str(tmp_path / "o"), *extra]) == 2
+    assert message in capsys.readouterr().err

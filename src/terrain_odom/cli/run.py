@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 from typing import TYPE_CHECKING
 
+from terrain_odom.cli.bag_import import add_bag_topic_options, wheels_from_bag
 from terrain_odom.cli.options import (
     add_config_option,
     add_log_options,
@@ -21,7 +22,9 @@ if TYPE_CHECKING:
 def add_parser(sub: argparse._SubParsersAction) -> None:
     """Register the ``run`` subcommand."""
     p = sub.add_parser("run", help="EKF odometry over a wheel log (terrain-adaptive)")
-    p.add_argument("--wheels", required=True, help="wheel log CSV")
+    p.add_argument(
+        "--wheels", required=True, help="wheel log CSV, or a ROS bag with --wheels-topic"
+    )
     add_out_option(p, "output directory", required=True)
     add_config_option(
         p,
@@ -67,6 +70,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "each confirmed change to it (covariance ekf.sigma_prior)",
     )
     add_log_options(p)
+    add_bag_topic_options(p)
     terrain = p.add_mutually_exclusive_group()
     terrain.add_argument(
         "--terrain-from-log",
@@ -94,7 +98,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
         source = TerrainSource.AUTO
     if args.images is not None and args.terrain_from_log:
         raise ConfigError("--images and --terrain-from-log exclude each other")
-    config, model = args.config, args.model
+    wheels, bag_config = wheels_from_bag(args, args.out)
+    config, model = args.config or bag_config, args.model
     if args.images is not None and config is None:
         config = images_config(args.images)
         if config is not None:
@@ -108,7 +113,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
             cfg, terrain=dataclasses.replace(cfg.terrain, reset_at=args.reset_at)
         )
     summary = run(
-        args.wheels,
+        wheels,
         args.out,
         config=cfg,
         config_path=config,
