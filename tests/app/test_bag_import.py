@@ -468,3 +468,39 @@ def test_camera_mount_from_tf_static(tmp_path: Path) -> None:
         f"camera.{k}" for k in ("width", "height", "fx", "fy", "cx", "cy")
     )
     assert "mount_height is above base_link's origin" in result.config_yaml.read_text()
+
+
+def test_unset_header_stamps_are_counted_or_refused(tmp_path: Path) -> None:
+    records = [
+        (
+            "/js",
+            "sensor_msgs/msg/JointState",
+            BASE + k * STEP,
+            M.joint_state(0 if k == 1 else BASE + k * STEP, JOINTS, [1, 1, 1, 1]),
+        )
+        for k in range(3)
+    ]
+    bag = write_bag(tmp_path / "z.bag", "ros1", records)
+    result = import_bag(bag, tmp_path / "a", ImportOptions("/js", wheel_radius=0.5), progress=False)
+    assert result.rows == 2
+    assert result.skipped["--wheels-topic /js"] == {
+        "header stamp 0 (unset; --stamps receive uses the bag's time)": 1
+    }
+    received = import_bag(
+        bag,
+        tmp_path / "b",
+        ImportOptions("/js", wheel_radius=0.5, stamps="receive"),
+        progress=False,
+    )
+    assert received.rows == 3
+    unset = [("/js", "sensor_msgs/msg/JointState", BASE, M.joint_state(0, JOINTS, [1, 1, 1, 1]))]
+    with pytest.raises(
+        InputFileError,
+        match=r"--wheels-topic /js: no message with a usable stamp \(1 header stamp 0",
+    ):
+        import_bag(
+            write_bag(tmp_path / "u.bag", "ros1", unset),
+            tmp_path / "c",
+            ImportOptions("/js", wheel_radius=0.5),
+            progress=False,
+        )

@@ -177,6 +177,7 @@ class _Collect:
     camera: Intrinsics | None = None
     static: dict[tuple[str, str], np.ndarray] = field(default_factory=dict)
     image_frame: str | None = None
+    images_unstamped: int = 0
 
 
 def import_bag(
@@ -403,6 +404,7 @@ def _frame(collect: _Collect, message: BagMessage, options: ImportOptions, out: 
     """Write one image message as ``frames/NNNNNN.<format>`` and remember its stamp."""
     stamp = StampRule(options.stamps).of(message)
     if stamp is None:
+        collect.images_unstamped += 1
         return
     if collect.image_frame is None:
         collect.image_frame = message.msg.header.frame_id.lstrip("/")
@@ -520,6 +522,8 @@ def _result(
     for stream in (collect.wheels, collect.poses, collect.headings):
         if stream is not None and stream.skipped:
             skipped[stream.where.split(": ", 1)[1]] = dict(stream.skipped)
+    if collect.images_unstamped:
+        skipped["--image-topic"] = {"header stamp 0 (unset)": collect.images_unstamped}
     return ImportResult(
         log_csv=paths["log"],
         config_yaml=paths["config"],
