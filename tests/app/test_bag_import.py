@@ -426,6 +426,10 @@ def test_never_overwrites_an_input(tmp_path: Path) -> None:
     with pytest.raises(InputFileError, match="refusing to overwrite the input"):
         import_bag(bag, tmp_path / "out", opts, progress=False)
     assert cfg.read_text() == "robot: {wheel_radius: 0.5}\n"
+    folder = _known_bag(tmp_path, "sqlite3")
+    with pytest.raises(InputFileError, match="--out is inside the bag folder"):
+        import_bag(folder, folder / "out", ImportOptions("/joint_states", wheel_radius=0.5))
+    assert not (folder / "out").exists()
 
 
 def test_camera_mount_from_tf_static(tmp_path: Path) -> None:
@@ -504,3 +508,19 @@ def test_unset_header_stamps_are_counted_or_refused(tmp_path: Path) -> None:
             ImportOptions("/js", wheel_radius=0.5),
             progress=False,
         )
+
+
+def test_an_undecodable_image_is_one_line(tmp_path: Path) -> None:
+    records = [
+        (
+            "/cam/compressed",
+            "sensor_msgs/msg/CompressedImage",
+            BASE + STEP,
+            M.compressed_image(BASE + STEP, b"not an image", "png"),
+        ),
+    ]
+    opts = ImportOptions("/odom", image_topic="/cam/compressed", track_width=0.5)
+    with pytest.raises(
+        InputFileError, match=r"--image-topic /cam/compressed: cannot decode the image"
+    ):
+        import_bag(_pose_bag(tmp_path, records), tmp_path / "out", opts, progress=False)

@@ -161,7 +161,7 @@ class ImportResult:
 
 
 def inspect_bag(bag: str | Path, progress: bool | None = None) -> BagSummary:
-    """Every topic of a bag with its type, count, rate, span and roles (``terrain-odom inspect``)."""
+    """List every topic of a bag: type, count, rate, span and roles (``terrain-odom inspect``)."""
     return summarize_bag(bag, progress)
 
 
@@ -173,6 +173,7 @@ class _Collect:
     poses: PoseStream | None
     headings: HeadingStream | None
     types: dict[str, str]
+    bag: str
     images: list[tuple[int, str]] = field(default_factory=list)
     camera: Intrinsics | None = None
     static: dict[tuple[str, str], np.ndarray] = field(default_factory=dict)
@@ -200,6 +201,8 @@ def import_bag(
     out = Path(out_dir)
     paths = _output_paths(out)
     check_outputs([bag, options.config], paths.values())
+    if Path(bag).is_dir() and out.resolve().is_relative_to(Path(bag).resolve()):
+        raise InputFileError(f"{out}: --out is inside the bag folder {bag}; choose another folder")
     if out.exists() and not out.is_dir():
         raise InputFileError(f"{out}: --out must be a directory, but a file of that name exists")
     out.mkdir(parents=True, exist_ok=True)
@@ -236,7 +239,7 @@ def _read(
     out: Path | None,
     progress: bool | None,
 ) -> tuple[_Collect, MergedLog]:
-    """One pass over the bag's selected topics (frames written into ``out``); the merged log."""
+    """Read the bag's selected topics in one pass (frames written into ``out``); merge the log."""
     with open_bag(bag) as reader:
         connections, collect = _plan(reader, bag, options, robot)
         if out is not None and options.image_topic is not None:
@@ -318,6 +321,7 @@ def _plan(
             else None
         ),
         types=types,
+        bag=str(bag),
     )
 
 
@@ -409,7 +413,7 @@ def _frame(collect: _Collect, message: BagMessage, options: ImportOptions, out: 
     if collect.image_frame is None:
         collect.image_frame = message.msg.header.frame_id.lstrip("/")
     name = f"frames/{len(collect.images):06d}.{options.image_format}"
-    where = f"--image-topic {message.topic}"
+    where = f"{collect.bag}: --image-topic {message.topic}"
     write_frame(message.msg, message.msgtype, out / name, options.image_format, where)
     collect.images.append((stamp, name))
 

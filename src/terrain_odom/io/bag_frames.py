@@ -33,12 +33,24 @@ def _is_jpeg(msg: Any, msgtype: str) -> bool:
     return msgtype == COMPRESSED_IMAGE and bytes(msg.data[:3]) == b"\xff\xd8\xff"
 
 
-def _encode(msg: Any, fmt: str, where: str) -> bytes:
-    """Decode an image message to 8-bit BGR (or mono) and encode it as ``fmt``."""
+def _decode(msg: Any, msgtype: str, where: str) -> np.ndarray:
+    """Decode an image message to an OpenCV image (BGR, or single channel)."""
     try:
-        image = np.asarray(message_to_cvimage(msg, _color_space(msg)))
+        if msgtype == COMPRESSED_IMAGE:
+            image = cv2.imdecode(np.frombuffer(bytes(msg.data), np.uint8), cv2.IMREAD_ANYCOLOR)
+        else:
+            image = message_to_cvimage(msg, _color_space(msg))
     except (ImageConversionError, ImageFormatError, ValueError, cv2.error) as exc:
         raise InputFileError(f"{where}: cannot decode the image ({exc})") from None
+    if image is None or not np.asarray(image).size:
+        kind = getattr(msg, "format", None) or getattr(msg, "encoding", "")
+        raise InputFileError(f"{where}: cannot decode the image (not a {kind} image)")
+    return np.asarray(image)
+
+
+def _encode(msg: Any, msgtype: str, fmt: str, where: str) -> bytes:
+    """Decode an image message to 8-bit BGR (or mono) and encode it as ``fmt``."""
+    image = _decode(msg, msgtype, where)
     if image.dtype != np.uint8:  # 16-bit or float images: scale to 8 bit for the classifier
         low, high = float(image.min()), float(image.max())
         image = ((image - low) * (255.0 / max(high - low, 1e-12))).astype(np.uint8)
@@ -71,7 +83,8 @@ def write_frame(msg: Any, msgtype: str, path: str | os.PathLike[str], fmt: str, 
     InputFileError
         If the message cannot be decoded.
     """
-    data = bytes(msg.data) if fmt == "jpg" and _is_jpeg(msg, msgtype) else _encode(msg, fmt, where)
+    jpeg = fmt == "jpg" and _is_jpeg(msg, msgtype)
+    data = bytes(msg.data) if jpeg else _encode(msg, msgtype, fmt, where)
     write_atomic(path, lambda handle: handle.write(data))
 
 
