@@ -9,7 +9,9 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from terrain_odom.io.bag_messages import (
+    Intrinsics,
     enu_from_geodetic,
+    intrinsics,
     joint_speeds,
     match_joints,
     pose_sigmas,
@@ -69,3 +71,27 @@ def test_enu_small_offsets_follow_the_radii_of_curvature(lat0: float) -> None:
 def test_enu_up_is_altitude_at_the_origin() -> None:
     enu = enu_from_geodetic(np.array([10.0]), np.array([20.0]), np.array([12.5]), (10.0, 20.0, 2.5))
     np.testing.assert_allclose(enu[0], [0.0, 0.0, 10.0], atol=1e-6)
+
+
+def test_intrinsics_of_ros1_upper_case_camera_info() -> None:
+    from rosbags.typesys import Stores, get_typestore
+
+    t = get_typestore(Stores.ROS1_NOETIC).types
+    stamp = t["builtin_interfaces/msg/Time"](sec=5, nanosec=0)
+    roi = t["sensor_msgs/msg/RegionOfInterest"](
+        x_offset=0, y_offset=0, height=0, width=0, do_rectify=False
+    )
+    info = t["sensor_msgs/msg/CameraInfo"](
+        header=t["std_msgs/msg/Header"](seq=0, stamp=stamp, frame_id="cam"),
+        height=24,
+        width=32,
+        distortion_model="plumb_bob",
+        D=np.array([0.1, 0.0, 0.0, 0.0, 0.0]),
+        K=np.array([40.0, 0, 15.5, 0, 41.0, 11.5, 0, 0, 1]),
+        R=np.eye(3).ravel(),
+        P=np.zeros(12),
+        binning_x=0,
+        binning_y=0,
+        roi=roi,
+    )
+    assert intrinsics(info) == Intrinsics(32, 24, 40.0, 41.0, 15.5, 11.5, (0.1, 0.0, 0.0, 0.0, 0.0))
