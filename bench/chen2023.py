@@ -46,7 +46,7 @@ def _prepare(work: Path, seed: int, reuse: bool, pose_noise: list[str] | None = 
 def _run(sim: Path, out: Path, schedule: str) -> dict:
     args = ["run", "--images", str(sim), "--wheels", str(sim / "log.csv")]
     args += ["--model", str(sim / "model.npz"), "--groundtruth", str(sim / "groundtruth.csv")]
-    assert cli([*args, "--reset-at", schedule, "--out", str(out)]) == 0
+    assert cli([*args, "--reset-at", schedule, "--out", str(out), "--overwrite"]) == 0
     return json.loads((out / "report.json").read_text())["groundtruth"]
 
 

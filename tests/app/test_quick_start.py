@@ -140,7 +140,11 @@ def test_without_a_config_in_the_folder_the_built_in_defaults_are_used(tmp_path,
     args = ["run", "--images", str(images), "--wheels", str(images / "log.csv")]
     assert main([*args, "--out", str(out)]) == 2  # the built-in camera is 640 x 480
     assert "camera configuration says 640x480" in capsys.readouterr().err
-    assert main([*args, "--out", str(out), "--no-roi"]) == 0
+    failed = json.loads((out / "report.json").read_text())
+    assert failed["status"] == "interrupted" and "640x480" in failed["reason"]
+    assert main([*args, "--out", str(out), "--no-roi"]) == 2  # the failed run is kept
+    assert "already holds an interrupted run" in capsys.readouterr().err
+    assert main([*args, "--out", str(out), "--no-roi", "--overwrite"]) == 0
     printed = capsys.readouterr().out
     assert "found in the --images folder" not in printed and "model:" in printed
     report = json.loads((out / "report.json").read_text())

@@ -9,7 +9,8 @@ from typing import Any
 
 import numpy as np
 
-from terrain_odom.app.run import TRAJECTORY_CSV, read_calibrated_log, run_config
+from terrain_odom.app.run import read_calibrated_log, run_config
+from terrain_odom.app.run_folder import TRAJECTORY_CSV, check_complete
 from terrain_odom.config import Config, RobotConfig, load_config
 from terrain_odom.errors import ConfigError, InputFileError
 from terrain_odom.estimation.time_offset import TimeCalibration
@@ -254,7 +255,8 @@ def evaluate(
     Parameters
     ----------
     run_dir : str or Path, optional
-        Output directory of :func:`run` on the same log.
+        Output directory of :func:`run` on the same log; refused unless the
+        run completed (:func:`~terrain_odom.app.run_folder.check_complete`).
     wheels : str or Path
         The wheel log with pose measurements.
     config, config_path : optional
@@ -274,6 +276,8 @@ def evaluate(
         Per model: translational (m/m) and angular (deg/m) error statistics
         and dead-reckoning ATE (m); 2-s prediction errors.
     """
+    if run_dir is not None:
+        check_complete(run_dir)
     target = _output_path(out, run_dir)
     if target is not None:
         trajectory = None if run_dir is None else Path(run_dir) / TRAJECTORY_CSV

@@ -22,7 +22,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     """Register the ``run`` subcommand."""
     p = sub.add_parser("run", help="EKF odometry over a wheel log (terrain-adaptive)")
     p.add_argument("--wheels", required=True, help="wheel log CSV")
-    add_out_option(p, "output directory", required=True)
+    add_out_option(p, "output directory (one run per folder)", required=True)
+    p.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="replace the run already in --out (its files are removed first; other files kept)",
+    )
     add_config_option(
         p,
         "YAML configuration (default: IMAGES/config.yaml if --images has one, "
@@ -119,6 +124,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
         groundtruth=args.groundtruth,
         estimator=args.estimator,
         priors=args.priors,
+        overwrite=args.overwrite,
     )
     print_pose_delay(summary.time_calibration)
     print(f"{summary.rows} rows in {summary.seconds:.2f} s")
