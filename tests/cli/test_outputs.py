@@ -131,3 +131,22 @@ def test_every_file_written_is_named(tmp_path: Path, capsys) -> None:
     fit = ["--models", "idd"]  # a 6-s run turns too little to fit any other model
     assert main(["compare", "--log", log, "--eval", log, *fit, "--out", str(compared)]) == 0
     _named(compared, capsys.readouterr().out)
+
+
+def test_run_into_a_folder_holding_a_run(log: Path, tmp_path: Path, capsys) -> None:
+    """A second ``run`` into a run's folder: exit 2, one line, the first run byte-identical."""
+    out = tmp_path / "out"
+    argv = ["run", "--wheels", str(log), "--out", str(out)]
+    assert main(argv) == 0
+    capsys.readouterr()
+    files = sorted(p for p in out.rglob("*") if p.is_file())
+    before = {path: path.read_bytes() for path in files}
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "Traceback" not in err
+    assert "already holds a run" in err and "--overwrite" in err
+    assert {
+        path: path.read_bytes() for path in sorted(p for p in out.rglob("*") if p.is_file())
+    } == before
+    assert main([*argv, "--overwrite"]) == 0
+    assert "trajectory:" in capsys.readouterr().out
