@@ -41,8 +41,8 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; returns the exit code."""
     parser = build_parser()
-    args = parser.parse_args(argv)
     try:
+        args = parser.parse_args(argv)  # two spellings of one option: a ConfigError
         return args.func(args)
     except TerrainOdomError as exc:
         print(f"terrain-odom: error: {exc}", file=sys.stderr)
