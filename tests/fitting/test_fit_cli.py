@@ -46,7 +46,7 @@ def logs(tmp_path_factory):
 def test_fit_writes_parameters_and_held_out_errors(logs, tmp_path, capsys):
     out = tmp_path / "p.yaml"
     code, text, err = run_main(
-        capsys, "fit", "--model", "edd-sym", "--log", logs["grass", "train"],
+        capsys, "fit", "--model", "edd-sym", "--wheels", logs["grass", "train"],
         "--eval", logs["grass", "eval"], "--out", out, *FAST,
     )  # fmt: skip
     assert code == 0, err
@@ -65,7 +65,7 @@ def test_fit_writes_parameters_and_held_out_errors(logs, tmp_path, capsys):
 def test_fit_sigma_and_time_horizon_are_recorded(logs, tmp_path, capsys):
     out = tmp_path / "p.yaml"
     code, _, err = run_main(
-        capsys, "fit", "--model", "edd-sym", "--log", logs["grass", "train"], "--out", out,
+        capsys, "fit", "--model", "edd-sym", "--wheels", logs["grass", "train"], "--out", out,
         "--horizon", "3s", "--sigma", "0.1", "0.1", "0.05", "--seed", "3", *FAST,
     )  # fmt: skip
     assert code == 0, err
@@ -74,7 +74,7 @@ def test_fit_sigma_and_time_horizon_are_recorded(logs, tmp_path, capsys):
     assert data["fit"]["duration_s"] >= 3.0 * data["fit"]["segments"]
     np.testing.assert_allclose(read_params(out).vector(), [0.9, 1.8], atol=0.02)
     code, text, err = run_main(
-        capsys, "fit", "--model", "edd-sym", "--log", logs["grass", "train"], "--out", out,
+        capsys, "fit", "--model", "edd-sym", "--wheels", logs["grass", "train"], "--out", out,
         "--sigma", "0.1", "0", "0.1",
     )  # fmt: skip
     assert_one_line_error(code, text, err, "--sigma", "> 0")
@@ -84,7 +84,7 @@ def test_fit_by_terrain_and_evaluate_with_the_matching_set(logs, tmp_path, capsy
     out = tmp_path / "terrains.yaml"
     train = [logs["grass", "train"], logs["asphalt", "train"]]
     code, text, err = run_main(
-        capsys, "fit", "--model", "icr-slip", "--by-terrain", "--log", *train, "--out", out, *FAST
+        capsys, "fit", "--model", "icr-slip", "--by-terrain", "--wheels", *train, "--out", out, *FAST
     )
     assert code == 0, err
     assert "[grass]" in text and "[asphalt]" in text
@@ -96,7 +96,7 @@ def test_fit_by_terrain_and_evaluate_with_the_matching_set(logs, tmp_path, capsy
     derived = yaml.safe_load(out.read_text())["terrains"]["grass"]["derived"]
     assert derived["steering_efficiency"] == pytest.approx(1.8 / 0.5, abs=0.1)
     code, text, err = run_main(
-        capsys, "evaluate", "--log", logs["asphalt", "eval"], "--params", out,
+        capsys, "evaluate", "--wheels", logs["asphalt", "eval"], "--params", out,
         "--out", tmp_path / "e.json",
     )  # fmt: skip
     assert code == 0, err
@@ -109,7 +109,7 @@ def test_evaluate_per_terrain_file_on_an_unknown_terrain(logs, tmp_path, capsys)
     params = tmp_path / "grass_only.yaml"
     write_params(params, ModelParams("edd-sym", {"grass": ParamSet({"alpha": 0.9, "b_hat": 1.8})}))
     code, out, err = run_main(
-        capsys, "evaluate", "--log", logs["asphalt", "eval"], "--params", params,
+        capsys, "evaluate", "--wheels", logs["asphalt", "eval"], "--params", params,
         "--out", tmp_path / "e.json",
     )  # fmt: skip
     assert_one_line_error(code, out, err, "asphalt_eval.csv", "terrain 'asphalt'", "['grass']")
@@ -120,7 +120,7 @@ def test_compare_writes_tables_plot_and_parameter_files(logs, tmp_path, capsys):
     train = [logs["grass", "train"], logs["asphalt", "train"]]
     evals = [logs["grass", "eval"], logs["asphalt", "eval"]]
     code, text, err = run_main(
-        capsys, "compare", "--log", *train, "--eval", *evals, "--by-terrain",
+        capsys, "compare", "--wheels", *train, "--eval", *evals, "--by-terrain",
         "--models", "idd", "edd-sym", "icr", "--out", out, *FAST,
     )  # fmt: skip
     assert code == 0, err
@@ -146,18 +146,18 @@ def test_bad_input_is_one_line_and_exit_2(logs, tmp_path, capsys):
     grass = logs["grass", "train"]
     out = tmp_path / "p.yaml"
     cases = [
-        (["--log", no_pose], ["no_pose.csv", "no pose measurements"]),
-        (["--log", grass, "--horizon", "2x"], ["horizon '2x'", "'2m' or '2s'"]),
-        (["--log", no_terrain, "--by-terrain"], ["no_terrain.csv", "no terrain column"]),
-        (["--log", grass, "--horizon", "500m"], ["no training segment of 500m", "shorter"]),
-        (["--log", tmp_path / "missing.csv"], ["missing.csv"]),
+        (["--wheels", no_pose], ["no_pose.csv", "no pose measurements"]),
+        (["--wheels", grass, "--horizon", "2x"], ["horizon '2x'", "'2m' or '2s'"]),
+        (["--wheels", no_terrain, "--by-terrain"], ["no_terrain.csv", "no terrain column"]),
+        (["--wheels", grass, "--horizon", "500m"], ["no training segment of 500m", "shorter"]),
+        (["--wheels", tmp_path / "missing.csv"], ["missing.csv"]),
     ]
     for extra, fragments in cases:
         code, text, err = run_main(capsys, "fit", "--model", "edd-sym", "--out", out, *extra)
         assert_one_line_error(code, text, err, *fragments)
     assert not out.exists()
     with pytest.raises(SystemExit) as exc:
-        main(["fit", "--model", "magic", "--log", str(grass), "--out", str(out)])
+        main(["fit", "--model", "magic", "--wheels", str(grass), "--out", str(out)])
     assert exc.value.code == 2
     assert "invalid choice: 'magic'" in capsys.readouterr().err
 

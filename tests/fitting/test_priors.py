@@ -56,7 +56,7 @@ def files(tmp_path_factory):
         )
     priors = folder / "priors.yaml"
     argv = ["fit", "--model", "icr-slip", "--by-terrain", "--popsize", "8", "--out", priors]
-    assert main([str(a) for a in [*argv, "--log", *train]]) == 0
+    assert main([str(a) for a in [*argv, "--wheels", *train]]) == 0
     grass, gravel = (
         constant_model_log("icr-slip", truth, seconds=40.0, seed=seed, terrain=terrain)
         for seed, (terrain, truth) in enumerate(TRUTH.items(), start=10)

@@ -50,14 +50,14 @@ def check_out(out: str | Path, suffixes: Sequence[str]) -> None:
     Raises
     ------
     FileNotFoundError
-        ``out`` names a file in a folder that does not exist.
+        ``out`` names a file in a folder that does not exist (naming the file).
     NotADirectoryError
         ``out`` is a folder to create, but a file of that name exists.
     """
     path = Path(out)
     if names_a_file(path, suffixes):
         if not path.parent.is_dir():
-            raise FileNotFoundError(errno.ENOENT, "folder does not exist", str(path.parent))
+            raise FileNotFoundError(errno.ENOENT, "its folder does not exist", str(path))
     elif path.exists() and not path.is_dir():
         raise NotADirectoryError(errno.ENOTDIR, "is a file, not an output folder", str(path))
 

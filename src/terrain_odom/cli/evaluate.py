@@ -28,7 +28,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     """Register the ``evaluate`` subcommand."""
     p = sub.add_parser("evaluate", help="model-odometry error per metre and ATE")
     add_wheels_option(p, "wheel log CSV with pose measurements")
-    p.add_argument("--run", help="output folder of 'terrain-odom run' on this log")
+    p.add_argument("--run", metavar="DIR", help="output folder of 'terrain-odom run' on this log")
     p.add_argument(
         "--params",
         nargs="*",
@@ -39,6 +39,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     add_config_option(p, "project configuration (robot geometry, horizon)")
     p.add_argument(
         "--horizon",
+        metavar="H",
         help="evaluation horizon h_e: a distance like 2m (bare 2: metres; default: the "
         "configuration's evaluation.horizon, 2 m)",
     )

@@ -46,11 +46,14 @@ def warn_deprecated(old: str, new: str) -> None:
 
 
 class _Spellings(argparse.Action):
-    """Store an option's value under any of its spellings; old ones warn.
+    """Store an option's value under any of its spellings; note the old ones used.
 
     The new spelling is ``option_strings[0]``; the parser also dispatches the
     old spellings here (see :func:`add_option`). Giving two spellings of the
     same option is a :class:`~terrain_odom.errors.ConfigError` (one line).
+    The old spellings used are kept in the namespace for
+    :func:`warn_deprecated_spellings` (printed once parsing succeeded, so an
+    error stays one line).
     """
 
     def __init__(self, option_strings: Sequence[str], dest: str, **kwargs: Any) -> None:
@@ -67,17 +70,26 @@ class _Spellings(argparse.Action):
         from terrain_odom.errors import ConfigError
 
         spelling = option_string or self.new
-        used: dict[str, str] = vars(namespace).setdefault("_spellings", {})
-        first = used.setdefault(self.dest, spelling)
+        used: dict[str, tuple[str, str]] = vars(namespace).setdefault(_SPELLINGS, {})
+        _, first = used.setdefault(self.dest, (self.new, spelling))
         if first != spelling:
             old = first if first != self.new else spelling
             raise ConfigError(
                 f"{old} and {self.new} given: {old} is the deprecated spelling of {self.new}; "
                 f"give {self.new} only"
             )
-        if spelling != self.new:
-            warn_deprecated(spelling, self.new)
         setattr(namespace, self.dest, values)
+
+
+_SPELLINGS = "_spellings"
+"""Namespace attribute: option dest -> (new spelling, spelling used)."""
+
+
+def warn_deprecated_spellings(args: argparse.Namespace) -> None:
+    """Print one deprecation line per old spelling used in ``args`` (see :func:`add_option`)."""
+    for new, used in getattr(args, _SPELLINGS, {}).values():
+        if used != new:
+            warn_deprecated(used, new)
 
 
 def add_option(
@@ -85,9 +97,9 @@ def add_option(
 ) -> argparse.Action:
     """Add option ``name`` (``add_argument`` keywords) with deprecated spellings ``old``.
 
-    The old spellings parse as ``name`` does, each use printing one
-    deprecation line (:func:`warn_deprecated`); ``--help`` and the usage show
-    ``name`` only; both spellings at once are a one-line error.
+    The old spellings parse as ``name`` does, each printing one deprecation
+    line (:func:`warn_deprecated_spellings`, after parsing); ``--help`` and
+    the usage show ``name`` only; both spellings at once are a one-line error.
     """
     action = p.add_argument(name, *old, action=_Spellings, **kwargs)
     action.option_strings = [name]  # the parser still maps the old spellings to this action
@@ -295,6 +307,7 @@ def add_fit_options(p: argparse.ArgumentParser) -> None:
     add_wheels_option(p, "training wheel logs (CSV with x, y, yaw)", many=True)
     p.add_argument(
         "--horizon",
+        metavar="H",
         help="training segment length h_t: a distance like 2m (default; bare 2: metres) "
         "or a duration like 2s",
     )
