@@ -38,7 +38,17 @@ def _prepare(work: Path, seed: int, reuse: bool, pose_noise: list[str] | None = 
         args += ["--pose-noise", *pose_noise] if pose_noise else []
         assert cli(["simulate", *args, "--frame-format", "jpg"]) == 0
         patches = str(sim / "patches")  # train --out SIM writes SIM/classifier.npz
-        train = ["train", "--images", patches, "--out", str(sim), "--jobs", "1", "--tile-size", "32"]
+        train = [
+            "train",
+            "--images",
+            patches,
+            "--out",
+            str(sim),
+            "--jobs",
+            "1",
+            "--tile-size",
+            "32",
+        ]
         assert cli(train) == 0
     return sim
 

@@ -46,7 +46,7 @@ def _one_line_error(capsys: pytest.CaptureFixture[str], *argv: object) -> str:
 
 @pytest.fixture
 def log(tmp_path: Path, examples_dir: Path) -> Path:
-    """The demo log's first 20 s (poses and terrain labels)."""
+    """Return the demo log's first 20 s (poses and terrain labels)."""
     lines = (examples_dir / "demo_log.csv").read_text(encoding="utf-8").splitlines(True)
     path = tmp_path / "log.csv"
     path.write_text("".join(lines[:401]), encoding="utf-8")

@@ -80,7 +80,9 @@ def test_fit_arguments() -> None:
     p = argparse.ArgumentParser()
     add_fit_options(p)
 
-    args = fit_arguments(p.parse_args(["--wheels", "a.csv", "--seed", "4", "--sigma", "1", "2", "3"]))
+    args = fit_arguments(
+        p.parse_args(["--wheels", "a.csv", "--seed", "4", "--sigma", "1", "2", "3"])
+    )
 
     assert args["horizon"] == DEFAULT_TRAINING_HORIZON
     assert args["by_terrain"] is False

@@ -15,9 +15,9 @@ from terrain_odom.cli.options import (
     find_input,
     horizon_option,
     load_config_option,
-    out_spelling,
     print_pose_delay,
     print_written,
+    warn_out_file,
 )
 
 if TYPE_CHECKING:
@@ -87,6 +87,7 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
     from terrain_odom.app.evaluate import JSON_SUFFIXES, evaluate
 
     horizon = horizon_option(args.horizon, durations=False)
+    warn_out_file(args.out, JSON_SUFFIXES)
     result = evaluate(
         args.run,
         args.wheels,
@@ -94,7 +95,7 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
         config_path=args.config,
         params=[find_input(p, "params_*.yaml", "parameter file") for p in args.params],
         horizon=None if horizon is None else horizon.value,
-        out=out_spelling(args.out, JSON_SUFFIXES),
+        out=args.out,
     )
     print(f"{result.windows} windows of {result.horizon:g} m on {result.log}")
     print_pose_delay(result.time_calibration)

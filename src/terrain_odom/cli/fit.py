@@ -10,8 +10,8 @@ from terrain_odom.cli.options import (
     add_fit_options,
     add_out_option,
     fit_arguments,
-    out_spelling,
     print_pose_delays,
+    warn_out_file,
 )
 
 if TYPE_CHECKING:
@@ -71,8 +71,8 @@ def _print_evaluation(ev: FitEvaluation) -> None:
 def _cmd_fit(args: argparse.Namespace) -> int:
     from terrain_odom.app.fit import YAML_SUFFIXES, fit
 
-    out = out_spelling(args.out, YAML_SUFFIXES)
-    report = fit(args.wheels, args.model, out=out, eval_logs=args.eval, **fit_arguments(args))
+    warn_out_file(args.out, YAML_SUFFIXES)
+    report = fit(args.wheels, args.model, out=args.out, eval_logs=args.eval, **fit_arguments(args))
     print_pose_delays(report.time_calibration)
     _print_sets(report)
     if report.evaluation is not None:

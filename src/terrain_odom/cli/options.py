@@ -22,7 +22,7 @@ import math
 import sys
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, TypedDict
+from typing import TYPE_CHECKING, Any, TypedDict, overload
 
 if TYPE_CHECKING:
     from terrain_odom.config import Config
@@ -92,9 +92,7 @@ def warn_deprecated_spellings(args: argparse.Namespace) -> None:
             warn_deprecated(used, new)
 
 
-def add_option(
-    p: argparse.ArgumentParser, name: str, *old: str, **kwargs: Any
-) -> argparse.Action:
+def add_option(p: argparse.ArgumentParser, name: str, *old: str, **kwargs: Any) -> argparse.Action:
     """Add option ``name`` (``add_argument`` keywords) with deprecated spellings ``old``.
 
     The old spellings parse as ``name`` does, each printing one deprecation
@@ -122,8 +120,8 @@ def add_wheels_option(p: argparse.ArgumentParser, help: str, *, many: bool = Fal
     add_option(p, "--wheels", "--log", nargs=nargs, required=True, metavar="LOG", help=help)
 
 
-def out_spelling(out: str | None, suffixes: Sequence[str]) -> str | None:
-    """Return ``--out``, printing the deprecation line if it names a file (the old form).
+def warn_out_file(out: str | None, suffixes: Sequence[str]) -> None:
+    """Print the deprecation line if ``--out`` names a file (the old form).
 
     ``--out DIR`` is a folder; a name ending in one of ``suffixes`` (the
     file's own, :func:`~terrain_odom.app.locate.names_a_file`) names the
@@ -133,7 +131,14 @@ def out_spelling(out: str | None, suffixes: Sequence[str]) -> str | None:
 
     if out is not None and names_a_file(out, suffixes):
         warn_deprecated(f"--out {Path(out).name}", "--out DIR (a folder)")
-    return out
+
+
+@overload
+def find_input(path: str, pattern: str, kind: str) -> str: ...
+
+
+@overload
+def find_input(path: None, pattern: str, kind: str) -> None: ...
 
 
 def find_input(path: str | None, pattern: str, kind: str) -> str | None:

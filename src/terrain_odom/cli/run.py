@@ -18,6 +18,8 @@ from terrain_odom.cli.options import (
 )
 
 if TYPE_CHECKING:
+    from pathlib import Path
+
     from terrain_odom.app.run import FrameCounts
 
 
@@ -107,7 +109,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     if args.images is not None and args.terrain_from_log:
         raise ConfigError("--images and --terrain-from-log exclude each other")
     config = args.config
-    model = find_input(args.classifier, "*.npz", "classifier model")
+    model: str | Path | None = find_input(args.classifier, "*.npz", "classifier model")
     if args.images is not None and config is None:
         config = images_config(args.images)
         if config is not None:

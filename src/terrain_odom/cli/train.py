@@ -9,7 +9,7 @@ from terrain_odom.cli.options import (
     add_classifier_options,
     add_out_option,
     classifier_config,
-    out_spelling,
+    warn_out_file,
 )
 
 if TYPE_CHECKING:
@@ -50,9 +50,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 def _cmd_train(args: argparse.Namespace) -> int:
     from terrain_odom.app.train import MODEL_SUFFIXES, train
 
-    out = out_spelling(args.out, MODEL_SUFFIXES)
+    warn_out_file(args.out, MODEL_SUFFIXES)
     summary = train(
-        args.images, out, classifier_config(args), jobs=args.jobs, config_path=args.config
+        args.images, args.out, classifier_config(args), jobs=args.jobs, config_path=args.config
     )
     print(describe(summary.cfg))
     total = sum(summary.counts.values())
