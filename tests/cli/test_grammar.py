@@ -101,6 +101,19 @@ def test_every_option_has_one_spelling_across_subcommands():
     }
     for name in ("run", "evaluate", "fit", "compare"):
         assert "--wheels" in options[name] and "--log" not in options[name], name
+    aliases = {
+        name: set(parser._option_string_actions) - options[name]
+        for name, parser in sub.choices.items()
+    }
+    assert aliases == {
+        "run": {"--model"},
+        "evaluate": {"--log"},
+        "fit": {"--log"},
+        "compare": {"--log"},
+        "train": set(),
+        "report": set(),
+        "simulate": set(),
+    }
     for name in options:
         assert "--out" in options[name] or name == "report", name
         assert "--model" not in options[name] or name == "fit", name

@@ -114,10 +114,12 @@ def add_out_option(p: argparse.ArgumentParser, help: str, *, required: bool = Fa
     p.add_argument("--out", metavar="DIR", required=required, help=help)
 
 
-def add_wheels_option(p: argparse.ArgumentParser, help: str, *, many: bool = False) -> None:
-    """Add ``--wheels`` (the wheel log, or logs if ``many``; old spelling ``--log``)."""
+def add_wheels_option(
+    p: argparse.ArgumentParser, help: str, *, many: bool = False, old: Sequence[str] = ("--log",)
+) -> None:
+    """Add ``--wheels`` (the wheel log, or logs if ``many``; deprecated spellings ``old``)."""
     nargs = "+" if many else None
-    add_option(p, "--wheels", "--log", nargs=nargs, required=True, metavar="LOG", help=help)
+    add_option(p, "--wheels", *old, nargs=nargs, required=True, metavar="LOG", help=help)
 
 
 def warn_out_file(out: str | None, suffixes: Sequence[str]) -> None:

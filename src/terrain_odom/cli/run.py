@@ -26,7 +26,7 @@ if TYPE_CHECKING:
 def add_parser(sub: argparse._SubParsersAction) -> None:
     """Register the ``run`` subcommand."""
     p = sub.add_parser("run", help="EKF odometry over a wheel log (terrain-adaptive)")
-    add_wheels_option(p, "wheel log CSV")
+    add_wheels_option(p, "wheel log CSV", old=())  # run never had --log
     add_out_option(p, "output folder (created; one run per folder)", required=True)
     p.add_argument(
         "--overwrite",
