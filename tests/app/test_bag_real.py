@@ -94,22 +94,18 @@ def test_run_and_evaluate_on_the_imported_real_bag(jackal_bag: Path, tmp_path: P
 
     opts = ImportOptions(ODOM, pose_topic=ODOM, track_width=TRACK)
     result = import_bag(jackal_bag, tmp_path / "imp", opts, progress=False)
-    out = tmp_path / "eval.json"
-    assert (
-        main(
-            [
-                "evaluate",
-                "--log",
-                str(result.log_csv),
-                "--config",
-                str(result.config_yaml),
-                "--out",
-                str(out),
-            ]
-        )
-        == 0
-    )
-    idd = json.loads(out.read_text())["models"]["idd (B=0.563 m)"]
+    out = tmp_path / "eval"
+    argv = [
+        "evaluate",
+        "--wheels",
+        str(result.log_csv),
+        "--config",
+        str(result.config_yaml),
+        "--out",
+        str(out),
+    ]
+    assert main(argv) == 0
+    idd = json.loads((out / "evaluation.json").read_text())["models"]["idd (B=0.563 m)"]
     # the ideal differential drive on the imported track speeds re-integrates the controller's
     # own pose: a check of the import (not of the robot), within 1 % of the distance
     assert idd["translation_m_per_m"]["median"] < 0.01

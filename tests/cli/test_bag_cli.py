@@ -165,3 +165,28 @@ def test_run_bag_options_misused(
     path = bag if wheels == "bag" else csv
     assert main(["run", "--wheels", str(path), "--out", str(tmp_path / "o"), *extra]) == 2
     assert message in capsys.readouterr().err
+
+
+def test_run_on_a_bag_refuses_a_run_folder_before_importing(
+    bag: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    argv = [
+        "run",
+        "--wheels",
+        str(bag),
+        "--out",
+        str(tmp_path),
+        "--wheels-topic",
+        "/odom",
+        "--track-width",
+        "0.4",
+    ]
+    assert main(argv) == 0
+    log = (tmp_path / "bag" / "log.csv").read_bytes()
+    (tmp_path / "bag" / "log.csv").write_bytes(b"kept")
+    capsys.readouterr()
+    assert main(argv) == 2
+    assert "already holds a run" in capsys.readouterr().err
+    assert (tmp_path / "bag" / "log.csv").read_bytes() == b"kept"  # nothing imported
+    assert main([*argv, "--overwrite"]) == 0
+    assert (tmp_path / "bag" / "log.csv").read_bytes() == log
