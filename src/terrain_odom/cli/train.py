@@ -41,7 +41,8 @@ def print_search(search: Search, top: int = 5) -> None:
         f"tuned: {len(search.candidates)} candidates of the grid, {search.folds}-fold "
         "cross-validated mean accuracy, best first:"
     )
-    for i in search.mean_score.argsort(kind="stable")[::-1][:top]:
+    ranked = sorted(range(len(search.candidates)), key=lambda i: -search.mean_score[i])
+    for i in ranked[:top]:  # a stable sort: of ties, the chosen (the first) first
         values = " ".join(f"{k}={v}" for k, v in search.candidates[i].items())
         print(f"  {100 * search.mean_score[i]:5.1f} % +- {100 * search.std_score[i]:.1f}  {values}")
 
