@@ -42,7 +42,7 @@ def colour_folder(root: Path, per_class: int = 9) -> Path:
 
 @pytest.fixture
 def folder(tmp_path: Path) -> tuple[Path, Path]:
-    """The colour folder and a grid file of 4 candidates (2 feature settings x k)."""
+    """Return the colour folder and a grid file of 4 candidates (2 feature settings x k)."""
     grid = tmp_path / "grid.yaml"
     grid.write_text(GRID)
     return colour_folder(tmp_path / "images"), grid

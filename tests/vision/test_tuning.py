@@ -57,14 +57,14 @@ def colour_classes(per_class: int = 12) -> dict[Path, np.ndarray]:
 
 
 def image_set(images: dict[Path, np.ndarray]) -> LabelledImages:
-    """The labelled set of ``images`` (class = the path's folder), sorted like a folder scan."""
+    """Return the labelled set of ``images`` (class: the folder), sorted like a folder scan."""
     paths = tuple(sorted(images))
     labels = tuple(path.parent.name for path in paths)
     return LabelledImages(Path("."), tuple(sorted(set(labels))), paths, labels)
 
 
 def memory_cache(images: dict[Path, np.ndarray]) -> FeatureCache:
-    """A cache extracting the features of ``images`` in this process."""
+    """Return a cache extracting the features of ``images`` in this process."""
     labelled = image_set(images)
 
     def extract(configs: list[ClassifierConfig]) -> list[dataset.LabelledFeatures]:
@@ -85,7 +85,10 @@ def test_the_search_picks_colour_features_where_only_colour_separates_the_classe
     grid = check_grid({"features": ["sfta", "sfta+lab"], "k": [1, 3]}, base)
     labels = cache.features(base).labels
     search, chosen = search_settings(cache, base, grid, labels, folds=3, seed=0)
-    scores = {(c["features"], c["k"]): s for c, s in zip(search.candidates, search.mean_score)}
+    scores = {
+        (c["features"], c["k"]): s
+        for c, s in zip(search.candidates, search.mean_score, strict=True)
+    }
     assert chosen.features == "sfta+lab" and search.choice["features"] == "sfta+lab"
     assert scores["sfta+lab", 1] == scores["sfta+lab", 3] == 1.0
     assert max(scores["sfta", 1], scores["sfta", 3]) <= 0.75  # grey: about chance (0.5)

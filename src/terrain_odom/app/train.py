@@ -257,7 +257,11 @@ def train(
     ConfigError
         ``k`` larger than the number of training samples; an invalid grid.
     """
-    from terrain_odom.app.tune import feature_cache, load_grid, tune_settings
+    from terrain_odom.app.tune import (  # here: app.tune builds on this module's CrossValidation
+        feature_cache,
+        load_grid,
+        tune_settings,
+    )
 
     cfg = ClassifierConfig() if cfg is None else cfg
     out = Path(out)
@@ -375,7 +379,7 @@ def report_accuracy(
         As :func:`train` (a file to write in ``out_dir`` is an input), or a
         class with fewer images than ``folds``.
     """
-    from terrain_odom.app.tune import feature_cache, load_grid, nested_tuning
+    from terrain_odom.app.tune import feature_cache, load_grid, nested_tuning  # as in train
 
     cfg = ClassifierConfig() if cfg is None else cfg
     if folds < 2:
