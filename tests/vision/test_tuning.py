@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import copy
 import functools
+import pickle
 from collections import Counter
 from pathlib import Path
 
@@ -166,6 +167,21 @@ def test_nested_cv_never_fits_or_tunes_on_the_outer_test_fold(monkeypatch):
         assert all(not np.intersect1d(idx, test).size for idx in chunk[:-1])
         assert np.array_equal(chunk[-1], test)
     assert all(fold.accuracy == 100.0 for fold in folds)  # colour separates the classes
+
+
+def test_the_search_is_deterministic_and_the_same_in_worker_processes():
+    cache = memory_cache(colour_classes(9))
+    grid = check_grid({"features": ["sfta", "sfta+lab"], "k": [1, 3]}, BASE)
+    cache.prepare(grid_configs(grid, BASE))
+    labels = cache.features(BASE).labels
+    serial = search_settings(cache, BASE, grid, labels, folds=3, seed=0)
+    parallel = search_settings(cache, BASE, grid, labels, folds=3, seed=0, jobs=2)
+    assert np.array_equal(serial[0].mean_score, parallel[0].mean_score)
+    assert serial[1] == parallel[1]
+    worker = pickle.loads(pickle.dumps(cache))  # what a joblib worker gets: no extraction
+    assert np.array_equal(worker.features(BASE).features, cache.features(BASE).features)
+    with pytest.raises(ValueError, match="not prepared"):
+        worker.features(ClassifierConfig(n_t=2))
 
 
 def test_clones_share_the_cache_and_estimator_parameters_are_the_configuration():

@@ -156,17 +156,23 @@ class FeatureCache:
     -----
     scikit-learn clones estimators (deep copies their parameters) for every
     fit; a copy of the cache is the cache itself, so that every clone shares
-    the features. Call :meth:`prepare` with every setting of a search before
-    it runs in worker processes (what a worker would compute stays in it).
+    the features. A cache sent to a worker process (pickled) takes its
+    features without ``extract``: call :meth:`prepare` with every setting of
+    a search before it runs in workers.
     """
 
     def __init__(self, extract: Callable[[list[ClassifierConfig]], Sequence[LabelledFeatures]]):
+        self._extract: Callable[[list[ClassifierConfig]], Sequence[LabelledFeatures]] | None
         self._extract = extract
         self._sets: dict[tuple[tuple[str, Any], ...], LabelledFeatures] = {}
 
     def __deepcopy__(self, memo: dict[int, Any]) -> FeatureCache:
         """Return ``self``: clones of an estimator share its cache."""
         return self
+
+    def __getstate__(self) -> dict[str, Any]:
+        """Return the state sent to a worker process: the features only."""
+        return {"_extract": None, "_sets": self._sets}
 
     def __len__(self) -> int:
         """Return the number of feature settings held."""
@@ -180,6 +186,8 @@ class FeatureCache:
                 todo.setdefault(_cache_key(cfg), cfg)
         if not todo:
             return
+        if self._extract is None:
+            raise ValueError("feature settings not prepared before the search went to workers")
         for key, data in zip(todo, self._extract(list(todo.values())), strict=True):
             if self._sets and data.paths != next(iter(self._sets.values())).paths:
                 raise ValueError("the extraction returned another image set")
