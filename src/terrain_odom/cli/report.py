@@ -6,10 +6,11 @@ import argparse
 from typing import TYPE_CHECKING
 
 from terrain_odom.cli.options import add_classifier_options, add_out_option, classifier_config
-from terrain_odom.cli.train import describe, print_skipped
+from terrain_odom.cli.train import describe, describe_values, print_skipped
 
 if TYPE_CHECKING:
-    from terrain_odom.app.train import AccuracyReport, CrossValidation
+    from terrain_odom.app.train import CrossValidation
+    from terrain_odom.app.tune import NestedTuning
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -59,19 +60,19 @@ def format_table(
     return lines
 
 
-def print_tuned(report: AccuracyReport) -> None:
+def print_tuned(tuned: NestedTuning) -> None:
     """Print the nested cross-validation of the tuned classifier: each fold's choice, the table."""
-    tuned = report.tuned
-    assert tuned is not None
     candidates = len(tuned.folds[0].search.candidates)
     print(
         f"\ntuned (nested: {candidates} candidates searched by {tuned.inner_folds}-fold "
         f"cross-validation on the other folds of each fold): around {describe(tuned.base)}"
     )
     for i, fold in enumerate(tuned.folds):
-        values = " ".join(f"{k}={v}" for k, v in fold.search.choice.items())
         inner = 100 * fold.search.mean_score[fold.search.best]
-        print(f"  fold {i + 1}: {values} (inner {inner:.1f} %, this fold {fold.accuracy:.1f} %)")
+        print(
+            f"  fold {i + 1}: {describe_values(fold.search.choice)} "
+            f"(inner {inner:.1f} %, this fold {fold.accuracy:.1f} %)"
+        )
     print("\n".join(format_table(tuned.cross_validation)))
 
 
@@ -102,7 +103,7 @@ def _cmd_accuracy(args: argparse.Namespace) -> int:
         print(f"\n{title}: {describe(cv.cfg)}")
         print("\n".join(format_table(cv, report.feature_ms[key])))
     if report.tuned is not None:
-        print_tuned(report)
+        print_tuned(report.tuned)
     if report.outputs:
         print()
         for path in report.outputs:

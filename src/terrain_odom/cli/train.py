@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import argparse
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from terrain_odom.cli.options import add_classifier_options, add_out_option, classifier_config
 
@@ -35,6 +35,11 @@ def print_skipped(skipped: tuple[SkippedImage, ...]) -> None:
             print(f"  {item.path}: {item.reason}")
 
 
+def describe_values(params: dict[str, Any]) -> str:
+    """Return a grid candidate's values as ``name=value`` words."""
+    return " ".join(f"{name}={value}" for name, value in params.items())
+
+
 def print_search(search: Search, top: int = 5) -> None:
     """Print how many candidates a search scored and its best ``top``, best first."""
     print(
@@ -43,8 +48,8 @@ def print_search(search: Search, top: int = 5) -> None:
     )
     ranked = sorted(range(len(search.candidates)), key=lambda i: -search.mean_score[i])
     for i in ranked[:top]:  # a stable sort: of ties, the chosen (the first) first
-        values = " ".join(f"{k}={v}" for k, v in search.candidates[i].items())
-        print(f"  {100 * search.mean_score[i]:5.1f} % +- {100 * search.std_score[i]:.1f}  {values}")
+        score = f"{100 * search.mean_score[i]:5.1f} % +- {100 * search.std_score[i]:.1f}"
+        print(f"  {score}  {describe_values(search.candidates[i])}")
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
