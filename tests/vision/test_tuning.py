@@ -207,6 +207,7 @@ def test_grid_checks_name_the_field():
         ({"tile_size": [4]}, "tile_size"),
         ([], "expected a mapping"),
         ("k: 3", "expected a mapping"),
+        (3, "expected a mapping"),
     ):
         with pytest.raises(ConfigError, match=match):
             check_grid(bad, base)
