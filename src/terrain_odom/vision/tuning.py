@@ -108,7 +108,11 @@ def check_grid(
         non-list value, or a value the field does not take (naming it).
     """
     subgrids = [grid] if isinstance(grid, Mapping) else grid
-    if not isinstance(subgrids, (list, tuple)) or not subgrids or not all(isinstance(sub, Mapping) and sub for sub in subgrids):
+    if (
+        not isinstance(subgrids, (list, tuple))
+        or not subgrids
+        or not all(isinstance(sub, Mapping) and sub for sub in subgrids)
+    ):
         raise ConfigError("grid: expected a mapping of field -> list of values (or a list of them)")
     out: Grid = []
     for sub in subgrids:
