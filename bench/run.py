@@ -61,7 +61,7 @@ camera:
 
 
 TILE_SIZE = 128
-MODEL = f"model_tiles{TILE_SIZE}.npz"
+MODEL = f"model_tiles{TILE_SIZE}/classifier.npz"  # train --out model_tiles128
 
 
 def prepare(work: Path, duration: float, reuse: bool) -> Path:
@@ -75,7 +75,7 @@ def prepare(work: Path, duration: float, reuse: bool) -> Path:
     args = ["simulate", "--out", str(sim), "--scenario", "chen2023", "--seed", "0"]
     args += ["--duration", str(duration), "--frame-format", "jpg", "--config", str(camera)]
     assert cli(args) == 0
-    train = ["train", "--images", str(sim / "patches"), "--out", str(sim / MODEL)]
+    train = ["train", "--images", str(sim / "patches"), "--out", str((sim / MODEL).parent)]
     assert cli([*train, "--tile-size", str(TILE_SIZE), "--jobs", "1"]) == 0
     return sim
 

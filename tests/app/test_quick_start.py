@@ -1,7 +1,7 @@
 """The camera quick start: the committed sample run and the default classifier.
 
 ``terrain-odom run --images sample_images/chen2023 --wheels
-sample_images/chen2023/log.csv --out out/`` needs neither ``--model`` (the
+sample_images/chen2023/log.csv --out out/`` needs neither ``--classifier`` (the
 default model, package data ``terrain_odom/models/default.npz``) nor
 ``--config`` (the run folder's ``config.yaml``).
 """
@@ -130,7 +130,7 @@ def test_missing_default_model_is_a_one_line_error(tmp_path, capsys, monkeypatch
     args = ["run", "--images", str(images), "--wheels", str(images / "log.csv")]
     assert main([*args, "--out", str(out)]) == 2
     err = capsys.readouterr().err.strip()
-    assert "\n" not in err and str(missing) in err and "pass --model" in err
+    assert "\n" not in err and str(missing) in err and "pass --classifier" in err
     assert not out.exists()
 
 
@@ -162,7 +162,7 @@ def test_an_explicit_config_and_model_win_over_the_defaults(tmp_path, capsys, ex
     args = ["run", "--images", str(images), "--wheels", str(images / "log.csv")]
     args += ["--out", str(out)]
     if explicit:
-        args += ["--config", str(other), "--model", str(model)]
+        args += ["--config", str(other), "--classifier", str(model)]
     assert main(args) == 0
     printed = capsys.readouterr().out
     assert ("found in the --images folder" in printed) != explicit and (

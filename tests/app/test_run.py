@@ -313,7 +313,7 @@ def test_cli_run_interrupted_keeps_rows_and_exits_130(
     assert json.loads((out_dir / "report.json").read_text())["status"] == "interrupted"
     # evaluate refuses the interrupted run, in one line
     monkeypatch.undo()
-    code = main(["evaluate", "--log", str(log_path), "--run", str(out_dir)])
+    code = main(["evaluate", "--wheels", str(log_path), "--run", str(out_dir)])
     err = capsys.readouterr().err.strip()
     assert code == 2 and "\n" not in err
     assert "the run did not complete (status: interrupted)" in err

@@ -50,7 +50,7 @@ def folder(tmp_path: Path) -> tuple[Path, Path]:
 
 def test_train_tune_chooses_colour_and_the_model_file_records_the_search(tmp_path, folder):
     images, grid = folder
-    summary = train(images, tmp_path / "m.npz", BASE, jobs=1, progress=False, grid_path=grid)
+    summary = train(images, tmp_path / "m", BASE, jobs=1, progress=False, grid_path=grid)
     tuning = summary.tuning
     assert tuning is not None and summary.cfg == tuning.chosen
     assert tuning.chosen.features == "sfta+lab" and tuning.chosen.n_t == 1  # base kept
@@ -66,7 +66,7 @@ def test_train_tune_chooses_colour_and_the_model_file_records_the_search(tmp_pat
     }
     assert scores["sfta+lab", 1] == scores["sfta+lab", 3] == 100.0
     assert max(scores["sfta", 1], scores["sfta", 3]) <= 75.0
-    untuned = train(images, tmp_path / "plain.npz", BASE, jobs=1, progress=False)
+    untuned = train(images, tmp_path / "plain", BASE, jobs=1, progress=False)
     assert untuned.tuning is None and load_tuning(untuned.model_path) is None  # old layout
 
 
@@ -116,12 +116,14 @@ def test_grid_files_are_checked_and_never_overwritten(tmp_path, folder):
     bad = tmp_path / "bad.yaml"
     bad.write_text("k: [1, 3]\ncolour: [lab]\n")
     with pytest.raises(ConfigError, match=f"{bad}: grid: unknown field 'colour'"):
-        train(images, tmp_path / "m.npz", grid_path=bad)
+        train(images, tmp_path / "m", grid_path=bad)
     with pytest.raises(ConfigError, match="grid file not found"):
         load_grid(tmp_path / "missing.yaml", BASE)
+    odd = tmp_path / "grid.npz"  # a grid file the old --out FILE.npz form would name
+    odd.write_text(GRID)
     with pytest.raises(InputFileError):
-        train(images, grid, grid_path=grid)
-    assert grid.read_text() == GRID
+        train(images, odd, grid_path=odd)
+    assert odd.read_text() == GRID
 
 
 def test_too_few_images_for_the_nested_folds_is_an_input_error(tmp_path):

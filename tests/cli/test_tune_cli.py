@@ -32,8 +32,8 @@ def test_train_tune_prints_the_search_and_writes_a_tuned_model(tmp_path, capsys)
     images = tiny_folder(tmp_path / "images")
     grid = tmp_path / "grid.yaml"
     grid.write_text("k: [1, 3]\n")
-    out = tmp_path / "m.npz"
-    args = ["train", "--images", str(images), "--out", str(out), "--jobs", "1", "--tune"]
+    args = ["train", "--images", str(images), "--out", str(tmp_path / "m"), "--jobs", "1", "--tune"]
+    out = tmp_path / "m" / "classifier.npz"
     assert main([*args, "--grid", str(grid), "--features", "sfta"]) == 0
     text = capsys.readouterr().out
     assert "tuned: 2 candidates of the grid, 5-fold cross-validated mean accuracy" in text
@@ -65,8 +65,8 @@ def test_a_bad_grid_is_one_line_and_exit_2(tmp_path, capsys):
     images = tiny_folder(tmp_path / "images", per_class=2)
     grid = tmp_path / "grid.yaml"
     grid.write_text("k: 3\n")
-    args = ["train", "--images", str(images), "--out", str(tmp_path / "m.npz"), "--grid", str(grid)]
+    args = ["train", "--images", str(images), "--out", str(tmp_path / "m"), "--grid", str(grid)]
     assert main(args) == 2
     err = capsys.readouterr().err
     assert err.strip().count("\n") == 0 and "grid.k: expected a non-empty list" in err
-    assert not (tmp_path / "m.npz").exists()
+    assert not (tmp_path / "m").exists()

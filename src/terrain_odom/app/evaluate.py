@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 
+from terrain_odom.app.locate import check_out, create_folder, output_file
 from terrain_odom.app.run import read_calibrated_log, run_config
 from terrain_odom.app.run_folder import TRAJECTORY_CSV, check_complete
 from terrain_odom.config import Config, RobotConfig, load_config
@@ -39,7 +40,12 @@ from terrain_odom.kinematics import get_model, twist_icr
 from terrain_odom.kinematics.slip import SlipModel, param_names
 from terrain_odom.records import WheelLog
 
-__all__ = ["ModelErrors", "EvaluationResult", "evaluate"]
+__all__ = ["EVALUATION_JSON", "JSON_SUFFIXES", "ModelErrors", "EvaluationResult", "evaluate"]
+
+EVALUATION_JSON = "evaluation.json"
+"""The file :func:`evaluate` writes into its ``out`` folder (or ``run_dir``)."""
+JSON_SUFFIXES = (".json",)
+"""Suffixes by which ``out`` names the file itself (the old form)."""
 
 RowsTwist = tuple[np.ndarray, np.ndarray, np.ndarray]
 """Per-row body twist ``(v_x, v_y, omega)`` of a model, m/s and rad/s."""
@@ -200,8 +206,8 @@ def _params_model(
 
 def _output_path(out: str | Path | None, run_dir: str | Path | None) -> Path | None:
     if out is not None:
-        return Path(out)
-    return Path(run_dir) / "evaluation.json" if run_dir else None
+        return output_file(out, EVALUATION_JSON, JSON_SUFFIXES)
+    return Path(run_dir) / EVALUATION_JSON if run_dir else None
 
 
 def _evaluation_config(
@@ -267,7 +273,8 @@ def evaluate(
     horizon : float, optional
         Evaluation horizon ``h_e``, m; ``config.evaluation.horizon`` if omitted.
     out : str or Path, optional
-        Where to write the JSON result; ``run_dir/evaluation.json`` by default.
+        Folder (created) to write ``evaluation.json`` into; ``run_dir`` by
+        default. A name ending in ``.json`` is the file itself (the old form).
         ``InputFileError`` before anything is read if it is an input.
 
     Returns
@@ -279,6 +286,8 @@ def evaluate(
     if run_dir is not None:
         check_complete(run_dir)
     target = _output_path(out, run_dir)
+    if out is not None:
+        check_out(out, JSON_SUFFIXES)
     if target is not None:
         trajectory = None if run_dir is None else Path(run_dir) / TRAJECTORY_CSV
         check_outputs([wheels, config_path, trajectory, *(params or [])], [target])
@@ -309,5 +318,7 @@ def evaluate(
         output=target,
     )
     if target is not None:
+        if out is not None:
+            create_folder(out, JSON_SUFFIXES)
         write_json(target, result.to_dict())
     return result

@@ -16,6 +16,7 @@ from collections.abc import Sequence
 
 from terrain_odom import __version__
 from terrain_odom.cli import compare, evaluate, fit, report, run, simulate, train
+from terrain_odom.cli.options import warn_deprecated_spellings
 from terrain_odom.errors import TerrainOdomError
 
 # One module per subcommand, each with ``add_parser(subparsers)``.
@@ -41,8 +42,9 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; returns the exit code."""
     parser = build_parser()
-    args = parser.parse_args(argv)
     try:
+        args = parser.parse_args(argv)  # two spellings of one option: a ConfigError
+        warn_deprecated_spellings(args)
         return args.func(args)
     except TerrainOdomError as exc:
         print(f"terrain-odom: error: {exc}", file=sys.stderr)
