@@ -15,12 +15,22 @@ import sys
 from collections.abc import Sequence
 
 from terrain_odom import __version__
-from terrain_odom.cli import compare, evaluate, fit, report, run, simulate, train
+from terrain_odom.cli import (
+    bag_import,
+    compare,
+    evaluate,
+    fit,
+    inspect,
+    report,
+    run,
+    simulate,
+    train,
+)
 from terrain_odom.cli.options import warn_deprecated_spellings
 from terrain_odom.errors import TerrainOdomError
 
 # One module per subcommand, each with ``add_parser(subparsers)``.
-SUBCOMMANDS = (run, evaluate, train, report, simulate, fit, compare)
+SUBCOMMANDS = (run, evaluate, train, report, simulate, fit, compare, inspect, bag_import)
 
 EXIT_USAGE = 2
 EXIT_INTERRUPTED = 130

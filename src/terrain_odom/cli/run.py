@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 from typing import TYPE_CHECKING
 
+from terrain_odom.cli.bag_import import add_bag_topic_options, wheels_from_bag
 from terrain_odom.cli.options import (
     add_config_option,
     add_log_options,
@@ -26,7 +27,9 @@ if TYPE_CHECKING:
 def add_parser(sub: argparse._SubParsersAction) -> None:
     """Register the ``run`` subcommand."""
     p = sub.add_parser("run", help="EKF odometry over a wheel log (terrain-adaptive)")
-    add_wheels_option(p, "wheel log CSV", old=())  # run never had --log
+    add_wheels_option(
+        p, "wheel log CSV, or a ROS bag with --wheels-topic", old=()
+    )  # run never had --log
     add_out_option(p, "output folder (created; one run per folder)", required=True)
     p.add_argument(
         "--overwrite",
@@ -81,6 +84,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "each confirmed change to it (covariance ekf.sigma_prior)",
     )
     add_log_options(p)
+    add_bag_topic_options(p)
     terrain = p.add_mutually_exclusive_group()
     terrain.add_argument(
         "--terrain-from-log",
@@ -97,6 +101,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     import dataclasses
 
     from terrain_odom.app.run import TerrainSource, images_config, run
+    from terrain_odom.app.run_folder import prepare_folder
     from terrain_odom.errors import ConfigError
     from terrain_odom.io.classifier_file import default_model
 
@@ -108,7 +113,12 @@ def _cmd_run(args: argparse.Namespace) -> int:
         source = TerrainSource.AUTO
     if args.images is not None and args.terrain_from_log:
         raise ConfigError("--images and --terrain-from-log exclude each other")
-    config = args.config
+    if (
+        args.wheels_topic is not None
+    ):  # a bag is imported into OUT/bag/: refuse a run's folder first
+        prepare_folder(args.out, overwrite=args.overwrite)
+    wheels, bag_config = wheels_from_bag(args, args.out)
+    config = args.config or bag_config
     model: str | Path | None = find_input(args.classifier, "*.npz", "classifier model")
     if args.images is not None and config is None:
         config = images_config(args.images)
@@ -123,7 +133,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
             cfg, terrain=dataclasses.replace(cfg.terrain, reset_at=args.reset_at)
         )
     summary = run(
-        args.wheels,
+        wheels,
         args.out,
         config=cfg,
         config_path=config,
