@@ -2,13 +2,17 @@
 
 from __future__ import annotations
 
+import dataclasses
+import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from terrain_odom.app.cluster import dask_cluster, run_jobs
+from terrain_odom.app.fit import format_error_stats
 from terrain_odom.app.locate import check_out, create_folder, output_file
 from terrain_odom.app.run import read_calibrated_log, run_config
 from terrain_odom.app.run_folder import TRAJECTORY_CSV, check_complete
@@ -20,6 +24,7 @@ from terrain_odom.evaluation import (
     ErrorSummary,
     PredictionSummary,
     TwistFn,
+    WindowErrors,
     Windows,
     absolute_trajectory_error,
     dead_reckon,
@@ -33,17 +38,31 @@ from terrain_odom.evaluation import (
     window_errors,
 )
 from terrain_odom.io import read_trajectory_csv
+from terrain_odom.io.atomic import write_text_atomic
 from terrain_odom.io.params import check_geometry, read_params
 from terrain_odom.io.paths import check_outputs
 from terrain_odom.io.report import path_or_none, report_header, write_json
 from terrain_odom.kinematics import get_model, twist_icr
 from terrain_odom.kinematics.slip import SlipModel, param_names
 from terrain_odom.records import WheelLog
+from terrain_odom.reporting.markdown import table
 
-__all__ = ["EVALUATION_JSON", "JSON_SUFFIXES", "ModelErrors", "EvaluationResult", "evaluate"]
+__all__ = [
+    "EVALUATION_JSON",
+    "EVALUATION_MD",
+    "JSON_SUFFIXES",
+    "ModelErrors",
+    "EvaluationResult",
+    "PooledErrors",
+    "BatchEvaluation",
+    "evaluate",
+    "evaluate_logs",
+]
 
 EVALUATION_JSON = "evaluation.json"
 """The file :func:`evaluate` writes into its ``out`` folder (or ``run_dir``)."""
+EVALUATION_MD = "evaluation.md"
+"""The table :func:`evaluate_logs` writes beside its ``evaluation.json``."""
 JSON_SUFFIXES = (".json",)
 """Suffixes by which ``out`` names the file itself (the old form)."""
 
@@ -61,10 +80,14 @@ class ModelErrors:
         Translational (m/m) and angular (deg/m) error per metre over the windows.
     ate : AteResult
         ATE of the model dead-reckoned over every segment, m.
+    window_errors : WindowErrors or None
+        The errors of each window (pooled over logs by :func:`evaluate_logs`;
+        not in the JSON).
     """
 
     errors: ErrorSummary
     ate: AteResult
+    window_errors: WindowErrors | None = field(default=None, repr=False, compare=False)
 
     def to_dict(self) -> dict[str, Any]:
         """Return the model's entry of ``evaluation.json``."""
@@ -146,9 +169,9 @@ def _model_errors(
 ) -> ModelErrors:
     """Window errors of ``twist_fn`` and the ATE of the per-row twist ``rows`` dead-reckoned."""
     reckoned = dead_reckon(log, *rows)
+    errors = window_errors(log, windows, twist_fn)
     return ModelErrors(
-        summarize(window_errors(log, windows, twist_fn)),
-        absolute_trajectory_error(reckoned[:, :2], log.pose[:, :2]),
+        summarize(errors), absolute_trajectory_error(reckoned[:, :2], log.pose[:, :2]), errors
     )
 
 
@@ -292,6 +315,23 @@ def evaluate(
         trajectory = None if run_dir is None else Path(run_dir) / TRAJECTORY_CSV
         check_outputs([wheels, config_path, trajectory, *(params or [])], [target])
     cfg = _evaluation_config(run_dir, config, config_path)
+    result = _evaluate_log(wheels, cfg=cfg, run_dir=run_dir, params=params, horizon=horizon)
+    if target is not None:
+        if out is not None:
+            create_folder(out, JSON_SUFFIXES)
+        write_json(target, result.to_dict())
+    return dataclasses.replace(result, output=target)
+
+
+def _evaluate_log(
+    wheels: str | Path,
+    *,
+    cfg: Config,
+    run_dir: str | Path | None = None,
+    params: Sequence[str | Path] | None = None,
+    horizon: float | None = None,
+) -> EvaluationResult:
+    """Compute what :func:`evaluate` does on one log, writing nothing (a joblib task of a batch)."""
     log, timing = read_calibrated_log(wheels, cfg)
     h_e = cfg.evaluation.horizon if horizon is None else float(horizon)
     windows = _evaluation_windows(log, h_e)
@@ -306,7 +346,7 @@ def evaluate(
         name, models[name], prediction[name] = _run_models(Path(run_dir), log, windows, ahead, cfg)
     for path in params or []:
         name, models[name] = _params_model(path, log, windows, cfg.robot)
-    result = EvaluationResult(
+    return EvaluationResult(
         log=Path(wheels).resolve(),
         run=None if run_dir is None else Path(run_dir).resolve(),
         time_calibration=timing,
@@ -315,10 +355,158 @@ def evaluate(
         models=models,
         prediction_windows=len(ahead),
         prediction=prediction,
-        output=target,
     )
-    if target is not None:
-        if out is not None:
-            create_folder(out, JSON_SUFFIXES)
-        write_json(target, result.to_dict())
-    return result
+
+
+@dataclass(frozen=True)
+class PooledErrors:
+    """Errors of one model pooled over the logs of a batch.
+
+    Attributes
+    ----------
+    errors : ErrorSummary
+        Statistics of every log's windows together.
+    ate_rmse : float
+        Dead-reckoning ATE over every compared row of every log, m (each log
+        aligned on its own): ``sqrt(sum(count_i rmse_i^2) / sum(count_i))``.
+    ate_count : int
+        Rows compared.
+    """
+
+    errors: ErrorSummary
+    ate_rmse: float
+    ate_count: int
+
+    @classmethod
+    def of(cls, entries: Sequence[ModelErrors]) -> PooledErrors:
+        """Pool one model's entries of several logs."""
+        count = sum(e.ate.count for e in entries)
+        square = sum(e.ate.count * e.ate.rmse**2 for e in entries)
+        return cls(
+            summarize([e.window_errors for e in entries if e.window_errors is not None]),
+            math.sqrt(square / count) if count else math.nan,
+            count,
+        )
+
+    def to_dict(self) -> dict[str, Any]:
+        """Return the model's ``pooled`` entry of ``evaluation.json``."""
+        rmse = None if math.isnan(self.ate_rmse) else self.ate_rmse
+        return {
+            **self.errors.to_dict(),
+            "ate_dead_reckoning": {"rmse_m": rmse, "count": self.ate_count},
+        }
+
+
+@dataclass(frozen=True)
+class BatchEvaluation:
+    """What :func:`evaluate_logs` computed (and wrote as ``evaluation.json``, ``evaluation.md``).
+
+    Attributes
+    ----------
+    logs : tuple of EvaluationResult
+        Each log's evaluation, in the order given.
+    pooled : dict of str to PooledErrors
+        Per model, the errors of all the logs together.
+    outputs : tuple of Path
+        Files written (empty without ``out``).
+    """
+
+    logs: tuple[EvaluationResult, ...]
+    pooled: dict[str, PooledErrors]
+    outputs: tuple[Path, ...] = ()
+
+    @property
+    def horizon(self) -> float:
+        """Evaluation horizon ``h_e``, m."""
+        return self.logs[0].horizon
+
+    def to_dict(self) -> dict[str, Any]:
+        """Return the content of ``evaluation.json``: per log as :func:`evaluate`'s, and pooled."""
+        header = report_header("evaluate")
+        return {
+            **header,
+            "horizon_m": self.horizon,
+            "logs": [{k: v for k, v in r.to_dict().items() if k not in header} for r in self.logs],
+            "pooled": {
+                "logs": len(self.logs),
+                "windows": sum(r.windows for r in self.logs),
+                "models": {name: p.to_dict() for name, p in self.pooled.items()},
+            },
+        }
+
+    def markdown(self) -> str:
+        """Return the table of ``evaluation.md``: one row per log and model, then the pooled rows."""
+        rows = []
+        for r in self.logs:
+            for name, entry in r.models.items():
+                rows.append([r.log.name, name, r.windows, *format_error_stats(entry.errors)])
+                rows[-1].append(entry.ate.rmse)
+        for name, pooled in self.pooled.items():
+            windows = pooled.errors.translation.count
+            rows.append([f"all {len(self.logs)} logs", name, windows])
+            rows[-1] += [*format_error_stats(pooled.errors), pooled.ate_rmse]
+        head = ["log", "model", "windows", "m/m median [q25-q75]", "deg/m median [q25-q75]"]
+        return (
+            f"Model-odometry error per metre over h_e = {self.horizon:g} m windows, "
+            "and dead-reckoning ATE\n\n" + table([*head, "ATE DR (m)"], rows) + "\n"
+        )
+
+
+def evaluate_logs(
+    wheels: Sequence[str | Path],
+    *,
+    config: Config | None = None,
+    config_path: str | Path | None = None,
+    params: Sequence[str | Path] | None = None,
+    horizon: float | None = None,
+    out: str | Path | None = None,
+    dask: str | None = None,
+) -> BatchEvaluation:
+    """Evaluate the nominal model and parameter files on many logs: per log and pooled.
+
+    Each log is evaluated as by :func:`evaluate` (without a run), in a joblib
+    task; the window errors of every log are then pooled per model.
+
+    Parameters
+    ----------
+    wheels : sequence of str or Path
+        Wheel logs with pose measurements (a log with no window is an error).
+    config, config_path, params, horizon
+        As for :func:`evaluate`, the same for every log.
+    out : str or Path, optional
+        Folder (created) to write ``evaluation.json`` and ``evaluation.md``
+        into; ``InputFileError`` before anything is read if one is an input.
+    dask : str, optional
+        Evaluate the logs on this Dask cluster (``tcp://host:port`` or
+        ``local:N``, :func:`~terrain_odom.app.cluster.dask_cluster`): the
+        workers read the logs and parameter files by their paths. Without it,
+        one after the other in this process. The same result either way.
+
+    Returns
+    -------
+    BatchEvaluation
+    """
+    if not wheels:
+        raise InputFileError("no wheel log given")
+    targets = [] if out is None else [Path(out) / EVALUATION_JSON, Path(out) / EVALUATION_MD]
+    check_outputs([*wheels, config_path, *(params or [])], targets)
+    cfg = config if config is not None else load_config(config_path)
+    with dask_cluster(dask) as cluster:
+        results = run_jobs(
+            _evaluate_log,
+            [str(path) for path in wheels],
+            1 if cluster is None else cluster.jobs,
+            cfg=cfg,
+            params=[str(path) for path in params or []],
+            horizon=horizon,
+        )
+    pooled = {
+        name: PooledErrors.of([r.models[name] for r in results]) for name in results[0].models
+    }
+    batch = BatchEvaluation(tuple(results), pooled)
+    if out is None:
+        return batch
+    Path(out).mkdir(parents=True, exist_ok=True)
+    write_json(targets[0], batch.to_dict())
+    write_text_atomic(targets[1], batch.markdown())
+    return dataclasses.replace(batch, outputs=tuple(targets))

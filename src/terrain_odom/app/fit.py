@@ -18,6 +18,7 @@ from typing import Any, BinaryIO
 import numpy as np
 
 from terrain_odom import __version__
+from terrain_odom.app.cluster import dask_cluster, run_jobs
 from terrain_odom.app.locate import check_out, create_folder, output_file
 from terrain_odom.app.run import calibrate_log
 from terrain_odom.config import Config, load_config
@@ -485,7 +486,8 @@ def _evaluate_fit(
     )
 
 
-def _fmt_stats(s: ErrorSummary) -> tuple[str, str]:
+def format_error_stats(s: ErrorSummary) -> tuple[str, str]:
+    """Return the per-metre errors as ``median [q25-q75]`` texts: m/m, deg/m (n/a: no window)."""
     t, r = s.translation, s.rotation
     if t.count == 0:
         return "n/a", "n/a"
@@ -522,6 +524,7 @@ def compare(
     options: FitOptions | None = None,
     config: Config | None = None,
     config_path: str | Path | None = None,
+    dask: str | None = None,
 ) -> CompareReport:
     """Fit every model and tabulate parameters and held-out errors (Baril Table I, Fig. 5-6).
 
@@ -537,6 +540,11 @@ def compare(
         Models to compare (default: all of ``MODELS``; ``idd`` is only evaluated).
     horizon, by_terrain, options, config, config_path
         As for :func:`fit`.
+    dask : str, optional
+        Fit the models on this Dask cluster, one task per model
+        (``tcp://host:port`` or ``local:N``, :func:`~terrain_odom.app.cluster.dask_cluster`);
+        without it, one after the other in this process. The same parameters
+        and errors either way (the fit times differ).
 
     Returns
     -------
@@ -562,18 +570,23 @@ def compare(
     opt = options or FitOptions()
     b = cfg.robot.track_width
     h_e = cfg.evaluation.horizon
-    results: dict[str, ModelComparison] = {}
-    raw_errors: dict[str, dict[str, list[WindowErrors]]] = {}
-    for name in names:
-        sets, _, skipped = _fit_sets(name, train, h_t, by_terrain, opt, b)
-        mp = ModelParams(
-            name, sets, b, {"wheel_radius": cfg.robot.wheel_radius, "horizon": str(h_t)}
+    with dask_cluster(dask) as cluster:
+        compared = run_jobs(
+            _compare_model,
+            names,
+            1 if cluster is None else cluster.jobs,
+            train=train,
+            evals=evals,
+            horizon=h_t,
+            by_terrain=by_terrain,
+            options=opt,
+            cfg=cfg,
         )
-        raw_errors[name] = _group_errors(mp, evals, h_e, b)
-        errors = {g: summarize(e) for g, e in raw_errors[name].items()}
-        results[name] = ModelComparison(mp, skipped, errors)
-        if target is not None:
-            write_params(target / params_file_name(name), mp)
+    results = {name: result for name, (result, _) in zip(names, compared, strict=True)}
+    raw_errors = {name: raw for name, (_, raw) in zip(names, compared, strict=True)}
+    if target is not None:
+        for name, result in results.items():
+            write_params(target / params_file_name(name), result.params)
     report = CompareReport(
         training_logs=tuple(log.source for log in train),
         evaluation_logs=tuple(log.source for log in evals),
@@ -594,6 +607,27 @@ def compare(
     return report
 
 
+def _compare_model(
+    name: str,
+    *,
+    train: Sequence[WheelLog],
+    evals: Sequence[WheelLog],
+    horizon: Horizon,
+    by_terrain: bool,
+    options: FitOptions,
+    cfg: Config,
+) -> tuple[ModelComparison, dict[str, list[WindowErrors]]]:
+    """Fit one model of :func:`compare` and its held-out window errors per group (a joblib task)."""
+    b = cfg.robot.track_width
+    sets, _, skipped = _fit_sets(name, train, horizon, by_terrain, options, b)
+    mp = ModelParams(
+        name, sets, b, {"wheel_radius": cfg.robot.wheel_radius, "horizon": str(horizon)}
+    )
+    raw = _group_errors(mp, evals, cfg.evaluation.horizon, b)
+    errors = {g: summarize(e) for g, e in raw.items()}
+    return ModelComparison(mp, skipped, errors), raw
+
+
 def _markdown(
     results: dict[str, ModelComparison], track_width: float, h_t: Horizon, h_e: float
 ) -> str:
@@ -609,7 +643,7 @@ def _markdown(
     error_rows = []
     for name, result in results.items():
         for g, summary in sorted(result.errors.items()):
-            t, r = _fmt_stats(summary)
+            t, r = format_error_stats(summary)
             ps = result.params.sets.get(g, result.params.sets.get(ANY_TERRAIN))
             fit_s = 0.0 if ps is None else ps.fit.get("seconds", 0.0)
             error_rows.append([name, g, summary.translation.count, t, r, f"{fit_s:.1f}"])

@@ -22,6 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 from sklearn.model_selection import StratifiedKFold
 
+from terrain_odom.app.cluster import dask_cluster
 from terrain_odom.app.locate import check_out, create_folder, output_file
 from terrain_odom.config.classifier import ClassifierConfig, paper_config
 from terrain_odom.errors import ConfigError, InputFileError
@@ -214,6 +215,7 @@ def train(
     config_path: str | Path | None = None,
     tune: bool = False,
     grid_path: str | Path | None = None,
+    dask: str | None = None,
 ) -> TrainSummary:
     """Train a terrain classifier on a labelled image folder and save it.
 
@@ -243,6 +245,10 @@ def train(
     grid_path : str or Path, optional
         YAML grid for ``tune`` (:func:`~terrain_odom.app.tune.load_grid`;
         default :data:`~terrain_odom.vision.tuning.DEFAULT_GRID`); implies ``tune``.
+    dask : str, optional
+        Run the feature extraction and the search on this Dask cluster
+        (``tcp://host:port`` or ``local:N``, :func:`~terrain_odom.app.cluster.dask_cluster`;
+        ``jobs`` is then the cluster's); the same result as without.
 
     Returns
     -------
@@ -269,12 +275,12 @@ def train(
     grid = load_grid(grid_path, cfg) if tune else None
     scan = scan_image_folder(images)
     check_outputs([*scan.paths, config_path, grid_path], [target])
-    cache = feature_cache(scan, jobs, progress)
-    tuning = None
-    if grid is not None:
-        tuning = tune_settings(cache, cfg, grid, folds=folds, jobs=jobs)
-        cfg = tuning.chosen
-    data = cache.features(cfg)
+    with dask_cluster(dask) as cluster:
+        jobs = jobs if cluster is None else cluster.jobs
+        cache = feature_cache(scan, jobs, progress)
+        tuning = None if grid is None else tune_settings(cache, cfg, grid, folds=folds, jobs=jobs)
+        cfg = cfg if tuning is None else tuning.chosen
+        data = cache.features(cfg)
     model = TerrainClassifier(cfg).fit(data.features, data.labels, data.region)
     folds = min(folds, *data.counts().values())
     validation = cross_validate(data, folds=folds) if folds >= 2 else None
@@ -348,6 +354,7 @@ def report_accuracy(
     config_path: str | Path | None = None,
     tune: bool = False,
     grid_path: str | Path | None = None,
+    dask: str | None = None,
 ) -> AccuracyReport:
     """Cross-validated confusion matrices of ``cfg`` and of Chen's recipe.
 
@@ -364,7 +371,7 @@ def report_accuracy(
         If given (an existing folder or one to create), write
         ``accuracy.json``, ``accuracy.csv`` and ``confusion.png`` there, each
         atomically.
-    jobs, progress, config_path, tune, grid_path
+    jobs, progress, config_path, tune, grid_path, dask
         As in :func:`train`; with ``tune``, the tuned classifier is scored
         by nested cross-validation (:func:`~terrain_odom.app.tune.nested_tuning`)
         on the same outer folds, beside ``cfg`` untuned.
@@ -393,8 +400,11 @@ def report_accuracy(
         )
         out_dir.mkdir(parents=True, exist_ok=True)
     paper = paper_config()
-    cache = feature_cache(scan, jobs, progress)
-    cache.prepare([cfg, paper, *([] if grid is None else grid_configs(grid, cfg))])
+    with dask_cluster(dask) as cluster:
+        jobs = jobs if cluster is None else cluster.jobs
+        cache = feature_cache(scan, jobs, progress)
+        cache.prepare([cfg, paper, *([] if grid is None else grid_configs(grid, cfg))])
+        tuned = None if grid is None else nested_tuning(cache, cfg, grid, folds=folds, jobs=jobs)
     chosen_data, paper_data = cache.features(cfg), cache.features(paper)
     report = AccuracyReport(
         images=Path(images),
@@ -404,7 +414,7 @@ def report_accuracy(
         counts=chosen_data.counts(),
         skipped=chosen_data.skipped,
         outputs=(),
-        tuned=None if grid is None else nested_tuning(cache, cfg, grid, folds=folds, jobs=jobs),
+        tuned=tuned,
     )
     if out_dir is None:
         return report
