@@ -6,6 +6,7 @@ import argparse
 
 from terrain_odom.cli.options import (
     MODEL_CHOICES,
+    add_dask_option,
     add_fit_options,
     add_out_option,
     fit_arguments,
@@ -30,6 +31,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     add_out_option(
         p, "folder (created) for compare.md, compare.json, compare.png, params_MODEL.yaml"
     )
+    add_dask_option(p, "the model fits (one task per model)")
     p.set_defaults(func=_cmd_compare)
 
 
@@ -37,7 +39,12 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     from terrain_odom.app.fit import compare
 
     report = compare(
-        args.wheels, args.eval, out_dir=args.out, models=args.models, **fit_arguments(args)
+        args.wheels,
+        args.eval,
+        out_dir=args.out,
+        models=args.models,
+        dask=args.dask,
+        **fit_arguments(args),
     )
     print_pose_delays(report.time_calibration)
     print(report.markdown, end="")

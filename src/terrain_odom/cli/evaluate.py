@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING
 
 from terrain_odom.cli.options import (
     add_config_option,
+    add_dask_option,
     add_log_options,
     add_out_option,
     add_wheels_option,
@@ -16,6 +17,7 @@ from terrain_odom.cli.options import (
     horizon_option,
     load_config_option,
     print_pose_delay,
+    print_pose_delays,
     print_written,
     warn_out_file,
 )
@@ -27,7 +29,12 @@ if TYPE_CHECKING:
 def add_parser(sub: argparse._SubParsersAction) -> None:
     """Register the ``evaluate`` subcommand."""
     p = sub.add_parser("evaluate", help="model-odometry error per metre and ATE")
-    add_wheels_option(p, "wheel log CSV with pose measurements")
+    add_wheels_option(
+        p,
+        "wheel log CSV with pose measurements; several: one report, per log and pooled "
+        "(evaluation.json, evaluation.md in --out)",
+        many=True,
+    )
     p.add_argument("--run", metavar="DIR", help="output folder of 'terrain-odom run' on this log")
     p.add_argument(
         "--params",
@@ -45,6 +52,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     add_out_option(p, "folder for evaluation.json (created; default: the --run folder)")
     add_log_options(p)
+    add_dask_option(p, "the logs of a batch (two or more --wheels)")
     p.set_defaults(func=_cmd_evaluate)
 
 
@@ -87,10 +95,12 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
     from terrain_odom.app.evaluate import JSON_SUFFIXES, evaluate
 
     horizon = horizon_option(args.horizon, durations=False)
+    if len(args.wheels) > 1 or args.dask is not None:
+        return _cmd_batch(args, None if horizon is None else horizon.value)
     warn_out_file(args.out, JSON_SUFFIXES)
     result = evaluate(
         args.run,
-        args.wheels,
+        args.wheels[0],
         config=load_config_option(args, _run_config(args)),
         config_path=args.config,
         params=[find_input(p, "params_*.yaml", "parameter file") for p in args.params],
@@ -104,4 +114,28 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
         print(f"{name:<32} {_format_stats(entry)}")
     _print_prediction(result)
     print_written("written:", [result.output])
+    return 0
+
+
+def _cmd_batch(args: argparse.Namespace, horizon: float | None) -> int:
+    """``evaluate --wheels LOG LOG ...``: one report over the logs, per log and pooled."""
+    from terrain_odom.app.evaluate import evaluate_logs
+    from terrain_odom.errors import ConfigError
+
+    if args.run is not None:
+        raise ConfigError("--run evaluates one run on its own log: give one --wheels log")
+    if len(args.wheels) < 2:
+        raise ConfigError("--dask sends whole logs to the workers: give two or more --wheels logs")
+    batch = evaluate_logs(
+        args.wheels,
+        config=load_config_option(args),
+        config_path=args.config,
+        params=[find_input(p, "params_*.yaml", "parameter file") for p in args.params],
+        horizon=horizon,
+        out=args.out,
+        dask=args.dask,
+    )
+    print_pose_delays({str(r.log): r.time_calibration for r in batch.logs})
+    print(batch.markdown(), end="")
+    print_written("written:", list(batch.outputs))
     return 0

@@ -114,6 +114,17 @@ def add_out_option(p: argparse.ArgumentParser, help: str, *, required: bool = Fa
     p.add_argument("--out", metavar="DIR", required=required, help=help)
 
 
+def add_dask_option(p: argparse.ArgumentParser, what: str) -> None:
+    """Add ``--dask`` (run ``what`` on a Dask cluster: a scheduler's address or ``local:N``)."""
+    p.add_argument(
+        "--dask",
+        metavar="ADDRESS",
+        help=f"run {what} on a Dask cluster: a running scheduler (tcp://host:8786; the workers "
+        "need the same data paths) or local:N (N local worker processes); needs the extra "
+        "terrain-odom[dask]",
+    )
+
+
 def add_wheels_option(
     p: argparse.ArgumentParser, help: str, *, many: bool = False, old: Sequence[str] = ("--log",)
 ) -> None:
@@ -416,7 +427,11 @@ def add_classifier_options(p: argparse.ArgumentParser) -> None:
         help="tiles of about this side in pixels, as many as fit (instead of --tiles); "
         "a region's time is then proportional to its area",
     )
-    p.add_argument("--jobs", type=int, help="feature-extraction processes (default: all cores)")
+    p.add_argument(
+        "--jobs",
+        type=int,
+        help="feature-extraction processes (default: all cores; with --dask: the cluster's workers)",
+    )
     p.add_argument(
         "--tune",
         action="store_true",
@@ -428,6 +443,7 @@ def add_classifier_options(p: argparse.ArgumentParser) -> None:
         help="YAML grid for --tune: classifier fields -> lists of values (implies --tune; "
         "default: the built-in grid)",
     )
+    add_dask_option(p, "the feature extraction and the --tune search")
 
 
 def classifier_config(args: argparse.Namespace) -> ClassifierConfig:

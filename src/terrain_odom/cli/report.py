@@ -88,6 +88,7 @@ def _cmd_accuracy(args: argparse.Namespace) -> int:
         config_path=args.config,
         tune=args.tune,
         grid_path=args.grid,
+        dask=args.dask,
     )
     total = sum(report.counts.values())
     print(

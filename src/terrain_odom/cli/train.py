@@ -77,6 +77,7 @@ def _cmd_train(args: argparse.Namespace) -> int:
         config_path=args.config,
         tune=args.tune,
         grid_path=args.grid,
+        dask=args.dask,
     )
     if summary.tuning is not None:
         print_search(summary.tuning.search)
