@@ -36,7 +36,7 @@ LOCAL = "local:"
 CONNECT_TIMEOUT = 10.0
 """Seconds to wait for a scheduler to answer, and for its first worker."""
 
-_REMOTE = re.compile(r"^(tcp|tls|ucx|inproc)://[^\s/]+$")
+_REMOTE = re.compile(r"^(tcp|tls|ucx|inproc)://\S+$")
 
 
 @dataclass(frozen=True)
@@ -149,7 +149,7 @@ def dask_cluster(address: str | None) -> Iterator[Cluster | None]:
                     n_workers=spec.workers,
                     threads_per_worker=1,
                     processes=True,
-                    dashboard_address=None,
+                    dashboard_address=":0",  # a free port: None still means 8787
                 )
             )
             client = stack.enter_context(distributed.Client(cluster))
