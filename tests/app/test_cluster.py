@@ -224,3 +224,33 @@ def test_train_tuned_on_the_cluster_is_the_same(
     mine, theirs = load_tuning(here.model_path), load_tuning(there.model_path)
     assert mine is not None and theirs == mine
     assert dataclasses.asdict(there.cfg) == mine["chosen_config"]
+
+
+def test_real_logs_batch_on_the_cluster(drive_dir: Path, warthog_yaml: Path, scheduler: str):
+    """Two real Warthog grass runs: the same per-log and pooled figures on the cluster."""
+    from terrain_odom.config import load_config
+
+    logs = [drive_dir / f"warthog_wheels_grass_2024_7_29_{t}.csv" for t in ("14h4s53", "14h8s51")]
+    cfg = load_config(warthog_yaml)
+    here = evaluate_logs(logs, config=cfg)
+    there = evaluate_logs(logs, config=cfg, dask=scheduler)
+    assert there.to_dict() == here.to_dict()
+    pooled = here.pooled["idd (B=1.08 m)"]
+    assert [r.windows for r in here.logs] == [930, 563]
+    assert pooled.errors.translation.count == 1493
+    assert pooled.errors.translation.median == pytest.approx(0.1125, abs=5e-4)  # m/m
+
+
+def test_real_photos_accuracy_on_the_cluster(indoor_dir: Path, tmp_path: Path, scheduler: str):
+    """A few real floor photos per class: the same confusion matrices on the cluster."""
+    for folder in sorted(p for p in indoor_dir.iterdir() if p.is_dir()):
+        (tmp_path / folder.name).mkdir()
+        for photo in sorted(folder.glob("*.jpg"))[:6]:
+            os.symlink(photo, tmp_path / folder.name / photo.name)
+    here = report_accuracy(tmp_path, folds=3, jobs=1, progress=False)
+    there = report_accuracy(tmp_path, folds=3, progress=False, dask=scheduler)
+    assert here.counts == {"carpet": 6, "tiles": 6, "wood": 6}
+    for (name, mine), (_, theirs) in zip(
+        here.configurations(), there.configurations(), strict=True
+    ):
+        assert np.array_equal(theirs.confusion, mine.confusion), name
