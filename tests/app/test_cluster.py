@@ -119,11 +119,18 @@ def _workers(address: str) -> list[str]:
         return list(client.nthreads())
 
 
+def _process(_: int) -> tuple[int, str | None, str | None]:
+    return os.getpid(), os.environ.get("MALLOC_TRIM_THRESHOLD_"), os.environ.get("OMP_NUM_THREADS")
+
+
 def test_local_cluster_starts_and_stops_worker_processes() -> None:
     with dask_cluster("local:2") as cluster:
         assert cluster is not None and cluster.threads == 2
-        pids = run_jobs(_pid, list(range(8)), cluster.jobs)
-    assert os.getpid() not in pids and len(set(pids)) <= 2
+        seen = run_jobs(_process, list(range(8)), cluster.jobs)
+    pids = {pid for pid, _, _ in seen}
+    assert os.getpid() not in pids and len(pids) <= 2
+    # one BLAS thread per worker (dask's default), glibc's malloc left as it is (not dask's)
+    assert {(trim, omp) for _, trim, omp in seen} == {(None, "1")}
 
 
 def test_compare_on_the_cluster_is_the_same(sim_output: SimOutput, scheduler: str) -> None:
