@@ -35,6 +35,7 @@ from itertools import cycle, islice
 from pathlib import Path
 from typing import Any
 
+from terrain_odom.app.cluster import dask_cluster
 from terrain_odom.app.fit import CompareReport, compare
 from terrain_odom.app.train import AccuracyReport, report_accuracy
 from terrain_odom.config import load_config
@@ -71,17 +72,16 @@ def timed(run: Callable[[str | None], Any]) -> dict[str, tuple[float, Any]]:
     Warm: an already running cluster of ``N`` workers that have imported
     terrain-odom, reached by its address (what a long-running cluster is).
     """
-    from distributed import Client, LocalCluster
+    from distributed import Client
 
     out = {"baseline": _clock(run, None)}
     for n in WORKERS:
         out[f"cold local:{n}"] = _clock(run, f"local:{n}")
-        with (
-            LocalCluster(n_workers=n, threads_per_worker=1, dashboard_address=":0") as cluster,
-            Client(cluster) as client,
-        ):
-            client.run(_warm)
-            out[f"warm {n} worker(s)"] = _clock(run, cluster.scheduler_address)
+        with dask_cluster(f"local:{n}") as cluster:
+            assert cluster is not None
+            with Client(cluster.address) as client:
+                client.run(_warm)
+            out[f"warm {n} worker(s)"] = _clock(run, cluster.address)
     return out
 
 

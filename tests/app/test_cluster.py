@@ -57,8 +57,8 @@ def _pid(_: int) -> int:
     return os.getpid()
 
 
-def _where(item: int) -> tuple[int, str]:
-    return item, distributed.get_worker().address
+def _where(item: int, *, offset: np.ndarray) -> tuple[int, str]:
+    return item + int(offset.sum()), distributed.get_worker().address
 
 
 def test_parse_dask_address() -> None:
@@ -80,7 +80,7 @@ def test_parse_dask_address() -> None:
 def test_without_an_address_nothing_changes() -> None:
     with dask_cluster(None) as cluster:
         assert cluster is None
-        assert run_jobs(_pid, [1, 2], 1) == [os.getpid()] * 2  # in this process
+        assert run_jobs(_pid, [1, 2], cluster) == [os.getpid()] * 2  # in this process
 
 
 def test_without_dask_installed_one_line_error(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -109,8 +109,8 @@ def _free_port() -> int:
 def test_jobs_run_on_the_workers_in_input_order(scheduler: str) -> None:
     with dask_cluster(scheduler) as cluster:
         assert cluster is not None and cluster.threads == 2 and cluster.jobs == 2
-        done = run_jobs(_where, list(range(12)), cluster.jobs)
-    assert [item for item, _ in done] == list(range(12))
+        done = run_jobs(_where, list(range(12)), cluster, offset=np.ones(100_000))
+    assert [item for item, _ in done] == list(range(100_000, 100_012))
     assert {worker for _, worker in done} <= set(_workers(scheduler)) and len(done) == 12
 
 
@@ -126,7 +126,7 @@ def _process(_: int) -> tuple[int, str | None, str | None]:
 def test_local_cluster_starts_and_stops_worker_processes() -> None:
     with dask_cluster("local:2") as cluster:
         assert cluster is not None and cluster.threads == 2
-        seen = run_jobs(_process, list(range(8)), cluster.jobs)
+        seen = run_jobs(_process, list(range(8)), cluster)
     pids = {pid for pid, _, _ in seen}
     assert os.getpid() not in pids and len(pids) <= 2
     # one BLAS thread per worker (dask's default), glibc's malloc left as it is (not dask's)

@@ -5,9 +5,10 @@
 thread each) for the duration of the call. Inside :func:`dask_cluster`,
 joblib's ``Parallel`` runs on the cluster (joblib's ``"dask"`` backend), so
 the core (:mod:`terrain_odom.vision`, :mod:`terrain_odom.fitting`) stays
-unaware of Dask: feature extraction, the ``--tune`` searches, ``compare``'s
-models and ``evaluate``'s logs are joblib calls that return their results in
-input order, whichever backend runs them.
+unaware of Dask: feature extraction and the ``--tune`` searches are joblib
+calls that return their results in input order, whichever backend runs
+them. ``compare``'s models and ``evaluate``'s logs are tasks of
+:func:`run_jobs` (a loop here, ``client.map`` on a cluster), in input order too.
 
 Workers receive file *paths* for the images (and the logs of ``evaluate``
 batches) and read them themselves: every worker must see the same paths (a
@@ -22,9 +23,9 @@ from __future__ import annotations
 
 import contextlib
 import re
-from collections.abc import Iterator
-from dataclasses import dataclass
-from typing import Any
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass, field
+from typing import Any, TypeVar
 
 from terrain_odom.errors import ConfigError
 
@@ -35,6 +36,8 @@ LOCAL = "local:"
 
 CONNECT_TIMEOUT = 10.0
 """Seconds to wait for a scheduler to answer, and for its first worker."""
+
+T = TypeVar("T")
 
 _REMOTE = re.compile(r"^(tcp|tls|ucx|inproc)://\S+$")
 
@@ -87,10 +90,13 @@ class Cluster:
         The scheduler's address.
     threads : int
         Worker threads of the cluster when it was joined.
+    client : distributed.Client
+        This process's client of the scheduler.
     """
 
     address: str
     threads: int
+    client: Any = field(repr=False, compare=False)
 
     @property
     def jobs(self) -> int:
@@ -157,7 +163,7 @@ def dask_cluster(address: str | None) -> Iterator[Cluster | None]:
         else:
             client = stack.enter_context(_connect(distributed, spec.address))
         stack.enter_context(parallel_config(backend="dask"))
-        yield Cluster(client.scheduler.address, sum(client.nthreads().values()))
+        yield Cluster(client.scheduler.address, sum(client.nthreads().values()), client)
 
 
 def _numpy_friendly_workers() -> Any:
@@ -192,12 +198,20 @@ def _connect(distributed: Any, address: str) -> Iterator[Any]:
         yield client
 
 
-def run_jobs(function: Any, items: list[Any], jobs: int, **kwargs: Any) -> list[Any]:
-    """Return ``[function(item, **kwargs) for item in items]``, run by joblib, in input order.
+def run_jobs(
+    function: Callable[..., T], items: Sequence[Any], cluster: Cluster | None, **shared: Any
+) -> list[T]:
+    """Return ``[function(item, **shared) for item in items]``, in input order.
 
-    ``jobs == 1`` outside a cluster runs in this process (as a plain loop);
-    inside :func:`dask_cluster`, on the cluster's workers.
+    Without a cluster, a plain loop in this process. On a cluster, one task
+    per item (``client.map``); the ``shared`` arguments are sent to every
+    worker once (``client.scatter``), not with each task through the scheduler.
     """
-    from joblib import Parallel, delayed
-
-    return list(Parallel(n_jobs=jobs)(delayed(function)(item, **kwargs) for item in items))
+    if cluster is None:
+        return [function(item, **shared) for item in items]
+    client = cluster.client
+    sent = {}
+    if shared:
+        futures = client.scatter(list(shared.values()), broadcast=True)
+        sent = dict(zip(shared, futures, strict=True))
+    return list(client.gather(client.map(function, list(items), pure=False, **sent)))

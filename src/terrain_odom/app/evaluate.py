@@ -495,7 +495,7 @@ def evaluate_logs(
         results = run_jobs(
             _evaluate_log,
             [str(path) for path in wheels],
-            1 if cluster is None else cluster.jobs,
+            cluster,
             cfg=cfg,
             params=[str(path) for path in params or []],
             horizon=horizon,

@@ -574,7 +574,7 @@ def compare(
         compared = run_jobs(
             _compare_model,
             names,
-            1 if cluster is None else cluster.jobs,
+            cluster,
             train=train,
             evals=evals,
             horizon=h_t,
