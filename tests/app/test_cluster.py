@@ -34,7 +34,7 @@ from terrain_odom.app.fit import compare
 from terrain_odom.app.simulate import SimOutput
 from terrain_odom.app.train import report_accuracy, train
 from terrain_odom.config.classifier import ClassifierConfig
-from terrain_odom.errors import ConfigError
+from terrain_odom.errors import ConfigError, InputFileError
 from terrain_odom.fitting import FitOptions
 from terrain_odom.io.classifier_file import load_tuning
 
@@ -261,3 +261,21 @@ def test_real_photos_accuracy_on_the_cluster(indoor_dir: Path, tmp_path: Path, s
         here.configurations(), there.configurations(), strict=True
     ):
         assert np.array_equal(theirs.confusion, mine.confusion), name
+
+
+def test_scheduler_without_workers_one_line_error(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(cluster_module, "CONNECT_TIMEOUT", 0.5)
+    with distributed.LocalCluster(n_workers=0, processes=False, dashboard_address=":0") as empty:
+        with pytest.raises(ConfigError, match="has no worker"):
+            with dask_cluster(empty.scheduler_address):
+                pass
+
+
+def test_an_error_on_a_worker_is_the_projects_own(
+    sim_output: SimOutput, tmp_path: Path, scheduler: str
+) -> None:
+    short = tmp_path / "short.csv"
+    lines = sim_output.log_csv.read_text(encoding="utf-8").splitlines()
+    short.write_text("\n".join(lines[:4]) + "\n", encoding="utf-8")
+    with pytest.raises(InputFileError, match="short.csv: no 1.0 m window"):
+        evaluate_logs([sim_output.log_csv, short], horizon=1.0, dask=scheduler)
