@@ -1,10 +1,8 @@
 """The compiled ICR EKF equals its filterpy formulation (the reference) to 1e-12.
 
-:class:`FilterpyIcrEkf` is :class:`IcrEkf` with predict and update done the
-way they were before the kernels: a filterpy ``ExtendedKalmanFilter`` whose
-prediction is :func:`icr_step_with_jacobian`, the Joseph-form update with
-SciPy's inverse, numpy clipping. Both run the same logs through the whole
-streaming path (terrain changes, resets, memory, anchoring), simulated and real.
+Both run the same logs through the whole streaming path (terrain changes,
+resets, memory, anchoring), simulated and real; :class:`FilterpyIcrEkf` is
+:class:`IcrEkf` with the filterpy predict and update.
 """
 
 from __future__ import annotations
@@ -13,82 +11,15 @@ import dataclasses
 
 import numpy as np
 import pytest
-from filterpy.kalman import ExtendedKalmanFilter
 
 from terrain_odom.config import Config, EkfConfig, PoseSigmas, load_config
 from terrain_odom.errors import EstimationError
 from terrain_odom.estimation import IcrEkf, icr_step_with_jacobian, odometry, online
 from terrain_odom.estimation._kernels import icr_predict
+from terrain_odom.estimation.icr_ekf_reference import FilterpyIcrEkf
 from terrain_odom.io import read_wheel_log
-from terrain_odom.kinematics import wrap_angle
 
 TOLERANCE = 1e-12
-
-
-class _Reference(ExtendedKalmanFilter):
-    """filterpy EKF whose prediction is the ICR step with a fresh Jacobian."""
-
-    def predict_x(self, u=(0.0, 0.0, 0.0)):
-        x, self.F = icr_step_with_jacobian(self.x[:, 0], *u)
-        self.x = x[:, None]
-
-
-class FilterpyIcrEkf(IcrEkf):
-    """IcrEkf with the filterpy predict and update (the formulation the kernels replace)."""
-
-    def _reference(self):
-        ref = _Reference(dim_x=len(self._x), dim_z=3)
-        ref.x, ref.P = self._x[:, None].copy(), self._P.copy()
-        return ref
-
-    def predict(self, v_l, v_r, dt):
-        if not dt > 0.0:
-            raise EstimationError(f"predict needs dt > 0 s, got {dt}")
-        ref = self._reference()
-        ref.Q = np.diag(self._q_density * dt)
-        ref.predict(u=(float(v_l), float(v_r), float(dt)))
-        self._x[:] = ref.x[:, 0]
-        self._P[:] = 0.5 * (ref.P + ref.P.T)
-        self.t += dt
-
-    def update(self, z, *, R=None):  # noqa: N803
-        z = np.asarray(z, dtype=float)
-        rows = np.flatnonzero(np.isfinite(z))
-        if rows.size == 0:
-            return float("nan")
-        r_full = np.diag(self._r_diag) if R is None else np.asarray(R, dtype=float)
-        r_full = np.diag(r_full) if r_full.ndim == 1 else r_full
-        H = np.zeros((rows.size, len(self._x)))  # noqa: N806
-        H[np.arange(rows.size), rows] = 1.0
-        yaw_row = np.flatnonzero(rows == 2)
-
-        def residual(a, b):
-            res = a - b
-            res[yaw_row] = wrap_angle(res[yaw_row])
-            return res
-
-        ref = self._reference()
-        ref.update(
-            z[rows][:, None],
-            HJacobian=lambda _x: H,
-            Hx=lambda x: H @ x,
-            R=r_full[np.ix_(rows, rows)],
-            residual=residual,
-        )
-        self.last_nis = float((ref.y.T @ ref.SI @ ref.y).item())
-        self._x[:], self._P[:] = ref.x[:, 0], ref.P
-        self._constrain()
-        return self.last_nis
-
-    def _constrain(self):
-        x, lim = self._x, self.config.limits
-        x[2] = wrap_angle(x[2])
-        x[3] = np.clip(x[3], lim.half_width_min, lim.half_width_max)
-        x[4] = np.clip(x[4], -lim.half_width_max, -lim.half_width_min)
-        x[5] = np.clip(x[5], -lim.x_icr_max, lim.x_icr_max)
-        if x.shape[0] > 6:
-            x[6] = np.clip(x[6], lim.alpha_min, lim.alpha_max)
-        self._P[:] = 0.5 * (self._P + self._P.T)
 
 
 def _both(log, cfg, monkeypatch, labels=None):

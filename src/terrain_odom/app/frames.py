@@ -16,6 +16,7 @@ import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field, fields
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
@@ -23,9 +24,10 @@ from threadpoolctl import threadpool_limits
 
 from terrain_odom.errors import ConfigError, InputFileError
 from terrain_odom.estimation.online import OnlineOdometry
-from terrain_odom.io.frames import FrameList
-from terrain_odom.io.images import read_image_rgb
 from terrain_odom.vision.frame_classifier import FrameClassification
+
+if TYPE_CHECKING:  # image reading (OpenCV, scikit-image) loads with frames only
+    from terrain_odom.io.frames import FrameList
 
 __all__ = ["FRAME_COLUMNS", "FrameRecord", "FramePipeline", "ReplayedFrames", "one_thread"]
 
@@ -149,6 +151,8 @@ class FramePipeline:
         InputFileError
             The frame's size is not the configured camera's.
         """
+        from terrain_odom.io.images import read_image_rgb
+
         started = time.perf_counter()
         t, path = float(self.frames.t[index]), self.frames.files[index]
         image = read_image_rgb(path)

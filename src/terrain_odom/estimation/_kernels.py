@@ -22,7 +22,7 @@ from numba import njit
 
 # error_model="numpy": a division by zero gives inf/NaN (caught as a non-finite state), no exception
 
-__all__ = ["constrain", "icr_predict", "icr_update"]
+__all__ = ["constrain", "icr_predict", "icr_update", "std"]
 
 _SERIES_LIMIT = 1e-2  # as terrain_odom.kinematics.integration._SERIES_LIMIT
 _TWO_PI = 2.0 * math.pi
@@ -38,14 +38,19 @@ def _wrap(angle: float) -> float:  # pragma: no cover - compiled
 
 @njit(cache=True, error_model="numpy")
 def _arc(phi: float) -> tuple[float, float, float, float]:  # pragma: no cover - compiled
-    """``A, B, dA/dphi, dB/dphi`` of the arc integration (as ``_arc_coefficients``)."""
+    """Return ``A, B, dA/dphi, dB/dphi`` of the arc integration (as ``_arc_coefficients``)."""
     if abs(phi) < _SERIES_LIMIT:
         p2 = phi * phi
         a = 1.0 - p2 / 6.0 + p2 * p2 / 120.0
         b = phi / 2.0 - phi * p2 / 24.0 + phi * p2 * p2 / 720.0
         return a, b, -phi / 3.0 + phi * p2 / 30.0, 0.5 - p2 / 8.0 + p2 * p2 / 144.0
     s, c = math.sin(phi), math.cos(phi)
-    return s / phi, (1.0 - c) / phi, (phi * c - s) / (phi * phi), (phi * s - (1.0 - c)) / (phi * phi)
+    return (
+        s / phi,
+        (1.0 - c) / phi,
+        (phi * c - s) / (phi * phi),
+        (phi * s - (1.0 - c)) / (phi * phi),
+    )
 
 
 @njit(cache=True, error_model="numpy")
@@ -100,7 +105,7 @@ def _step_jacobian(
 
 @njit(cache=True, error_model="numpy")
 def _matmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:  # pragma: no cover - compiled
-    """``a @ b`` of small square matrices in loops (numba's ``@`` would load SciPy's BLAS)."""
+    """Return ``a @ b`` of small square matrices, in loops (numba's ``@`` loads SciPy's BLAS)."""
     n = a.shape[0]
     out = np.zeros((n, n))
     for i in range(n):
@@ -199,7 +204,7 @@ def icr_update(
     x, p : ndarray, shapes (n,), (n, n)
         State and covariance.
     z : ndarray, shape (3,)
-        Measured ``x, y, yaw``; NaN where not measured (at least one finite).
+        Measured ``x, y, yaw``; NaN where not measured.
     r : ndarray, shape (3, 3)
         Measurement noise covariance.
     limits : ndarray, shape (5,)
@@ -208,13 +213,16 @@ def icr_update(
     Returns
     -------
     nis : float
-        Normalised innovation squared.
+        Normalised innovation squared; NaN (and nothing done) if no
+        component of ``z`` is finite.
     finite : bool
         Whether ``x`` and ``P`` are finite after the update.
     """
     n = x.shape[0]
     rows = np.flatnonzero(np.isfinite(z))
     m = rows.size
+    if m == 0:
+        return math.nan, True
     s = np.empty((m, m))
     for i in range(m):
         for j in range(m):
@@ -287,3 +295,13 @@ def constrain(x: np.ndarray, p: np.ndarray, limits: np.ndarray) -> bool:  # prag
         x[6] = min(max(x[6], limits[3]), limits[4])
     _symmetrise(p)
     return bool(np.all(np.isfinite(x))) and bool(np.all(np.isfinite(p)))
+
+
+@njit(cache=True, error_model="numpy")
+def std(p: np.ndarray) -> np.ndarray:  # pragma: no cover - compiled
+    """Return the standard deviations ``sqrt(max(diag(P), 0))``, shape (n,)."""
+    n = p.shape[0]
+    out = np.empty(n)
+    for i in range(n):
+        out[i] = math.sqrt(max(p[i, i], 0.0))
+    return out

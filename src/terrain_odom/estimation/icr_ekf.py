@@ -34,6 +34,7 @@ References
 from __future__ import annotations
 
 import logging
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
@@ -251,7 +252,7 @@ class IcrEkf:
     @property
     def std(self) -> np.ndarray:
         """Standard deviation of every state, shape (n,)."""
-        return np.sqrt(np.clip(np.diag(self._P), 0.0, None))
+        return _kernels.std(self._P)
 
     # ------------------------------------------------------------ filtering
     def predict(self, v_l: float, v_r: float, dt: float) -> None:
@@ -287,17 +288,16 @@ class IcrEkf:
             measured).
         """
         z = np.asarray(z, dtype=float)
-        if not np.isfinite(z).any():
-            return float("nan")
         if R is None:
             r_full = self._r
         else:
             r_full = np.asarray(R, dtype=float)
             r_full = np.diag(r_full) if r_full.ndim == 1 else r_full
         nis, finite = _kernels.icr_update(self._x, self._P, z, r_full, self._limits)
-        self.last_nis = nis
         if not finite:
             raise EstimationError("EKF state became non-finite; check the noise configuration")
+        if not math.isnan(nis):  # NaN: nothing measured, nothing done
+            self.last_nis = nis
         return nis
 
     def _constrain(self) -> None:
