@@ -11,7 +11,7 @@ from terrain_odom.io import TrajectoryWriter, read_trajectory_csv
 from terrain_odom.io.trajectory import TrajectoryBlocks, trajectory_columns
 
 TRICKY_FLOATS = [0.1, 1.0 / 3.0, -2.5e-300, 1.7e9 + 0.123456789, 5e-324, 1e308, -0.0, np.inf]
-LABELS = ["grass", "asphalt, wet", 'say "hi"', " padded ", "", "x", "é", "gravel"]
+LABELS = ["grass", "asphalt, wet", 'say "hi"', " padded ", "", "two\nlines", "é", "cr\r"]
 COLUMNS = ["t", "x", "segment", "terrain", "f32"]
 
 
@@ -49,7 +49,7 @@ def test_a_block_writes_the_bytes_of_its_rows_written_one_by_one(tmp_path: Path)
     assert block.read_bytes() == one.read_bytes()
     back = read_trajectory_csv(block)
     assert back["x"][0] == 0.1 and np.isnan(back["x"][2]) and back["x"][7] == np.inf
-    assert back["terrain"].tolist()[1:4] == ["asphalt, wet", 'say "hi"', "padded"]
+    assert back["terrain"].tolist()[1:6] == ["asphalt, wet", 'say "hi"', "padded", "", "two\nlines"]
 
 
 @pytest.mark.parametrize(
@@ -108,3 +108,11 @@ def test_blocks_flush_every_size_rows_and_on_flush(tmp_path: Path) -> None:
             row.update((f"std_{n}", s) for n, s in zip(names, stds[k], strict=True))
             writer.write(row)
     assert path.read_bytes() == reference.read_bytes()
+
+
+def test_a_one_column_block_keeps_empty_cells(tmp_path: Path) -> None:
+    """A lone empty cell is quoted (an empty line would be skipped on reading)."""
+    path = tmp_path / "one.csv"
+    with TrajectoryWriter(path, ["terrain"]) as writer:
+        writer.write_block({"terrain": ["a", "", "b"]})
+    assert read_trajectory_csv(path)["terrain"].tolist() == ["a", "", "b"]
