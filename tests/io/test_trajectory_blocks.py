@@ -11,7 +11,7 @@ from terrain_odom.io import TrajectoryWriter, read_trajectory_csv
 from terrain_odom.io.trajectory import TrajectoryBlocks, trajectory_columns
 
 TRICKY_FLOATS = [0.1, 1.0 / 3.0, -2.5e-300, 1.7e9 + 0.123456789, 5e-324, 1e308, -0.0, np.inf]
-LABELS = ["grass", "asphalt, wet", 'say "hi"', " padded ", "", "two\nlines", "é", "cr\r"]
+LABELS = ["grass", "asphalt, wet", 'say "hi"', " padded ", "", "two\nlines", "é", "gravel"]
 COLUMNS = ["t", "x", "segment", "terrain", "f32"]
 
 
