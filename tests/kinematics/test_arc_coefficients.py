@@ -9,7 +9,7 @@ from terrain_odom.kinematics.integration import _SERIES_LIMIT, _arc_coefficients
 
 
 def _former(phi: np.ndarray) -> tuple[np.ndarray, ...]:
-    """The formulation before issue 15: every term on every angle, sines taken thrice."""
+    """Return the coefficients as computed before issue 15 (every term on every angle)."""
     small = np.abs(phi) < _SERIES_LIMIT
     p = np.where(small, 1.0, phi)
     p2 = phi * phi

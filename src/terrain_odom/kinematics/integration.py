@@ -80,7 +80,7 @@ def _arc_coefficients(phi: np.ndarray, derivatives: bool = True) -> tuple[np.nda
 
 
 def _arc_series(phi: np.ndarray, derivatives: bool) -> tuple[np.ndarray, ...]:
-    """Taylor series of :func:`_arc_coefficients` (error < 1e-12 for ``|phi| < 1e-2``)."""
+    """Return the Taylor series of :func:`_arc_coefficients` (error < 1e-12 for ``|phi| < 1e-2``)."""
     p2 = phi * phi
     a = 1.0 - p2 / 6.0 + p2 * p2 / 120.0
     b = phi / 2.0 - phi * p2 / 24.0 + phi * p2 * p2 / 720.0
@@ -90,7 +90,7 @@ def _arc_series(phi: np.ndarray, derivatives: bool) -> tuple[np.ndarray, ...]:
 
 
 def _arc_closed(phi: np.ndarray, derivatives: bool) -> tuple[np.ndarray, ...]:
-    """Closed forms of :func:`_arc_coefficients` (``phi`` away from 0)."""
+    """Return the closed forms of :func:`_arc_coefficients` (``phi`` away from 0)."""
     sin, cos = np.sin(phi), np.cos(phi)
     one_minus_cos = 1.0 - cos
     a, b = sin / phi, one_minus_cos / phi
