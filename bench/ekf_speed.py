@@ -133,7 +133,7 @@ def per_sample(log: WheelLog, cfg: Config, rows: int) -> None:
     )
     print(f"   filterpy reference (baseline)   {t_ref * us:8.2f} us")
     print(
-        f"   numpy without filterpy          {t_numpy * us:8.2f} us = {t_ref / t_numpy:5.1f}x faster"
+        f"   predict in numpy, no filterpy   {t_numpy * us:8.2f} us = {t_ref / t_numpy:5.1f}x faster"
     )
     print(
         f"   compiled kernels (IcrEkf)       {t_fast * us:8.2f} us = {t_ref / t_fast:5.1f}x faster"
@@ -143,15 +143,20 @@ def per_sample(log: WheelLog, cfg: Config, rows: int) -> None:
 
 # ------------------------------------------------------------ 2. whole run
 def run_cli(log: Path, out: Path, *, stats: bool = False) -> tuple[float, int]:
-    """Run ``terrain-odom run`` in a fresh process; return (wall s, peak RSS KiB)."""
+    """Run ``terrain-odom run`` in a fresh process; return (wall s, peak RSS KiB).
+
+    The peak is the process's ``VmHWM`` (``ru_maxrss`` would carry over the
+    bench's own peak through fork and exec).
+    """
     code = (
-        "import resource, sys, runpy\n"
+        "import re, sys, runpy\n"
         f"sys.argv = ['terrain-odom', 'run', '--wheels', {str(log)!r}, '--out', {str(out)!r}, "
         f"'--config', {str(CONFIG)!r}]\n"
         "try:\n    runpy.run_module('terrain_odom', run_name='__main__')\n"
         "except SystemExit as exc:\n    assert not exc.code, exc.code\n"
         "heavy = [m for m in ('sklearn', 'scipy.stats', 'filterpy') if m in sys.modules]\n"
-        "print('@@', resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, ','.join(heavy))\n"
+        "status = open('/proc/self/status').read()  # VmHWM: this process's own peak\n"
+        "print('@@', re.search(r'VmHWM:\\s+(\\d+)', status)[1], ','.join(heavy))\n"
     )
     started = time.perf_counter()
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)

@@ -40,6 +40,9 @@ __all__ = [
 StrPath = str | os.PathLike[str]
 """A file path."""
 
+_BLOCK_ROWS = 4096
+"""Rows formatted at once (by :class:`TrajectoryBlocks` and :func:`write_tum`)."""
+
 Cell = str | float | np.floating | np.integer
 """A value of one CSV cell: text, or a real number (Python or numpy)."""
 
@@ -250,7 +253,9 @@ class TrajectoryBlocks:
     >>> folder.cleanup()
     """
 
-    def __init__(self, writer: TrajectoryWriter, names: tuple[str, ...], size: int = 4096) -> None:
+    def __init__(
+        self, writer: TrajectoryWriter, names: tuple[str, ...], size: int = _BLOCK_ROWS
+    ) -> None:
         self._writer = writer
         self._names = names
         self._t = np.empty(size)
@@ -352,9 +357,14 @@ def write_tum(path: StrPath, t: np.ndarray, x: np.ndarray, y: np.ndarray, yaw: n
     '0.5 1.0 2.0 0.0 0.0 0.0 1.0 6.123233995736766e-17'
     >>> folder.cleanup()
     """
-    columns = [list(map(float.__repr__, column)) for column in _tum_columns(t, x, y, yaw).tolist()]
-    lines = "".join(line + "\n" for line in map(" ".join, zip(*columns, strict=True)))
-    write_text_atomic(path, "# timestamp tx ty tz qx qy qz qw\n" + lines)
+    columns = _tum_columns(t, x, y, yaw)
+    parts = ["# timestamp tx ty tz qx qy qz qw\n"]
+    for start in range(0, columns.shape[1], _BLOCK_ROWS):  # a block's cells at a time
+        cells = [
+            list(map(float.__repr__, c)) for c in columns[:, start : start + _BLOCK_ROWS].tolist()
+        ]
+        parts.append("".join(line + "\n" for line in map(" ".join, zip(*cells, strict=True))))
+    write_text_atomic(path, "".join(parts))
 
 
 def _checked_columns(columns: Sequence[str]) -> tuple[str, ...]:
