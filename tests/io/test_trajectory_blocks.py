@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from terrain_odom.io import TrajectoryWriter, read_trajectory_csv
+from terrain_odom.io import TrajectoryWriter, read_trajectory_csv, write_tum
 from terrain_odom.io.trajectory import TrajectoryBlocks, trajectory_columns
 
 TRICKY_FLOATS = [0.1, 1.0 / 3.0, -2.5e-300, 1.7e9 + 0.123456789, 5e-324, 1e308, -0.0, np.inf]
@@ -116,3 +116,17 @@ def test_a_one_column_block_keeps_empty_cells(tmp_path: Path) -> None:
     with TrajectoryWriter(path, ["terrain"]) as writer:
         writer.write_block({"terrain": ["a", "", "b"]})
     assert read_trajectory_csv(path)["terrain"].tolist() == ["a", "", "b"]
+
+
+def test_write_tum_over_several_blocks_writes_every_row(tmp_path: Path) -> None:
+    """10 000 rows (three blocks): each line is the row's values by repr, in order."""
+    rng = np.random.default_rng(2)
+    t, x, y, yaw = np.cumsum(rng.uniform(0.01, 0.1, 10000)), *rng.normal(size=(3, 10000))
+    path = tmp_path / "t.tum"
+    write_tum(path, t, x, y, yaw)
+    lines = path.read_text().splitlines()
+    assert len(lines) == 10001
+    for k in (0, 4095, 4096, 9999):
+        half = 0.5 * yaw[k]
+        values = [t[k], x[k], y[k], 0.0, 0.0, 0.0, np.sin(half), np.cos(half)]
+        assert lines[k + 1] == " ".join(repr(float(v)) for v in values)

@@ -23,11 +23,12 @@ import os
 import time
 from collections.abc import Mapping, Sequence
 from types import TracebackType
+from typing import BinaryIO
 
 import numpy as np
 
 from terrain_odom.io._csv import CsvTable, floats_or_nan, read_csv
-from terrain_odom.io.atomic import write_text_atomic
+from terrain_odom.io.atomic import write_atomic
 
 __all__ = [
     "TrajectoryBlocks",
@@ -358,13 +359,16 @@ def write_tum(path: StrPath, t: np.ndarray, x: np.ndarray, y: np.ndarray, yaw: n
     >>> folder.cleanup()
     """
     columns = _tum_columns(t, x, y, yaw)
-    parts = ["# timestamp tx ty tz qx qy qz qw\n"]
-    for start in range(0, columns.shape[1], _BLOCK_ROWS):  # a block's cells at a time
-        cells = [
-            list(map(float.__repr__, c)) for c in columns[:, start : start + _BLOCK_ROWS].tolist()
-        ]
-        parts.append("".join(line + "\n" for line in map(" ".join, zip(*cells, strict=True))))
-    write_text_atomic(path, "".join(parts))
+
+    def write(handle: BinaryIO) -> None:  # a block of rows at a time: memory stays small
+        handle.write(b"# timestamp tx ty tz qx qy qz qw\n")
+        for start in range(0, columns.shape[1], _BLOCK_ROWS):
+            block = columns[:, start : start + _BLOCK_ROWS].tolist()
+            cells = [list(map(float.__repr__, column)) for column in block]
+            lines = "".join(line + "\n" for line in map(" ".join, zip(*cells, strict=True)))
+            handle.write(lines.encode("ascii"))
+
+    write_atomic(path, write)
 
 
 def _checked_columns(columns: Sequence[str]) -> tuple[str, ...]:
