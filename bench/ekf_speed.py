@@ -151,7 +151,7 @@ def run_cli(log: Path, out: Path, *, stats: bool = False) -> tuple[float, int]:
     code = (
         "import re, sys, runpy\n"
         f"sys.argv = ['terrain-odom', 'run', '--wheels', {str(log)!r}, '--out', {str(out)!r}, "
-        f"'--config', {str(CONFIG)!r}]\n"
+        f"'--config', {str(CONFIG)!r}, '--overwrite']\n"
         "try:\n    runpy.run_module('terrain_odom', run_name='__main__')\n"
         "except SystemExit as exc:\n    assert not exc.code, exc.code\n"
         "heavy = [m for m in ('sklearn', 'scipy.stats', 'filterpy') if m in sys.modules]\n"
@@ -188,9 +188,9 @@ def whole_run(path: Path, rows: int, work: Path, repeat: int) -> None:
         f" (goal <= 4x) = {1e6 * t_run / rows:.1f} us/row"
     )
     cfg = load_config(CONFIG)
-    run(path, work / "warm", config=cfg, progress=False)
+    run(path, work / "warm", config=cfg, progress=False, overwrite=True)
     started = time.perf_counter()
-    summary = run(path, work / "inproc", config=cfg, progress=False)
+    summary = run(path, work / "inproc", config=cfg, progress=False, overwrite=True)
     total = time.perf_counter() - started
     report = json.loads(summary.report_json.read_text())
     print(f"   in-process run {total:.2f} s ({report['counts']['updates']} updates); its parts:")

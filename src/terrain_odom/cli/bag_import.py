@@ -108,7 +108,6 @@ def wheels_from_bag(args: argparse.Namespace, out_dir: str) -> tuple[str, str | 
     ConfigError
         A bag without ``--wheels-topic``, or ``--wheels-topic`` with a wheel log.
     """
-    from terrain_odom.app.bag_import import import_bag
     from terrain_odom.errors import ConfigError
     from terrain_odom.io.bag_reader import is_bag
 
@@ -125,6 +124,8 @@ def wheels_from_bag(args: argparse.Namespace, out_dir: str) -> tuple[str, str | 
             f"--wheels-topic reads a ROS bag, but --wheels {args.wheels} is not one "
             "(a .bag or .mcap file or a ROS 2 bag folder)"
         )
+    from terrain_odom.app.bag_import import import_bag  # frame writing (OpenCV): bags only
+
     result = import_bag(args.wheels, Path(out_dir) / "bag", _options(args, args.wheels_topic))
     _print_import(result)
     return str(result.log_csv), None if args.config else str(result.config_yaml)
