@@ -12,11 +12,13 @@ the repository), then prints, each figure with the baseline it is divided by:
    filterpy; the speed-up and the largest state difference to the reference;
 2. **whole run**: ``terrain-odom run`` on the long log (a fresh process, so
    start-up included) against pandas reading and writing the same CSV
-   (``read_csv`` + ``to_csv``, pandas already imported), and where the time
-   goes (in-process: reading, checks and pose delay, filter loop, writing);
+   (``read_csv`` + ``to_csv``, pandas already imported), alternately, best of
+   ``--repeat`` each; and where the time goes (in-process: reading, checks
+   and pose delay, filter loop, writing);
 3. **start-up**: ``terrain-odom run`` on the first 200 rows against
-   ``python -c "import numpy"`` (best of ``--repeat`` fresh processes each),
-   and whether scikit-learn, ``scipy.stats`` or filterpy were imported;
+   ``python -c "import numpy"`` (alternately, best of ``--repeat`` fresh
+   processes each), and whether scikit-learn, ``scipy.stats`` or filterpy
+   were imported;
 4. **memory**: peak resident memory of ``terrain-odom run`` on one copy and
    on ``--copies`` copies, and the growth per row.
 
@@ -52,14 +54,19 @@ CONFIG = REPO / "config" / "warthog.yaml"
 EXE = [sys.executable, "-m", "terrain_odom"]
 
 
-def best_of(repeat: int, fn: Callable[[], object]) -> float:
-    """Smallest wall time of ``repeat`` calls of ``fn``, s."""
-    times = []
+def best_of(repeat: int, *fns: Callable[[], object]) -> list[float]:
+    """Smallest wall time of each of ``fns`` over ``repeat`` rounds, s.
+
+    The calls alternate (one of each per round), so a change of the
+    machine's load affects the figure and its baseline alike.
+    """
+    times: list[list[float]] = [[] for _ in fns]
     for _ in range(repeat):
-        started = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - started)
-    return min(times)
+        for fn, spent in zip(fns, times, strict=True):
+            started = time.perf_counter()
+            fn()
+            spent.append(time.perf_counter() - started)
+    return [min(spent) for spent in times]
 
 
 def long_log(data: Path, copies: int, path: Path) -> int:
@@ -179,8 +186,7 @@ def whole_run(path: Path, rows: int, work: Path, repeat: int) -> None:
     def pandas_io() -> None:
         pd.read_csv(path).to_csv(work / "pandas.csv", index=False)
 
-    t_pandas = best_of(repeat, pandas_io)
-    t_run = min(run_cli(path, work / "run")[0] for _ in range(repeat))
+    t_pandas, t_run = best_of(repeat, pandas_io, lambda: run_cli(path, work / "run"))
     print(f"2. whole run on the long log ({rows} rows), best of {repeat}")
     print(f"   pandas read_csv + to_csv (baseline)  {t_pandas:6.2f} s")
     print(
@@ -242,8 +248,7 @@ def startup(path: Path, work: Path, repeat: int) -> None:
     def numpy_only() -> None:
         subprocess.run([sys.executable, "-c", "import numpy"], check=True)
 
-    t_numpy = best_of(repeat, numpy_only)
-    t_run = min(run_cli(short, work / "short")[0] for _ in range(repeat))
+    t_numpy, t_run = best_of(repeat, numpy_only, lambda: run_cli(short, work / "short"))
     print(f"3. start-up, best of {repeat} fresh processes")
     print(f"   python -c 'import numpy' (baseline)  {t_numpy:6.3f} s")
     print(
