@@ -19,10 +19,10 @@ Usage::
     taskset -c 0 python bench/fit.py [--data ../shared/data/drive] [--out /tmp/fit-bench]
 
 Takes about two minutes on one core. With ``--speed`` it prints only the
-speed-up of the fit (issue 15): figure 1's fit, timed with the arc
-coefficients of the pose integration as they were (every term of both
-branches on every angle, the baseline) and as they are, alternately, best of
-``--repeat``; the fitted parameters must be bit-identical.
+speed-up of the fit (issue 15): figure 1's fit, timed with the pose
+integration as it was (arc coefficients with every term of both branches on
+every angle, increments stacked then sliced: the baseline) and as it is,
+alternately, best of ``--repeat``; the fitted parameters must be bit-identical.
 """
 
 from __future__ import annotations
@@ -37,6 +37,7 @@ import numpy as np
 from terrain_odom.app.fit import compare, fit
 from terrain_odom.config import load_config
 from terrain_odom.evaluation import model_twist, spatial_windows, summarize, window_errors
+from terrain_odom.fitting import loss
 from terrain_odom.io import read_wheel_log
 from terrain_odom.kinematics import MODELS, get_model, integration
 from terrain_odom.records import WheelLog
@@ -140,24 +141,42 @@ def former_arc_coefficients(phi, derivatives=True):
     return (a, b, da, db) if derivatives else (a, b)
 
 
+def former_integrate(v_x, v_y, omega, dt, *, start=None):
+    """Return ``integrate`` as computed before issue 15 (through the stacked increments)."""
+    inc = integration.arc_increment(v_x, v_y, omega, dt)
+    lead = inc.shape[:-2]
+    start_pose = np.zeros(lead + (3,)) if start is None else np.broadcast_to(start, lead + (3,))
+    yaw = start_pose[..., None, 2] + np.concatenate(
+        [np.zeros(lead + (1,)), np.cumsum(inc[..., 2], axis=-1)], axis=-1
+    )
+    c, s = np.cos(yaw[..., :-1]), np.sin(yaw[..., :-1])
+    dx = c * inc[..., 0] - s * inc[..., 1]
+    dy = s * inc[..., 0] + c * inc[..., 1]
+    zero = np.zeros(lead + (1,))
+    x = start_pose[..., None, 0] + np.concatenate([zero, np.cumsum(dx, axis=-1)], axis=-1)
+    y = start_pose[..., None, 1] + np.concatenate([zero, np.cumsum(dy, axis=-1)], axis=-1)
+    return np.stack([x, y, integration.wrap_angle(yaw)], axis=-1)
+
+
 def fit_speed(grass, cfg, repeat):
-    """Figure 1's fit with the former and the current arc coefficients, same process."""
+    """Figure 1's fit with the former and the current pose integration, same process."""
     runs = sorted(grass, key=lambda g: -g.t[-1])[:2]
-    current = integration._arc_coefficients
-    times = {"former": [], "current": []}
+    current = (integration._arc_coefficients, loss.integrate)
+    versions = {"former": (former_arc_coefficients, former_integrate), "current": current}
+    times = {name: [] for name in versions}
     params = {}
     for _ in range(repeat):
-        for name, function in (("former", former_arc_coefficients), ("current", current)):
-            integration._arc_coefficients = function
+        for name, (coefficients, integrate) in versions.items():
+            integration._arc_coefficients, loss.integrate = coefficients, integrate
             started = time.perf_counter()
             report = fit(runs, "edd-asym", config=cfg)
             times[name].append(time.perf_counter() - started)
             params[name] = report.params.vector()
-    integration._arc_coefficients = current
+    integration._arc_coefficients, loss.integrate = current
     same = params["former"].tobytes() == params["current"].tobytes()
     former, now = min(times["former"]), min(times["current"])
     print(f"fit edd-asym on the two longest grass runs, best of {repeat}:")
-    print(f"  former arc coefficients (baseline) {former:6.2f} s")
+    print(f"  former pose integration (baseline) {former:6.2f} s")
     print(
         f"  current                            {now:6.2f} s = {100 * (1 - now / former):.0f} % "
         f"less time ({former / now:.2f}x faster); parameters bit-identical: {same}"

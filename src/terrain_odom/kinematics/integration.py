@@ -125,12 +125,19 @@ def arc_increment(v_x: ArrayLike, v_y: ArrayLike, omega: ArrayLike, dt: ArrayLik
     >>> arc_increment(np.pi, 0.0, np.pi, 1.0).round(6).tolist()
     [0.0, 2.0, 3.141593]
     """
+    return np.stack(_arc_parts(v_x, v_y, omega, dt), axis=-1)
+
+
+def _arc_parts(
+    v_x: ArrayLike, v_y: ArrayLike, omega: ArrayLike, dt: ArrayLike
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Return the ``dx, dy, dyaw`` of :func:`arc_increment` as three contiguous arrays."""
     v_x, v_y, omega, dt = np.broadcast_arrays(
         *(np.asarray(a, dtype=float) for a in (v_x, v_y, omega, dt))
     )
     phi = omega * dt
     a, b = _arc_coefficients(phi, derivatives=False)
-    return np.stack([dt * (v_x * a - v_y * b), dt * (v_x * b + v_y * a), phi], axis=-1)
+    return dt * (v_x * a - v_y * b), dt * (v_x * b + v_y * a), phi
 
 
 def arc_increment_with_jacobian(
@@ -251,8 +258,8 @@ def integrate(
     >>> np.abs(poses[-1]).max() < 1e-12
     np.True_
     """
-    inc = arc_increment(v_x, v_y, omega, dt)  # (..., K, 3)
-    lead = inc.shape[:-2]
+    inc_x, inc_y, inc_yaw = _arc_parts(v_x, v_y, omega, dt)  # each (..., K), in the start frame
+    lead = inc_yaw.shape[:-1]
     start_pose = (
         np.zeros(lead + (3,))
         if start is None
@@ -260,11 +267,11 @@ def integrate(
     )
     # Heading before each step, then rotate each body increment into the world.
     yaw = start_pose[..., None, 2] + np.concatenate(
-        [np.zeros(lead + (1,)), np.cumsum(inc[..., 2], axis=-1)], axis=-1
+        [np.zeros(lead + (1,)), np.cumsum(inc_yaw, axis=-1)], axis=-1
     )
     c, s = np.cos(yaw[..., :-1]), np.sin(yaw[..., :-1])
-    dx = c * inc[..., 0] - s * inc[..., 1]
-    dy = s * inc[..., 0] + c * inc[..., 1]
+    dx = c * inc_x - s * inc_y
+    dy = s * inc_x + c * inc_y
     zero = np.zeros(lead + (1,))
     x = start_pose[..., None, 0] + np.concatenate([zero, np.cumsum(dx, axis=-1)], axis=-1)
     y = start_pose[..., None, 1] + np.concatenate([zero, np.cumsum(dy, axis=-1)], axis=-1)
