@@ -37,13 +37,13 @@ from numpy.typing import ArrayLike
 
 from terrain_odom.config import EkfConfig, IcrSigmas, IcrState, TerrainConfig
 from terrain_odom.errors import EstimationError
+from terrain_odom.estimation.pose_measurement import Mounting, measured_rows, measurement
 from terrain_odom.kinematics import (
     arc_increment_with_jacobian,
     twist_icr,
     twist_icr_jacobian,
     wrap_angle,
 )
-from terrain_odom.estimation.pose_measurement import Mounting, measured_rows, measurement
 from terrain_odom.records import TerrainChange
 
 __all__ = [
