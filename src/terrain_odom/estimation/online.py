@@ -400,9 +400,8 @@ _POSITION, _HEADING = "position", "heading"
 _BEFORE_HEADING = (
     "before a heading (the robot has not yet moved far enough to take it from the course)"
 )
-_NO_SLIP_HEADING = (
-    "before the segment's first heading (the slip EKF orients a position change by it)"
-)
+_NO_SLIP_HEADING = "no heading measured within 1 s (the slip EKF orients a position change by it)"
+_HEADING_AGE = 1.0  # s: the slip EKF's dead-reckoned heading older than this orients no position
 
 
 class _IcrSteps:
@@ -527,7 +526,8 @@ class _SlipSteps:
     the segment is shorter; a position likewise with the position change
     since its anchor among the positions, in the frame of the robot there
     (its heading measured, or dead-reckoned from the latest one measured;
-    positions before the segment's first heading are dropped). Where both
+    positions more than 1 s after the latest measured heading are dropped:
+    the heading is not a state of the slip EKF, and dead reckoning drifts). Where both
     anchors are one row, the whole pose change is one update. The wheel
     samples since the oldest anchor still needed are kept (a bounded
     buffer: the window plus the gap between measurements). The reported
@@ -550,7 +550,7 @@ class _SlipSteps:
         self._samples.clear()
         self._first = 0  # number of self._samples[0] in the segment
         self._pose = np.zeros(3)
-        self._headed = False  # a heading was measured in this segment
+        self._headed = -np.inf  # time of the segment's latest measured heading, s
         self.filter.t = t
 
     def predict(self, v_l: float, v_r: float, dt: float) -> None:
@@ -571,10 +571,11 @@ class _SlipSteps:
 
     def measure(self, z: np.ndarray, rows: np.ndarray, use: PoseUse) -> bool:
         has_position, has_heading = 0 in rows, _YAW in rows
+        t = self._samples[-1][0]
         if has_heading:
             self._pose[_YAW] = wrap_angle(z[_YAW] - self.mounting.heading_offset)
-            self._headed = True
-        if has_position and not self._headed:
+            self._headed = t
+        if has_position and t - self._headed > _HEADING_AGE:
             use.drop(_POSITION, _NO_SLIP_HEADING)
             has_position = False
         elif has_position:
