@@ -5,8 +5,9 @@ Over chords of the path between position measurements (each at least
 measured heading at both ends:
 
 - on straight chords (the wheels and the heading turn less than
-  ``straight_turn``), the measured heading minus the course of the chord
-  is the sensor's heading offset (an IMU mounted turned, the magnetic
+  ``straight_turn`` from end to end), the measured heading (averaged
+  along the chord, weighted by travel) minus the course of the chord is
+  the sensor's heading offset (an IMU mounted turned, the magnetic
   declination); its median over the log is :func:`heading_offset`
   (``pose_sensor.heading_offset: auto``), its spread the robust standard
   deviation of the single chords;
@@ -47,7 +48,11 @@ class MountingLimits:
     max_chord_time : float
         Longest chord, s (longer: a gap or a stop).
     straight_turn : float
-        Largest turn of a straight chord, rad (ideal wheels' turn and measured heading).
+        Largest turn of a straight chord, rad (ideal wheels' turn and
+        measured heading change from end to end; it may weave in between).
+    min_moved : float
+        Least chord length of a straight chord, as a fraction of the wheel
+        travel along it (less: back and forth, or spinning on the spot).
     max_turn : float
         Largest measured turn of a chord in the lever-arm fit, rad.
     yaw_gap : float
@@ -65,6 +70,7 @@ class MountingLimits:
     lever_chord: float = 2.0
     max_chord_time: float = 20.0
     straight_turn: float = 0.1
+    min_moved: float = 0.7
     max_turn: float = 1.0
     yaw_gap: float = 0.5
     min_straight: int = 5
@@ -108,7 +114,9 @@ class _Chords:
     forward: np.ndarray
     lateral: np.ndarray
     turn: np.ndarray  # measured, rad (sign flipped when reversing, as the displacements)
-    wheel_turn: np.ndarray
+    wheel_turn: np.ndarray  # ideal wheels' turn, rad
+    off_course: np.ndarray  # travel-weighted measured heading minus the chord's course, rad
+    moved: np.ndarray  # length of the chord / wheel travel along it
 
 
 def fit_mounting(
@@ -141,12 +149,13 @@ def fit_mounting(
     arm = np.asarray(antenna, dtype=float)
     ch = _chords(log, track_width, arm, offset, lim, lim.chord)
     straight = (np.abs(ch.turn) < lim.straight_turn) & (np.abs(ch.wheel_turn) < lim.straight_turn)
-    course = np.arctan2(ch.lateral[straight], ch.forward[straight])  # off the mean heading
+    straight &= ch.moved > lim.min_moved
+    course = ch.off_course[straight]
     nan = float("nan")
     value, spread = nan, nan
     if course.size >= lim.min_straight:
-        value = float(np.median(-course))
-        spread = float(1.4826 * np.median(np.abs(-course - value)))
+        value = float(np.median(course))
+        spread = float(1.4826 * np.median(np.abs(course - value)))
     lever = _chords(log, track_width, arm, offset, lim, lim.lever_chord)
     x_icr, x_std = _lever_arm(lever, lim)
     return MountingFit(value, spread, int(course.size), x_icr, x_std, int(lever.turn.size))
@@ -198,35 +207,56 @@ def _chords(
     chord: float,
 ) -> _Chords:
     """Chords from every position row to the first ``chord`` m of wheel travel later, per run."""
-    parts: list[list[np.ndarray]] = [[] for _ in range(4)]
-    for run in log.run_ranges():
-        rows = np.arange(run.start, run.stop)
-        t, pose = log.t[rows], log.pose[rows]
-        dt = np.diff(t)
-        speed = 0.5 * (log.v_l[rows] + log.v_r[rows])[:-1]
-        travel = np.r_[0.0, np.cumsum(np.abs(speed) * dt)]
-        signed = np.r_[0.0, np.cumsum(speed * dt)]
-        turn = np.r_[0.0, np.cumsum((log.v_r[rows] - log.v_l[rows])[:-1] / track_width * dt)]
-        fix = np.flatnonzero(np.isfinite(pose[:, 0]) & np.isfinite(pose[:, 1]))
-        yaw = _heading_at(t, pose[:, 2], t[fix], lim.yaw_gap) - offset
-        c, s = np.cos(yaw), np.sin(yaw)
-        xy = pose[fix, :2] - np.column_stack(
-            [c * antenna[0] - s * antenna[1], s * antenna[0] + c * antenna[1]]
-        )
-        j = np.searchsorted(travel[fix], travel[fix] + chord)
-        i = np.flatnonzero(j < fix.size)
-        j = j[i]
-        keep = (t[fix[j]] - t[fix[i]] <= lim.max_chord_time) & np.isfinite(yaw[i] + yaw[j])
-        i, j = i[keep], j[keep]
-        dyaw = wrap_angle(yaw[j] - yaw[i])
-        mid = yaw[i] + 0.5 * dyaw
-        d = xy[j] - xy[i]
-        back = np.where(signed[fix[j]] < signed[fix[i]], -1.0, 1.0)  # reversing: course + pi
-        forward = back * (np.cos(mid) * d[:, 0] + np.sin(mid) * d[:, 1])
-        lateral = back * (-np.sin(mid) * d[:, 0] + np.cos(mid) * d[:, 1])
-        for k, values in enumerate((forward, lateral, back * dyaw, turn[fix[j]] - turn[fix[i]])):
-            parts[k].append(values)
-    return _Chords(*(np.concatenate(p) if p else np.zeros(0) for p in parts))
+    runs = [
+        _run_chords(log, range_, track_width, antenna, offset, lim, chord)
+        for range_ in log.run_ranges()
+    ]
+    if not runs:
+        return _Chords(*(np.zeros(0) for _ in range(6)))
+    return _Chords(*(np.concatenate(column) for column in zip(*runs, strict=True)))
+
+
+def _run_chords(
+    log: WheelLog,
+    run: range,
+    track_width: float,
+    antenna: np.ndarray,
+    offset: float,
+    lim: MountingLimits,
+    chord: float,
+) -> tuple[np.ndarray, ...]:
+    """Return the columns of :class:`_Chords` for one run of the log."""
+    rows = np.arange(run.start, run.stop)
+    t, pose = log.t[rows], log.pose[rows]
+    dt = np.diff(t)
+    speed = 0.5 * (log.v_l[rows] + log.v_r[rows])[:-1]
+    signed = np.r_[0.0, np.cumsum(speed * dt)]
+    turn = np.r_[0.0, np.cumsum((log.v_r[rows] - log.v_l[rows])[:-1] / track_width * dt)]
+    fix = np.flatnonzero(np.isfinite(pose[:, 0]) & np.isfinite(pose[:, 1]))
+    travel = np.r_[0.0, np.cumsum(np.abs(speed) * dt)][fix]
+    yaw = _heading_at(t, pose[:, 2], t[fix], lim.yaw_gap) - offset  # unwrapped
+    c, s = np.cos(yaw), np.sin(yaw)
+    xy = pose[fix, :2] - np.column_stack(
+        [c * antenna[0] - s * antenna[1], s * antenna[0] + c * antenna[1]]
+    )
+    # travel-weighted heading along the path: a chord's course, however it weaves
+    step = np.nan_to_num(0.5 * (yaw[1:] + yaw[:-1])) * np.diff(travel)
+    area, gaps = np.r_[0.0, np.cumsum(step)], np.r_[0, np.cumsum(~np.isfinite(yaw))]
+    j = np.searchsorted(travel, travel + chord)
+    i = np.flatnonzero(j < fix.size)
+    j = j[i]
+    keep = (t[fix[j]] - t[fix[i]] <= lim.max_chord_time) & (gaps[j + 1] == gaps[i])
+    i, j = i[keep], j[keep]
+    dyaw = yaw[j] - yaw[i]
+    mid = yaw[i] + 0.5 * dyaw
+    d = xy[j] - xy[i]
+    back = np.where(signed[fix[j]] < signed[fix[i]], -1.0, 1.0)  # reversing: course + pi
+    forward = back * (np.cos(mid) * d[:, 0] + np.sin(mid) * d[:, 1])
+    lateral = back * (-np.sin(mid) * d[:, 0] + np.cos(mid) * d[:, 1])
+    heading = (area[j] - area[i]) / (travel[j] - travel[i])
+    off_course = wrap_angle(heading - np.arctan2(back * d[:, 1], back * d[:, 0]))
+    moved = np.hypot(d[:, 0], d[:, 1]) / (travel[j] - travel[i])
+    return forward, lateral, back * dyaw, turn[fix[j]] - turn[fix[i]], off_course, moved
 
 
 def mounting_findings(
