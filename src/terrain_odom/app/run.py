@@ -661,19 +661,22 @@ def _report(
 
 
 def _lever_arm_warning(result: OdometryResult, cfg: Config) -> list[str]:
-    """Warn when the final ``x_icr`` lies beyond half the track width (a lever arm learned).
+    """Warn when ``x_icr`` lies beyond half the track width (a lever arm learned).
+
+    The estimate judged is the mean over the second half of the run.
 
     A position antenna ``a`` m ahead of the reference point, left out of
     ``pose_sensor``, moves sideways in turns as ICRs ``a`` m further back do;
     without a heading the log cannot tell the two apart before the run.
     """
-    x_icr = float(result.states[-1, result.names.index("x_icr")]) if len(result.states) else 0.0
+    column = result.states[len(result.states) // 2 :, result.names.index("x_icr")]
+    x_icr = float(np.mean(column)) if column.size else 0.0
     limit = 0.5 * cfg.robot.track_width
     if not abs(x_icr) > limit:
         return []
     sensor = cfg.pose_sensor
     return [
-        f"the estimated x_icr, {x_icr:+.2f} m, lies beyond half the track width ({limit:g} m): "
+        f"the estimated x_icr, {x_icr:+.2f} m over the second half, lies beyond half the track width ({limit:g} m): "
         f"a position antenna {abs(x_icr):.2f} m {'ahead of' if x_icr < 0 else 'behind'} the "
         f"reference point? (pose_sensor.antenna_x is {sensor.antenna_x:g} m)"
     ]
