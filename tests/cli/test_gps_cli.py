@@ -36,6 +36,7 @@ def logs(tmp_path_factory):
     fixes[:, 2] = np.nan
     write_wheel_log(folder / "mounted.csv", log)
     write_wheel_log(folder / "fixes.csv", dataclasses.replace(log, pose=fixes))
+    (folder / "gps.yaml").write_text("ekf: {sigma_r: {x: 0.3, y: 0.3}}\n")  # the GPS's noise
     (folder / "mounted.yaml").write_text(
         "ekf: {sigma_r: {x: 0.3, y: 0.3, yaw: 0.01}}\n"
         "pose_sensor: {antenna_x: 0.5, heading_offset: auto}\n"
@@ -45,7 +46,8 @@ def logs(tmp_path_factory):
 
 def test_fixes_alone_update_with_counts_on_the_console_and_in_the_report(logs, tmp_path, capsys):
     out = tmp_path / "out"
-    assert main(["run", "--wheels", str(logs / "fixes.csv"), "--out", str(out)]) == 0
+    args = ["run", "--wheels", str(logs / "fixes.csv"), "--out", str(out)]
+    assert main([*args, "--config", str(logs / "gps.yaml")]) == 0
     lines = capsys.readouterr().out.splitlines()
     (pose,) = [line for line in lines if line.startswith("pose:")]
     assert "heading 0 of 0" in pose and "position: before a heading" in pose

@@ -74,7 +74,8 @@ def test_findings_need_size_and_significance():
     assert [c for c, _ in mounting_findings(fit(8.0, 5.0, 20, 0.0, 0.01), 0.5)] == [
         "heading_offset"
     ]
-    assert mounting_findings(fit(0.0, 1.0, 100, -0.2, 0.01), 0.5) == []  # within B / 2
+    assert mounting_findings(fit(0.0, 1.0, 100, -0.3, 0.01), 0.5) == []  # within 0.35 m
+    assert mounting_findings(fit(0.0, 1.0, 100, -0.5, 0.01), 1.08) == []  # within B / 2
     assert mounting_findings(fit(0.0, 1.0, 100, -0.4, 0.2), 0.5) == []  # not significant
     ((check, message),) = mounting_findings(fit(0.0, 1.0, 100, -0.4, 0.05), 0.5)
     assert check == "lever_arm" and "0.40 m (+-0.05) behind" in message

@@ -34,7 +34,7 @@ from terrain_odom.estimation.online import ESTIMATORS, Estimator, OnlineOdometry
 from terrain_odom.estimation.pose_measurement import PoseUse
 from terrain_odom.estimation.time_offset import TimeCalibration, calibrate_pose_delay
 from terrain_odom.evaluation import check_log
-from terrain_odom.evaluation.mounting import MountingLimits, fit_mounting
+from terrain_odom.evaluation.mounting import MountingLimits, fit_mounting, x_icr_limit
 from terrain_odom.io import TrajectoryWriter, read_wheel_log, write_tum
 from terrain_odom.io.atomic import write_atomic, write_text_atomic
 from terrain_odom.io.classifier_file import default_model, load_classifier
@@ -661,7 +661,7 @@ def _report(
 
 
 def _lever_arm_warning(result: OdometryResult, cfg: Config) -> list[str]:
-    """Warn when ``x_icr`` lies beyond half the track width (a lever arm learned).
+    """Warn when ``x_icr`` lies beyond :func:`~terrain_odom.evaluation.mounting.x_icr_limit`.
 
     The estimate judged is the mean over the second half of the run.
 
@@ -671,12 +671,12 @@ def _lever_arm_warning(result: OdometryResult, cfg: Config) -> list[str]:
     """
     column = result.states[len(result.states) // 2 :, result.names.index("x_icr")]
     x_icr = float(np.mean(column)) if column.size else 0.0
-    limit = 0.5 * cfg.robot.track_width
+    limit = x_icr_limit(cfg.robot.track_width)
     if not abs(x_icr) > limit:
         return []
     sensor = cfg.pose_sensor
     return [
-        f"the estimated x_icr, {x_icr:+.2f} m over the second half, lies beyond half the track width ({limit:g} m): "
+        f"the estimated x_icr, {x_icr:+.2f} m over the second half, lies beyond {limit:g} m: "
         f"a position antenna {abs(x_icr):.2f} m {'ahead of' if x_icr < 0 else 'behind'} the "
         f"reference point? (pose_sensor.antenna_x is {sensor.antenna_x:g} m)"
     ]

@@ -31,7 +31,14 @@ import numpy as np
 from terrain_odom.kinematics import wrap_angle
 from terrain_odom.records import WheelLog
 
-__all__ = ["MountingFit", "MountingLimits", "fit_mounting", "heading_offset", "mounting_findings"]
+__all__ = [
+    "MountingFit",
+    "MountingLimits",
+    "fit_mounting",
+    "heading_offset",
+    "mounting_findings",
+    "x_icr_limit",
+]
 
 
 @dataclass(frozen=True)
@@ -61,9 +68,10 @@ class MountingLimits:
         Fewest straight chords for a heading offset.
     heading_offset : float
         Heading offset beyond which the check reports, rad.
-    x_icr_fraction : float
-        Apparent ``|x_icr|`` beyond which the check reports, as a fraction
-        of the track width.
+    x_icr_fraction, min_x_icr : float
+        Apparent ``|x_icr|`` beyond which the check reports: the larger of
+        this fraction of the track width and this many metres (a smaller
+        lever arm is not told from a robot's own ``x_icr``).
     """
 
     chord: float = 3.0
@@ -76,6 +84,7 @@ class MountingLimits:
     min_straight: int = 5
     heading_offset: float = float(np.radians(5.0))
     x_icr_fraction: float = 0.5
+    min_x_icr: float = 0.35
 
 
 @dataclass(frozen=True)
@@ -259,6 +268,12 @@ def _run_chords(
     return forward, lateral, back * dyaw, turn[fix[j]] - turn[fix[i]], off_course, moved
 
 
+def x_icr_limit(track_width: float, limits: MountingLimits | None = None) -> float:
+    """Return the ``|x_icr|`` (m) beyond which a lever arm is suspected (see :class:`MountingLimits`)."""
+    lim = limits or MountingLimits()
+    return max(lim.x_icr_fraction * track_width, lim.min_x_icr)
+
+
 def mounting_findings(
     fit: MountingFit, track_width: float, limits: MountingLimits | None = None
 ) -> list[tuple[str, str]]:
@@ -266,7 +281,7 @@ def mounting_findings(
 
     A heading offset is reported beyond ``limits.heading_offset`` and three
     standard errors of its median; an apparent ``|x_icr|`` beyond
-    ``x_icr_fraction * track_width`` and three standard errors.
+    :func:`x_icr_limit` and three standard errors.
     """
     lim = limits or MountingLimits()
     out = []
@@ -282,7 +297,7 @@ def mounting_findings(
             )
         )
     x = fit.x_icr
-    if np.isfinite(x) and abs(x) > max(lim.x_icr_fraction * track_width, 3.0 * fit.x_icr_std):
+    if np.isfinite(x) and abs(x) > max(x_icr_limit(track_width, lim), 3.0 * fit.x_icr_std):
         where = "behind" if x < 0 else "ahead of"
         out.append(
             (
