@@ -39,11 +39,12 @@ from terrain_odom.estimation.odometry import run_icr_ekf, run_slip_ekf
 from terrain_odom.evaluation import (
     icr_twist_from_rows,
     model_twist,
+    predict_window_ends,
     prediction_windows,
     window_errors,
 )
 from terrain_odom.io import read_wheel_log
-from terrain_odom.kinematics import get_model
+from terrain_odom.kinematics import get_model, wrap_angle
 
 REPO = Path(__file__).resolve().parents[1]
 NAMES = ("idd", "icr-ekf", "icr-ekf, idd start", "slip-ekf")
@@ -68,21 +69,32 @@ def per_window(log, cfg, idd_cfg):
         "slip-ekf": slip_twist(w, run_slip_ekf(sub, cfg), cfg),
     }
     errors = {}
+    start_yaw = log.pose[w.start, 2]
+    measured = wrap_angle(log.pose[w.end, 2] - start_yaw)
     for name, twist in twists.items():
         err = window_errors(log, w, twist)
-        errors[name] = np.c_[err.translation, np.degrees(err.rotation)]
+        predicted = wrap_angle(predict_window_ends(log, w, twist)[:, 2] - start_yaw)
+        errors[name] = np.c_[err.translation, np.degrees(err.rotation), predicted, measured]
     k = np.abs(log.v_r - log.v_l) / (np.abs(log.v_l) + np.abs(log.v_r) + 1e-3)
     curvature = np.array([k[a:e].mean() for a, e in zip(w.start, w.end, strict=True)])
     return errors, curvature
 
 
-def row(title, errors):
-    """One table row: windows, then position m and heading deg of each estimator."""
+def row(title, errors, turn=False):
+    """One table row: windows, then position m and heading deg of each estimator.
+
+    With ``turn``, also the least-squares ratio of predicted to measured
+    heading change (1: the model turns as much as the robot).
+    """
     n = len(errors["idd"])
-    cells = " | ".join(
-        f"{errors[e][:, 0].mean():6.3f} {errors[e][:, 1].mean():5.2f}" for e in NAMES
-    )
-    print(f"   {title:<42} {n:>5} | {cells}")
+    cells = []
+    for e in NAMES:
+        err = errors[e]
+        cell = f"{err[:, 0].mean():6.3f} {err[:, 1].mean():5.2f}"
+        if turn:
+            cell += f" x{err[:, 2] @ err[:, 3] / (err[:, 3] @ err[:, 3]):4.2f}"
+        cells.append(cell)
+    print(f"   {title:<42} {n:>5} | {' | '.join(cells)}")
 
 
 def main():
@@ -96,20 +108,29 @@ def main():
     print("Pose 1 Hz, config/warthog.yaml, mean 2-s prediction error: position m, heading deg")
     header = " | ".join(f"{name[:13]:>12}" for name in NAMES)
     print(f"   {'log':<42} {'n':>5} | {header}")
-    pooled, curvature = [], []
+    pooled, curvature, windowed = [], [], []
     for path in sorted(args.data.glob("*.csv")):
         log = read_wheel_log(path, wheel_radius=cfg.robot.wheel_radius)
         errors, k = per_window(log, cfg, idd_cfg)
         row(path.stem.replace("warthog_wheels_", ""), errors)
         pooled.append(errors)
         curvature.append(k)
-    everything = {e: np.concatenate([p[e] for p in pooled]) for e in NAMES}
-    row("all logs, pooled over windows", everything)
-    k = np.concatenate(curvature)
-    print("\nThe same windows by curvature feature k of the track speeds (pooled)")
+        windowed.append(log.n_runs > 1)  # the 2-s window files of DRIVE
+    continuous = [not w for w in windowed]
+
+    def pooled_over(mask):
+        chosen = [p for p, x in zip(pooled, mask, strict=True) if x]
+        return {e: np.concatenate([p[e] for p in chosen]) for e in NAMES}
+
+    row("continuous logs, pooled over windows", pooled_over(continuous))
+    row("2-s window logs (DRIVE protocol), pooled", pooled_over(windowed))
+    pool = pooled_over(continuous)
+    k = np.concatenate([c for c, x in zip(curvature, continuous, strict=True) if x])
+    print("\nContinuous logs' windows by curvature feature k of the track speeds; x: predicted /")
+    print("measured heading change (least squares)")
     for low, high in zip(BINS[:-1], BINS[1:], strict=True):
         inside = (k >= low) & (k < high)
-        row(f"{low:.2f} <= k < {high:.2f}", {e: everything[e][inside] for e in NAMES})
+        row(f"{low:.2f} <= k < {high:.2f}", {e: pool[e][inside] for e in NAMES}, turn=True)
 
 
 if __name__ == "__main__":

@@ -18,9 +18,10 @@ arcs and composition; tested against finite differences). The pose noise of
 overlapping windows is independent unless they share an end, and a longer
 change is measured with the same noise, so a window of a few tenths of a
 second makes each update informative enough to linearise well at 10 Hz.
-When either pose lacks a position (a GPS outage), only the heading change is
-fused, and it leaves ``alpha`` alone (a heading change cannot tell a slip
-factor from a wider ICR spacing).
+Any subset of ``dx, dy, dyaw`` may be measured (:meth:`SlipEkf.update`
+leaves NaN components out; the streaming API fuses position changes between
+fixes and heading changes between headings); a heading change alone leaves
+``alpha`` alone (it cannot tell a slip factor from a wider ICR spacing).
 
 References
 ----------
