@@ -160,8 +160,9 @@ def run_slip_ekf(
     Parameters
     ----------
     log : WheelLog
-        Wheel speeds and pose measurements; rows with a yaw are used (with or
-        without a position).
+        Wheel speeds and pose measurements: heading changes between rows
+        with a yaw, position changes between rows with ``x, y`` (oriented by
+        a heading measured within 1 s).
     config : Config
         ``config.slip_ekf``, ``config.robot.track_width`` and ``config.terrain``.
     labels, on_row, frames

@@ -10,9 +10,14 @@
     odo.state()                    # t, x, y, yaw, y_l, y_r, x_icr(, alpha), terrain, std_*
 
 Wheel speeds given at ``t`` are held until the next :meth:`~OnlineOdometry.wheels`
-call (zero-order hold), which predicts over the interval. The pose is anchored
-at the first full pose measurement of every segment and never propagated across
-a segment break (``wheels(..., new_segment=True)``). Terrain labels pass through
+call (zero-order hold), which predicts over the interval. A pose measurement
+may hold any subset of ``x, y, yaw`` (a GPS fix, a heading, both), as the
+sensors of ``config.pose_sensor`` measure them (antenna lever arm, heading
+offset: :mod:`~terrain_odom.estimation.pose_measurement`); what became of each
+component is counted in :attr:`OnlineOdometry.pose_use`. The ICR EKF anchors
+the heading and the position of every segment at their first measurements
+(the heading from the course of the fixes when none is measured) and never
+propagates the pose across a segment break (``wheels(..., new_segment=True)``). Terrain labels pass through
 a :class:`~terrain_odom.estimation.terrain.TerrainTracker`; a confirmed change
 resets the ICR covariance to ``P_B`` (and restores a remembered estimate). With
 ``terrain.reset_at: arrival`` a change confirmed from frames is applied once the
@@ -82,10 +87,18 @@ class OnlineOdometry:
         Also time the whole frame's classification (see
         :class:`~terrain_odom.vision.frame_classifier.FrameClassifier`).
 
+    Attributes
+    ----------
+    n_updates : int
+        Pose measurements that updated the filter.
+    pose_use : PoseUse
+        Position and heading components measured, used, and dropped by reason.
+
     Raises
     ------
     ConfigError
-        Unknown estimator, or priors with the slip EKF.
+        Unknown estimator, priors with the slip EKF, or
+        ``pose_sensor.heading_offset: auto`` (resolved from a whole log only).
 
     Examples
     --------
@@ -239,7 +252,8 @@ class OnlineOdometry:
         -------
         bool
             Whether the filter was updated (False when the measurement only
-            anchored the pose, or the slip EKF had no earlier heading).
+            anchored the pose, was the first of its kind in the slip EKF, or
+            was dropped: see :attr:`pose_use`).
 
         Raises
         ------
