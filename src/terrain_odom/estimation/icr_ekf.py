@@ -315,10 +315,11 @@ class IcrEkf:
             res[yaw_row] = wrap_angle(res[yaw_row])
             return res
 
-        self._filter.update(
+        h, H = measurement(self._filter.x[:, 0], rows, self.mounting)  # noqa: N806
+        self._filter.update(  # filterpy evaluates both at the prior state
             z[rows][:, None],
-            HJacobian=lambda x: measurement(x[:, 0], rows, self.mounting)[1],
-            Hx=lambda x: measurement(x[:, 0], rows, self.mounting)[0][:, None],
+            HJacobian=lambda _x: H,
+            Hx=lambda _x: h[:, None],
             R=r_full[np.ix_(rows, rows)],
             residual=residual,
         )
