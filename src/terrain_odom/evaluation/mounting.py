@@ -215,37 +215,25 @@ def _chords(
     lim: MountingLimits,
     chord: float,
 ) -> _Chords:
-    """Chords from every position row to the first ``chord`` m of wheel travel later, per run."""
-    runs = [
-        _run_chords(log, range_, track_width, antenna, offset, lim, chord)
-        for range_ in log.run_ranges()
-    ]
-    if not runs:
+    """Chords from every position row to the first ``chord`` m of wheel travel later.
+
+    All runs at once: on a time axis that jumps by far more than any chord
+    or heading gap between runs, and with no travel or turn across a run's
+    end, so no chord and no interpolated heading crosses from one run to the
+    next.
+    """
+    if len(log) < 2:
         return _Chords(*(np.zeros(0) for _ in range(6)))
-    return _Chords(*(np.concatenate(column) for column in zip(*runs, strict=True)))
-
-
-def _run_chords(
-    log: WheelLog,
-    run: range,
-    track_width: float,
-    antenna: np.ndarray,
-    offset: float,
-    lim: MountingLimits,
-    chord: float,
-) -> tuple[np.ndarray, ...]:
-    """Return the columns of :class:`_Chords` for one run of the log."""
-    rows = np.arange(run.start, run.stop)
-    t, pose = log.t[rows], log.pose[rows]
-    dt = np.diff(t)
-    speed = 0.5 * (log.v_l[rows] + log.v_r[rows])[:-1]
+    t = _run_time(log)
+    dt = np.diff(t) * (np.diff(log.segment_runs()) == 0)
+    speed = 0.5 * (log.v_l + log.v_r)[:-1]
     signed = np.r_[0.0, np.cumsum(speed * dt)]
-    turn = np.r_[0.0, np.cumsum((log.v_r[rows] - log.v_l[rows])[:-1] / track_width * dt)]
-    fix = np.flatnonzero(np.isfinite(pose[:, 0]) & np.isfinite(pose[:, 1]))
+    turn = np.r_[0.0, np.cumsum((log.v_r - log.v_l)[:-1] / track_width * dt)]
+    fix = np.flatnonzero(np.isfinite(log.pose[:, 0]) & np.isfinite(log.pose[:, 1]))
     travel = np.r_[0.0, np.cumsum(np.abs(speed) * dt)][fix]
-    yaw = _heading_at(t, pose[:, 2], t[fix], lim.yaw_gap) - offset  # unwrapped
+    yaw = _heading_at(t, log.pose[:, 2], t[fix], lim.yaw_gap) - offset  # unwrapped
     c, s = np.cos(yaw), np.sin(yaw)
-    xy = pose[fix, :2] - np.column_stack(
+    xy = log.pose[fix, :2] - np.column_stack(
         [c * antenna[0] - s * antenna[1], s * antenna[0] + c * antenna[1]]
     )
     # travel-weighted heading along the path: a chord's course, however it weaves
@@ -265,7 +253,15 @@ def _run_chords(
     heading = (area[j] - area[i]) / (travel[j] - travel[i])
     off_course = wrap_angle(heading - np.arctan2(back * d[:, 1], back * d[:, 0]))
     moved = np.hypot(d[:, 0], d[:, 1]) / (travel[j] - travel[i])
-    return forward, lateral, back * dyaw, turn[fix[j]] - turn[fix[i]], off_course, moved
+    return _Chords(forward, lateral, back * dyaw, turn[fix[j]] - turn[fix[i]], off_course, moved)
+
+
+def _run_time(log: WheelLog) -> np.ndarray:
+    """Return the log's times made increasing across runs, with a 1e6-s jump at each new run."""
+    jump = np.zeros(len(log))
+    starts = log.run_starts()[1:]
+    jump[starts] = log.t[starts - 1] - log.t[starts] + 1e6
+    return log.t + np.cumsum(jump)
 
 
 def x_icr_limit(track_width: float, limits: MountingLimits | None = None) -> float:
