@@ -14,6 +14,7 @@ from terrain_odom.config import load_config
 from terrain_odom.io.wheel_log import write_wheel_log
 from terrain_odom.records import WheelLog
 from terrain_odom.sim import TERRAIN_TABLE, get_scenario, simulate
+from terrain_odom.sim.model_log import constant_model_log
 
 
 @pytest.fixture(scope="module")
@@ -82,3 +83,14 @@ def test_mounting_with_auto_heading_offset_runs_and_records_it(logs, tmp_path, c
     resolved = load_config(out / "config.yaml").pose_sensor
     assert math.degrees(float(resolved.heading_offset)) == pytest.approx(offset, abs=0.01)
     assert abs(report["final_state"]["x_icr"] - TERRAIN_TABLE["grass"].x_icr) < 0.1
+
+
+def test_auto_heading_offset_without_straight_stretches_is_one_line(tmp_path, capsys):
+    log = tmp_path / "turning.csv"
+    write_wheel_log(log, constant_model_log("icr", (0.42, -0.40, 0.05), seconds=10.0))
+    config = tmp_path / "auto.yaml"
+    config.write_text("pose_sensor: {heading_offset: auto}\n")
+    args = ["run", "--wheels", str(log), "--out", str(tmp_path / "o"), "--config", str(config)]
+    assert main(args) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "auto needs 5 straight stretches of 3 m" in err
