@@ -75,12 +75,11 @@ def test_gps_and_imu_on_separate_rows_update_both_estimators(full_log):
     pose[rows[::2], :2] = full_log.pose[rows[::2], :2]
     pose[rows[1::2], 2] = full_log.pose[rows[1::2], 2]
     log = dataclasses.replace(full_log, pose=pose)
-    for estimator, first_fix_dropped in (("icr-ekf", 0), ("slip-ekf", 1)):
+    for estimator in ("icr-ekf", "slip-ekf"):
         odo = _run(log, estimator)
         use = odo.pose_use
-        assert use.used_position == use.position - first_fix_dropped
-        assert use.used_heading == use.heading
-        assert sum(use.dropped.values()) == first_fix_dropped  # the fix before any heading
+        assert use.used_position == use.position and use.used_heading == use.heading
+        assert not use.dropped
         assert odo.n_updates == use.position + use.heading - 3  # a fix, a heading, a fix anchor
         if estimator == "icr-ekf":  # the slip model's ICRs are no constants to compare
             state = odo.state()
@@ -88,18 +87,22 @@ def test_gps_and_imu_on_separate_rows_update_both_estimators(full_log):
             np.testing.assert_allclose(estimate, TRUE, atol=0.01)
 
 
-def test_slip_ekf_drops_positions_long_after_the_latest_heading_with_a_count(full_log):
-    """Its heading is dead reckoning between measured ones: a position needs a fresh one."""
+def test_slip_ekf_between_rare_headings_uses_the_fixes_as_chords(full_log):
+    """Its heading is dead reckoning between measured ones: a fix long after one is a chord."""
     pose = full_log.pose.copy()
     pose[:200, 2] = np.nan  # no heading in the first 10 s
     pose[1000:, 2] = np.nan  # nor after 50 s
     odo = _run(dataclasses.replace(full_log, pose=pose), "slip-ekf")
-    dropped = odo.pose_use.dropped
-    fixes = full_log.has_pose
-    late = int(fixes[:200].sum() + fixes[1000:].sum()) - 10  # 1 s of fixes after the last heading
-    assert list(dropped.values()) == [late]
-    assert "no heading measured within 1 s" in next(iter(dropped))
-    assert odo.n_updates == odo.pose_use.used_position - 1  # full rows: one update each
+    use = odo.pose_use
+    dropped = sum(use.dropped.values())
+    assert set(use.dropped) <= {
+        "position: no heading, and within a quarter chord of the previous fix (standing)"
+    }
+    assert use.used_position + dropped == use.position and use.used_heading == use.heading
+    chords = (
+        use.position - int(full_log.has_pose[200:1000].sum()) - dropped
+    )  # fixes without heading
+    assert 0.2 * chords < odo.n_updates - (use.heading - 1) < chords
 
 
 def test_online_odometry_refuses_an_unresolved_auto_heading_offset():

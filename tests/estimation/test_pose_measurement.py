@@ -10,6 +10,7 @@ from terrain_odom.estimation.icr_ekf import IcrEkf
 from terrain_odom.estimation.pose_measurement import (
     Mounting,
     PoseUse,
+    chord_turn,
     measured_rows,
     measurement,
     robot_pose,
@@ -88,3 +89,31 @@ def test_pose_use_counts_each_component_and_an_incomplete_position():
     assert use.dropped == {"position: x without y (or y without x)": 1}
     use.used("heading")
     assert use.summary().startswith("position 0 of 1 used, heading 1 of 3 (dropped: 1 position")
+
+
+def test_chord_turn_jacobian_matches_finite_differences():
+    """Two pose changes linear in 3 parameters; the antenna off the reference point."""
+    rng = np.random.default_rng(1)
+    a1, a2 = rng.normal(size=(3, 3)), rng.normal(size=(3, 3))
+    base1, base2 = np.array([1.0, 0.3, 0.4]), np.array([0.8, -0.2, -0.3])
+    arm = np.array([0.5, -0.2])
+
+    def h(p):
+        return chord_turn(base1 + a1 @ p, a1, base2 + a2 @ p, a2, arm)
+
+    p0 = np.array([0.05, -0.02, 0.03])
+    value, jac = h(p0)
+    numeric = np.column_stack([(h(p0 + e)[0] - h(p0 - e)[0]) / 2e-6 for e in np.eye(3) * 1e-6])
+    np.testing.assert_allclose(jac, numeric, atol=1e-7)
+    assert value.shape == (2,)
+
+
+def test_chord_turn_of_an_antenna_ahead_on_a_circle():
+    """On a circle the antenna ahead drives a circle too: its chords turn as the robot does."""
+    angle, radius = 0.4, 2.0
+    change = [radius * np.sin(angle), radius * (1 - np.cos(angle)), angle]
+    arm = [0.5, 0.0]
+    h, _ = chord_turn(change, np.zeros((3, 1)), change, np.zeros((3, 1)), arm)
+    antenna_radius = np.hypot(radius, 0.5)
+    assert h[0] == pytest.approx(2 * antenna_radius * np.sin(angle / 2))
+    assert h[1] == pytest.approx(angle)

@@ -334,8 +334,6 @@ def _read_inputs(
         frame_list = read_frames(images)
         _check_frame_times(frame_list, log, images)
         classifier = load_classifier(model)
-    if slip and not np.any(log.has_yaw):
-        raise InputFileError(f"{log.source}: --estimator slip-ekf needs a 'yaw' column with values")
     return _Inputs(
         cfg,
         config_path,

@@ -414,8 +414,8 @@ _POSITION, _HEADING = "position", "heading"
 _BEFORE_HEADING = (
     "before a heading (the robot has not yet moved far enough to take it from the course)"
 )
-_NO_SLIP_HEADING = "no heading measured within 1 s (the slip EKF orients a position change by it)"
 _HEADING_AGE = 1.0  # s: the slip EKF's dead-reckoned heading older than this orients no position
+_CLOSE_FIX = "no heading, and within a quarter chord of the previous fix (standing)"
 
 
 class _IcrSteps:
@@ -529,6 +529,57 @@ class _Anchor(NamedTuple):
     sample: int  # number of its wheel sample in the segment
 
 
+class _Chords:
+    """Fixes without a heading, for the slip EKF: two chords of at least ``length`` m.
+
+    A GPS alone fixes the path up to a rotation: from the fixes ``b, a, k``
+    it measures the length of the chord ``a -> k`` and its turn from the
+    chord ``b -> a`` (:func:`~terrain_odom.estimation.pose_measurement.chord_turn`),
+    ``a`` the latest fix at least ``length`` m from ``k``, ``b`` the latest
+    at least ``length`` m from ``a``. A fix within a quarter chord of the
+    previous one kept is not kept (a standing robot keeps the buffer short).
+    """
+
+    def __init__(self, length: float, sigma: float) -> None:
+        self.length = length
+        self.sigma = sigma  # noise of a position change, m
+        self.fixes: deque[tuple[np.ndarray, int]] = deque()  # (antenna x, y; wheel sample)
+
+    def clear(self) -> None:
+        self.fixes.clear()
+
+    def add(
+        self, xy: np.ndarray, sample: int
+    ) -> tuple[bool, tuple[tuple[np.ndarray, int], tuple[np.ndarray, int]] | None]:
+        """Keep a fix (unless too close); return whether kept, and the fixes ``b, a`` if any."""
+        fixes = self.fixes
+        if fixes and np.hypot(*(xy - fixes[-1][0])) < 0.25 * self.length:
+            return False, None
+        a = self._latest_away(xy, len(fixes))
+        b = None if a is None else self._latest_away(fixes[a][0], a)
+        pair = None if a is None or b is None else (fixes[b], fixes[a])
+        for _ in range(b or 0):
+            fixes.popleft()  # never an anchor again (unless the robot comes back)
+        fixes.append((xy.copy(), sample))
+        return True, pair
+
+    def _latest_away(self, xy: np.ndarray, before: int) -> int | None:
+        """Return the index of the latest fix before ``before`` at least a chord from ``xy``."""
+        for k in range(before - 1, -1, -1):
+            if np.hypot(*(xy - self.fixes[k][0])) >= self.length:
+                return k
+        return None
+
+    def measured(
+        self, xy_b: np.ndarray, xy_a: np.ndarray, xy_k: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Return the measured ``(length of a -> k, turn from b -> a)`` and their variances."""
+        first, second = xy_a - xy_b, xy_k - xy_a
+        l1, l2 = np.hypot(*first), np.hypot(*second)
+        turn = wrap_angle(np.arctan2(second[1], second[0]) - np.arctan2(first[1], first[0]))
+        return np.array([l2, turn]), self.sigma**2 * np.array([1.0, 1.0 / l1**2 + 1.0 / l2**2])
+
+
 class _SlipSteps:
     """The slip EKF: a windowed pose change at every measured pose component.
 
@@ -539,10 +590,12 @@ class _SlipSteps:
     seconds before (0: the previous one), or the segment's first one while
     the segment is shorter; a position likewise with the position change
     since its anchor among the positions, in the frame of the robot there
-    (its heading measured, or dead-reckoned from the latest one measured;
-    positions more than 1 s after the latest measured heading are dropped:
-    the heading is not a state of the slip EKF, and dead reckoning drifts). Where both
-    anchors are one row, the whole pose change is one update. The wheel
+    (its heading measured, or dead-reckoned from one measured at most 1 s
+    before). Where both anchors are one row, the whole pose change is one
+    update. A position with no heading that recent (a GPS alone; the
+    heading is no state of the slip EKF, and dead reckoning drifts) updates
+    with what positions alone measure: a chord's length and its turn from
+    the chord before (:class:`_Chords`). The wheel
     samples since the oldest anchor still needed are kept (a bounded
     buffer: the window plus the gap between measurements). The reported
     pose (``x, y, yaw``) is dead reckoning with the current parameters from
@@ -556,11 +609,14 @@ class _SlipSteps:
         self._window = ekf.config.window
         self._anchors: dict[str, deque[_Anchor]] = {_POSITION: deque(), _HEADING: deque()}
         self._samples: deque[tuple[float, float, float]] = deque()  # (t, v_l, v_r)
+        sigma = ekf.config.sigma_r.dx
+        self._course = _Chords(max(0.5, 10.0 * sigma), sigma)
         self.restart(0.0)
 
     def restart(self, t: float) -> None:
         for chain in self._anchors.values():
             chain.clear()
+        self._course.clear()
         self._samples.clear()
         self._first = 0  # number of self._samples[0] in the segment
         self._pose = np.zeros(3)
@@ -574,8 +630,14 @@ class _SlipSteps:
 
     def sample(self, t: float, v_l: float, v_r: float) -> None:
         self._samples.append((t, v_l, v_r))
-        if not any(self._anchors.values()):  # only the newest sample can become an anchor
-            self._drop_samples(self._first + len(self._samples) - 1)
+        self._drop_samples(self._oldest_needed())
+
+    def _oldest_needed(self) -> int:
+        """Return the number of the oldest wheel sample an anchor still needs (else the newest)."""
+        firsts = [chain[0].sample for chain in self._anchors.values() if chain]
+        if self._course.fixes:
+            firsts.append(self._course.fixes[0][1])
+        return min(firsts, default=self._first + len(self._samples) - 1)
 
     def _drop_samples(self, first: int) -> None:
         """Forget the wheel samples before sample number ``first``."""
@@ -589,28 +651,52 @@ class _SlipSteps:
         if has_heading:
             self._pose[_YAW] = wrap_angle(z[_YAW] - self.mounting.heading_offset)
             self._headed = t
-        if has_position and t - self._headed > _HEADING_AGE:
-            use.drop(_POSITION, _NO_SLIP_HEADING)
-            has_position = False
-        elif has_position:
+        if has_position:
             self._pose[:2] = robot_pose(z, self.mounting, yaw=self._pose[_YAW])[:2]
-        here = _Anchor(
-            self._samples[-1][0], self._pose.copy(), self._first + len(self._samples) - 1
-        )
+        sample = self._first + len(self._samples) - 1
+        course = has_position and t - self._headed > _HEADING_AGE
+        updated = course and self._course_update(z[:2], sample, use)
+        here = _Anchor(t, self._pose.copy(), sample)
         froms = {
             what: self._anchor(what, here)
-            for what, measured in ((_POSITION, has_position), (_HEADING, has_heading))
+            for what, measured in (
+                (_POSITION, has_position and not course),
+                (_HEADING, has_heading),
+            )
             if measured
         }
         for what in froms:
             use.used(what)
-        first = min((chain[0].sample for chain in self._anchors.values() if chain), default=None)
-        if first is not None:
-            self._drop_samples(first)
+        self._drop_samples(self._oldest_needed())
         changes = self._changes(froms)
         for anchor, mask in changes:
             self._update(anchor, here, mask)
-        return bool(changes)
+        return bool(changes) or updated
+
+    def _course_update(self, xy: np.ndarray, sample: int, use: PoseUse) -> bool:
+        """Fuse a fix without a heading as the end of two chords (see :class:`_Chords`)."""
+        kept, pair = self._course.add(xy, sample)
+        if not kept:
+            use.drop(_POSITION, _CLOSE_FIX)
+            return False
+        use.used(_POSITION)
+        if pair is None:
+            return False
+        (xy_b, b), (xy_a, a) = pair
+        z, variances = self._course.measured(xy_b, xy_a, xy)
+        samples = np.array(self._samples)
+        first, second = (
+            samples[start - self._first : end - self._first + 1].T
+            for start, end in ((b, a), (a, sample))
+        )
+        self.filter.update_course(
+            z,
+            (first[1][:-1], first[2][:-1], np.diff(first[0])),
+            (second[1][:-1], second[2][:-1], np.diff(second[0])),
+            self.mounting.antenna,
+            variances,
+        )
+        return True
 
     def _anchor(self, what: str, here: _Anchor) -> _Anchor | None:
         """Return the anchor of a ``what`` measured ``here`` (None: the first); chain ``here``."""

@@ -30,7 +30,15 @@ from numpy.typing import ArrayLike
 
 from terrain_odom.kinematics import wrap_angle
 
-__all__ = ["Mounting", "PoseUse", "measurement", "measured_rows", "robot_pose", "sensor_pose"]
+__all__ = [
+    "Mounting",
+    "PoseUse",
+    "chord_turn",
+    "measurement",
+    "measured_rows",
+    "robot_pose",
+    "sensor_pose",
+]
 
 _YAW = 2
 
@@ -164,6 +172,68 @@ def robot_pose(z: ArrayLike, mounting: Mounting, yaw: float | None = None) -> np
         raise ValueError("robot_pose needs a heading: in z, or as yaw")
     rot, _ = _rotation(yaw)
     return np.r_[z[:2] - rot @ mounting.antenna, yaw]
+
+
+def _chord(change: np.ndarray, jac: np.ndarray, arm: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Return the antenna's displacement over a pose ``change`` (start frame) and its Jacobian."""
+    rot, d_rot = _rotation(change[_YAW])
+    return change[:2] + rot @ arm - arm, jac[:2] + np.outer(d_rot @ arm, jac[_YAW])
+
+
+def chord_turn(
+    first: ArrayLike,
+    j_first: ArrayLike,
+    second: ArrayLike,
+    j_second: ArrayLike,
+    antenna: ArrayLike,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Predict two consecutive antenna chords as a GPS alone sees them: length and turn.
+
+    Without a heading, positions fix the path only up to a rotation; what
+    they measure of two consecutive pose changes is the length of the
+    antenna's second chord and the angle from the first chord to the second.
+
+    Parameters
+    ----------
+    first, second : array_like, shape (3,)
+        Consecutive pose changes ``dx, dy, dyaw``, each in its start frame.
+    j_first, j_second : array_like, shape (3, n)
+        Their Jacobians with respect to the parameters.
+    antenna : array_like, shape (2,)
+        Position sensor in the robot frame, m.
+
+    Returns
+    -------
+    h : ndarray, shape (2,)
+        Length of the second chord (m), and turn from the first chord's
+        direction to the second's (rad, wrapped).
+    H : ndarray, shape (2, n)
+        ``d h / d params``.
+
+    Examples
+    --------
+    >>> quarter = [1.0, 1.0, np.pi / 2]  # a quarter circle of radius 1, to the left
+    >>> h, _ = chord_turn(quarter, np.zeros((3, 1)), quarter, np.zeros((3, 1)), [0.0, 0.0])
+    >>> h.round(6).tolist()  # chord sqrt(2); the chords turn by the quarter
+    [1.414214, 1.570796]
+    """
+    arm = np.asarray(antenna, dtype=float)
+    first, second = np.asarray(first, dtype=float), np.asarray(second, dtype=float)
+    c1, j1 = _chord(first, np.asarray(j_first, dtype=float), arm)
+    c2, j2 = _chord(second, np.asarray(j_second, dtype=float), arm)
+    l1, l2 = float(c1 @ c1), float(c2 @ c2)
+    h = np.array(
+        [
+            np.sqrt(l2),
+            wrap_angle(first[_YAW] + np.arctan2(c2[1], c2[0]) - np.arctan2(c1[1], c1[0])),
+        ]
+    )
+    d_turn = (
+        np.asarray(j_first, dtype=float)[_YAW]
+        + (c2[0] * j2[1] - c2[1] * j2[0]) / l2
+        - (c1[0] * j1[1] - c1[1] * j1[0]) / l1
+    )
+    return h, np.vstack([c2 @ j2 / np.sqrt(l2), d_turn])
 
 
 @dataclass
