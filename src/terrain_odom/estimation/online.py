@@ -529,7 +529,7 @@ class _Anchor(NamedTuple):
     sample: int  # number of its wheel sample in the segment
 
 
-class _Chords:
+class _CourseFixes:
     """Fixes without a heading, for the slip EKF: two chords of at least ``length`` m.
 
     A GPS alone fixes the path up to a rotation: from the fixes ``b, a, k``
@@ -595,7 +595,7 @@ class _SlipSteps:
     update. A position with no heading that recent (a GPS alone; the
     heading is no state of the slip EKF, and dead reckoning drifts) updates
     with what positions alone measure: a chord's length and its turn from
-    the chord before (:class:`_Chords`). The wheel
+    the chord before (:class:`_CourseFixes`). The wheel
     samples since the oldest anchor still needed are kept (a bounded
     buffer: the window plus the gap between measurements). The reported
     pose (``x, y, yaw``) is dead reckoning with the current parameters from
@@ -610,7 +610,7 @@ class _SlipSteps:
         self._anchors: dict[str, deque[_Anchor]] = {_POSITION: deque(), _HEADING: deque()}
         self._samples: deque[tuple[float, float, float]] = deque()  # (t, v_l, v_r)
         sigma = ekf.config.sigma_r.dx
-        self._course = _Chords(max(0.5, 10.0 * sigma), sigma)
+        self._course = _CourseFixes(max(0.5, 10.0 * sigma), sigma)
         self.restart(0.0)
 
     def restart(self, t: float) -> None:
@@ -674,7 +674,7 @@ class _SlipSteps:
         return bool(changes) or updated
 
     def _course_update(self, xy: np.ndarray, sample: int, use: PoseUse) -> bool:
-        """Fuse a fix without a heading as the end of two chords (see :class:`_Chords`)."""
+        """Fuse a fix without a heading as the end of two chords (see :class:`_CourseFixes`)."""
         kept, pair = self._course.add(xy, sample)
         if not kept:
             use.drop(_POSITION, _CLOSE_FIX)
