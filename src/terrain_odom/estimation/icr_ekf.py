@@ -37,6 +37,7 @@ from numpy.typing import ArrayLike
 
 from terrain_odom.config import EkfConfig, IcrSigmas, IcrState, TerrainConfig
 from terrain_odom.errors import EstimationError
+from terrain_odom.estimation.pose_measurement import Mounting, measured_rows, measurement
 from terrain_odom.kinematics import (
     arc_increment_with_jacobian,
     twist_icr,
@@ -184,6 +185,9 @@ class IcrEkf:
         filter starts on it or changes to it (see
         :meth:`reset_on_terrain_change`), with covariance
         ``config.sigma_prior**2``.
+    mounting : Mounting, optional
+        Antenna lever arm and heading offset of the pose sensors
+        (:mod:`~terrain_odom.estimation.pose_measurement`); none by default.
 
     Examples
     --------
@@ -201,8 +205,10 @@ class IcrEkf:
         *,
         pose: ArrayLike | None = None,
         priors: IcrPriors | None = None,
+        mounting: Mounting | None = None,
     ) -> None:
         self.config = config
+        self.mounting = mounting if mounting is not None else Mounting()
         self.terrain_config = terrain if terrain is not None else TerrainConfig()
         self.priors = priors if priors is not None else IcrPriors()
         self.names = state_names(config.estimate_alpha)
@@ -277,11 +283,15 @@ class IcrEkf:
     def update(self, z: ArrayLike, *, R: ArrayLike | None = None) -> float:  # noqa: N803
         """Fuse a pose measurement; NaN components are left out.
 
+        The measurement is the pose sensors' (:attr:`mounting`): antenna
+        position and sensor heading (:func:`~terrain_odom.estimation.pose_measurement.measurement`).
+
         Parameters
         ----------
         z : array_like, shape (3,)
             Measured ``x, y, yaw`` (m, m, rad); NaN where not measured (e.g.
-            heading only during a GPS outage).
+            heading only during a GPS outage, position only from a GPS);
+            ``x`` without ``y`` is left out.
         R : array_like, shape (3,) or (3, 3), optional
             Measurement noise (variances) overriding the configured one.
 
@@ -292,15 +302,12 @@ class IcrEkf:
             measured).
         """
         z = np.asarray(z, dtype=float)
-        rows = np.flatnonzero(np.isfinite(z))
+        rows = measured_rows(z)
         if rows.size == 0:
             return float("nan")
         r_full = np.diag(self._r_diag) if R is None else np.asarray(R, dtype=float)
         if r_full.ndim == 1:
             r_full = np.diag(r_full)
-        n = len(self.names)
-        H = np.zeros((rows.size, n))  # noqa: N806
-        H[np.arange(rows.size), rows] = 1.0
         yaw_row = np.flatnonzero(rows == _YAW)
 
         def residual(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -308,10 +315,11 @@ class IcrEkf:
             res[yaw_row] = wrap_angle(res[yaw_row])
             return res
 
-        self._filter.update(
+        h, H = measurement(self._filter.x[:, 0], rows, self.mounting)  # noqa: N806
+        self._filter.update(  # filterpy evaluates both at the prior state
             z[rows][:, None],
             HJacobian=lambda _x: H,
-            Hx=lambda x: H @ x,
+            Hx=lambda _x: h[:, None],
             R=r_full[np.ix_(rows, rows)],
             residual=residual,
         )
