@@ -17,6 +17,7 @@ from terrain_odom.errors import EstimationError
 from terrain_odom.estimation import IcrEkf, icr_step_with_jacobian, odometry, online
 from terrain_odom.estimation._kernels import icr_predict
 from terrain_odom.estimation.icr_ekf_reference import FilterpyIcrEkf
+from terrain_odom.estimation.pose_measurement import Mounting
 from terrain_odom.io import read_wheel_log
 
 TOLERANCE = 1e-12
@@ -56,23 +57,25 @@ def test_kernels_equal_filterpy_on_a_real_log(drive_dir, warthog_yaml, monkeypat
     _assert_equal(fast, slow)
 
 
-def test_heading_only_and_custom_noise_updates_equal_filterpy():
-    """Partial measurements (yaw only, x-y only) and an R given per call, with yaw wrap-around."""
+@pytest.mark.parametrize("mounting", [Mounting(), Mounting(0.5, -0.1, 0.2)])
+def test_heading_only_and_custom_noise_updates_equal_filterpy(mounting):
+    """Partial rows (yaw only, x-y only, x without y), R per call, yaw wrap, antenna lever arm."""
     cfg = Config().ekf
-    fast, slow = IcrEkf(cfg), FilterpyIcrEkf(cfg)
+    fast, slow = IcrEkf(cfg, mounting=mounting), FilterpyIcrEkf(cfg, mounting=mounting)
     rng = np.random.default_rng(3)
     measurements = [
         ([np.nan, np.nan, 3.1], None),
         ([0.3, -0.2, np.nan], [0.01, 0.02, 0.03]),
         ([0.5, 0.1, -3.1], np.diag([0.02, 0.01, 0.005])),
-        ([np.nan, 0.4, np.nan], None),
+        ([np.nan, 0.4, np.nan], None),  # y without x: nothing measured
+        ([0.2, np.nan, -0.4], None),  # x without y: the heading alone
     ]
     for z, r in measurements * 5:
         v_l, v_r = rng.uniform(-1.5, 1.5, 2)
         for ekf in (fast, slow):
             ekf.predict(v_l, v_r, 0.05)
         nis = [ekf.update(z, R=r) for ekf in (fast, slow)]
-        assert nis[0] == pytest.approx(nis[1], rel=1e-12)
+        assert nis[0] == pytest.approx(nis[1], rel=1e-12, nan_ok=True)
     np.testing.assert_allclose(fast.x, slow.x, rtol=0, atol=TOLERANCE)
     np.testing.assert_allclose(fast.P, slow.P, rtol=0, atol=TOLERANCE)
 

@@ -38,8 +38,10 @@ from terrain_odom.errors import ConfigError, InputFileError
 from terrain_odom.estimation.icr_ekf import IcrPriors
 from terrain_odom.estimation.odometry import OdometryResult, OdometryRow, run_odometry
 from terrain_odom.estimation.online import ESTIMATORS, Estimator, OnlineOdometry
+from terrain_odom.estimation.pose_measurement import PoseUse
 from terrain_odom.estimation.time_offset import TimeCalibration, calibrate_pose_delay
 from terrain_odom.evaluation import check_log
+from terrain_odom.evaluation.mounting import MountingLimits, fit_mounting, x_icr_limit
 from terrain_odom.io import TrajectoryWriter, read_wheel_log, write_tum
 from terrain_odom.io.atomic import write_atomic, write_text_atomic
 from terrain_odom.io.groundtruth import read_groundtruth
@@ -62,6 +64,8 @@ __all__ = [
     "images_config",
     "read_calibrated_log",
     "calibrate_log",
+    "HeadingCalibration",
+    "resolve_heading_offset",
     "run_config",
     "check_plausible",
 ]
@@ -113,6 +117,12 @@ class RunSummary:
     unused_priors : tuple of str
         Terrains of a per-terrain prior file that the run can never meet (not
         in the log's labels, or not a class of the terrain classifier).
+    pose_use : PoseUse or None
+        Measured pose components used and dropped (by reason).
+    heading : HeadingCalibration or None
+        The heading offset estimated (``pose_sensor.heading_offset: auto``).
+    warnings : tuple of str
+        What the finished run's estimate makes doubtful (one line each).
     """
 
     trajectory_csv: Path
@@ -129,6 +139,58 @@ class RunSummary:
     config_yaml: Path | None = None
     frames: FrameCounts | None = None
     unused_priors: tuple[str, ...] = ()
+    pose_use: PoseUse | None = None
+    heading: HeadingCalibration | None = None
+    warnings: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class HeadingCalibration:
+    """A heading offset estimated from a log (``pose_sensor.heading_offset: auto``).
+
+    Attributes
+    ----------
+    offset : float
+        Measured heading minus the robot's, rad: the median over straight stretches.
+    spread : float
+        Robust standard deviation of single stretches, rad.
+    stretches : int
+        Straight stretches used.
+    """
+
+    offset: float
+    spread: float
+    stretches: int
+
+
+def resolve_heading_offset(log: WheelLog, cfg: Config) -> tuple[Config, HeadingCalibration | None]:
+    """Return ``cfg`` with ``pose_sensor.heading_offset: auto`` estimated from ``log``.
+
+    The estimate is the median of measured heading minus the positions'
+    course over the log's straight stretches
+    (:func:`~terrain_odom.evaluation.mounting.fit_mounting`), the antenna
+    lever arm of ``cfg`` applied. A numeric offset is returned as it is.
+
+    Raises
+    ------
+    InputFileError
+        ``auto`` on a log with too few straight stretches.
+    """
+    sensor = cfg.pose_sensor
+    if sensor.heading_offset != "auto":
+        return cfg, None
+    antenna = (sensor.antenna_x, sensor.antenna_y)
+    fit = fit_mounting(log, cfg.robot.track_width, antenna=antenna)
+    if not np.isfinite(fit.heading_offset):
+        lim = MountingLimits()
+        raise InputFileError(
+            f"{log.source}: pose_sensor.heading_offset auto needs {lim.min_straight} straight "
+            f"stretches of {lim.chord:g} m with positions and headings, the log has "
+            f"{fit.straight}; give the offset in radians"
+        )
+    resolved = dataclasses.replace(sensor, heading_offset=fit.heading_offset)
+    calibration = HeadingCalibration(fit.heading_offset, fit.heading_spread, fit.straight)
+    return dataclasses.replace(cfg, pose_sensor=resolved), calibration
 
 
 def _write_run_config(out: Path, cfg: Config, timing: TimeCalibration) -> Path:
@@ -184,7 +246,14 @@ def check_plausible(log: WheelLog, cfg: Config) -> None:
     """
     if not cfg.checks.enabled:
         return
-    found = check_log(log, cfg.robot.track_width).findings
+    cfg, _ = resolve_heading_offset(log, cfg)
+    sensor = cfg.pose_sensor
+    found = check_log(
+        log,
+        cfg.robot.track_width,
+        antenna=(sensor.antenna_x, sensor.antenna_y),
+        heading_offset=float(sensor.heading_offset),
+    ).findings
     if found:
         raise InputFileError(
             f"{log.source}: {found[0].message} (wheel radius {cfg.robot.wheel_radius:g} m, "
@@ -218,6 +287,7 @@ class _Inputs:
     frames: FrameList | None
     classifier: TerrainClassifier | None
     model: str | Path | None
+    heading: HeadingCalibration | None = None
 
 
 def _read_inputs(
@@ -244,7 +314,9 @@ def _read_inputs(
         config_path = images_config(images)
     cfg = config if config is not None else load_config(config_path)
     icr_priors = None if priors is None else read_priors(priors, cfg.robot)
-    log, timing = read_calibrated_log(wheels, cfg)
+    log = read_wheel_log(wheels, wheel_radius=cfg.robot.wheel_radius)
+    cfg, heading = resolve_heading_offset(log, cfg)
+    log, timing = calibrate_log(log, cfg)
     gt = _read_groundtruth(groundtruth, log) if groundtruth is not None else None
     use_frames = images is not None and terrain is not TerrainSource.NONE
     labels = None if use_frames else _labels(log, terrain)
@@ -264,10 +336,18 @@ def _read_inputs(
         frame_list = read_frames(images)
         _check_frame_times(frame_list, log, images)
         classifier = load_classifier(model)
-    if slip and not np.any(log.has_yaw):
-        raise InputFileError(f"{log.source}: --estimator slip-ekf needs a 'yaw' column with values")
     return _Inputs(
-        cfg, config_path, log, timing, gt, labels, icr_priors, frame_list, classifier, model
+        cfg,
+        config_path,
+        log,
+        timing,
+        gt,
+        labels,
+        icr_priors,
+        frame_list,
+        classifier,
+        model,
+        heading,
     )
 
 
@@ -411,6 +491,10 @@ def run(
     write_tum(tum_path, log.t, *states[:, :3].T)
     seconds = time.perf_counter() - started
     report = _report(inputs, result, wheels, estimator, terrain, priors, seconds)
+    report["counts"]["pose_components"] = asdict(odometry.pose_use)
+    report["warnings"] = _lever_arm_warning(result, inputs.cfg)
+    if inputs.heading is not None:
+        report["heading_calibration"] = asdict(inputs.heading)
     if root is not None:
         _add_frames_report(report, root, inputs, result, pipeline, use_roi)
     plots: list[str] = []
@@ -434,6 +518,9 @@ def run(
         unused_priors=_unused_priors(inputs),
         updates=result.n_updates,
         terrain_changes=len(result.changes),
+        pose_use=odometry.pose_use,
+        heading=inputs.heading,
+        warnings=tuple(report["warnings"]),
     )
 
 
@@ -603,6 +690,28 @@ def _report_inputs(
         "config": path_or_none(inputs.config_path),
         "priors": path_or_none(priors),
     }
+
+
+def _lever_arm_warning(result: OdometryResult, cfg: Config) -> list[str]:
+    """Warn when ``x_icr`` lies beyond :func:`~terrain_odom.evaluation.mounting.x_icr_limit`.
+
+    The estimate judged is the mean over the second half of the run.
+
+    A position antenna ``a`` m ahead of the reference point, left out of
+    ``pose_sensor``, moves sideways in turns as ICRs ``a`` m further back do;
+    without a heading the log cannot tell the two apart before the run.
+    """
+    column = result.states[len(result.states) // 2 :, result.names.index("x_icr")]
+    x_icr = float(np.mean(column)) if column.size else 0.0
+    limit = x_icr_limit(cfg.robot.track_width)
+    if not abs(x_icr) > limit:
+        return []
+    sensor = cfg.pose_sensor
+    return [
+        f"the estimated x_icr, {x_icr:+.2f} m over the second half, lies beyond {limit:g} m: "
+        f"a position antenna {abs(x_icr):.2f} m {'ahead of' if x_icr < 0 else 'behind'} the "
+        f"reference point? (pose_sensor.antenna_x is {sensor.antenna_x:g} m)"
+    ]
 
 
 def _read_groundtruth(path: str | Path, log: WheelLog) -> GroundTruth:

@@ -16,7 +16,7 @@ import datetime
 import io
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, BinaryIO
+from typing import TYPE_CHECKING, Any, BinaryIO
 
 import numpy as np
 from numpy.typing import NDArray
@@ -27,11 +27,15 @@ from terrain_odom.config.classifier import ClassifierConfig, paper_config
 from terrain_odom.errors import ConfigError, InputFileError
 from terrain_odom.io.atomic import write_atomic, write_text_atomic
 from terrain_odom.io.classifier_file import save_classifier
-from terrain_odom.io.images import read_image_rgb, scan_image_folder
+from terrain_odom.io.images import scan_image_folder
 from terrain_odom.io.paths import check_outputs
 from terrain_odom.io.report import report_header, write_json
 from terrain_odom.vision.classifier import TerrainClassifier
-from terrain_odom.vision.dataset import LabelledFeatures, SkippedImage, extract_feature_sets
+from terrain_odom.vision.dataset import LabelledFeatures, SkippedImage
+from terrain_odom.vision.tuning import grid_configs
+
+if TYPE_CHECKING:
+    from terrain_odom.app.tune import NestedTuning, Tuning
 
 __all__ = [
     "CV_SEED",
@@ -185,7 +189,10 @@ class TrainSummary:
         Images used per class.
     skipped : tuple of SkippedImage
     cross_validation : CrossValidation or None
-        None when a class has fewer than 2 images.
+        None when a class has fewer than 2 images. With ``tuning``, of the
+        chosen settings on the folds they were chosen on (optimistic).
+    tuning : Tuning or None
+        The search of ``train(tune=True)`` (``cfg`` is its choice).
     """
 
     model_path: Path
@@ -193,6 +200,7 @@ class TrainSummary:
     counts: dict[str, int]
     skipped: tuple[SkippedImage, ...]
     cross_validation: CrossValidation | None
+    tuning: Tuning | None = None
 
 
 def train(
@@ -204,6 +212,8 @@ def train(
     jobs: int | None = None,
     progress: bool | None = None,
     config_path: str | Path | None = None,
+    tune: bool = False,
+    grid_path: str | Path | None = None,
 ) -> TrainSummary:
     """Train a terrain classifier on a labelled image folder and save it.
 
@@ -225,6 +235,14 @@ def train(
         Progress bar (default: on a terminal only).
     config_path : str or Path, optional
         The file ``cfg`` was read from, an input ``out`` must not overwrite.
+    tune : bool
+        Choose the settings of a grid around ``cfg`` by stratified
+        ``folds``-fold cross-validation (:func:`~terrain_odom.app.tune.tune_settings`)
+        and train with the choice; the model file records the grid, the
+        scores and the choice.
+    grid_path : str or Path, optional
+        YAML grid for ``tune`` (:func:`~terrain_odom.app.tune.load_grid`;
+        default :data:`~terrain_odom.vision.tuning.DEFAULT_GRID`); implies ``tune``.
 
     Returns
     -------
@@ -236,20 +254,33 @@ def train(
         Missing folder, fewer than 2 classes, a class without usable images;
         ``out`` is one of the images or ``config_path`` (checked first).
     ConfigError
-        ``k`` larger than the number of training samples.
+        ``k`` larger than the number of training samples; an invalid grid.
     """
+    from terrain_odom.app.tune import (  # here: app.tune builds on this module's CrossValidation
+        feature_cache,
+        load_grid,
+        tune_settings,
+    )
+
     cfg = ClassifierConfig() if cfg is None else cfg
     target = output_file(out, MODEL_FILE, MODEL_SUFFIXES)
     check_out(out, MODEL_SUFFIXES)
+    tune = tune or grid_path is not None
+    grid = load_grid(grid_path, cfg) if tune else None
     scan = scan_image_folder(images)
-    check_outputs([*scan.paths, config_path], [target])
-    data = extract_feature_sets(scan, [cfg], read=read_image_rgb, jobs=jobs, progress=progress)[0]
+    check_outputs([*scan.paths, config_path, grid_path], [target])
+    cache = feature_cache(scan, jobs, progress)
+    tuning = None
+    if grid is not None:
+        tuning = tune_settings(cache, cfg, grid, folds=folds, jobs=jobs)
+        cfg = tuning.chosen
+    data = cache.features(cfg)
     model = TerrainClassifier(cfg).fit(data.features, data.labels, data.region)
     folds = min(folds, *data.counts().values())
     validation = cross_validate(data, folds=folds) if folds >= 2 else None
     create_folder(out, MODEL_SUFFIXES)
-    save_classifier(model, target)
-    return TrainSummary(target, cfg, data.counts(), data.skipped, validation)
+    save_classifier(model, target, tuning=None if tuning is None else tuning.to_dict())
+    return TrainSummary(target, cfg, data.counts(), data.skipped, validation, tuning)
 
 
 @dataclass(frozen=True)
@@ -266,6 +297,9 @@ class AccuracyReport:
     skipped : tuple of SkippedImage
     outputs : tuple of Path
         Files written (empty without ``out_dir``).
+    tuned : NestedTuning or None
+        With ``tune``: the nested cross-validation of the settings tuned
+        around ``chosen.cfg``, on the same outer folds.
     """
 
     images: Path
@@ -275,6 +309,14 @@ class AccuracyReport:
     counts: dict[str, int]
     skipped: tuple[SkippedImage, ...]
     outputs: tuple[Path, ...]
+    tuned: NestedTuning | None = None
+
+    def configurations(self) -> list[tuple[str, CrossValidation]]:
+        """Return the scored configurations by name: chosen, paper (and tuned)."""
+        out = [("chosen", self.chosen), ("paper", self.paper)]
+        if self.tuned is not None:
+            out.append(("tuned", self.tuned.cross_validation))
+        return out
 
     def to_dict(self) -> dict[str, Any]:
         """Plain data for the JSON report."""
@@ -290,6 +332,7 @@ class AccuracyReport:
                 name: {**cv.to_dict(), "feature_ms": self.feature_ms[name]}
                 for name, cv in (("chosen", self.chosen), ("paper", self.paper))
             },
+            **({} if self.tuned is None else {"tuned": self.tuned.to_dict()}),
             "created": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
         }
 
@@ -303,6 +346,8 @@ def report_accuracy(
     jobs: int | None = None,
     progress: bool | None = None,
     config_path: str | Path | None = None,
+    tune: bool = False,
+    grid_path: str | Path | None = None,
 ) -> AccuracyReport:
     """Cross-validated confusion matrices of ``cfg`` and of Chen's recipe.
 
@@ -319,8 +364,10 @@ def report_accuracy(
         If given (an existing folder or one to create), write
         ``accuracy.json``, ``accuracy.csv`` and ``confusion.png`` there, each
         atomically.
-    jobs, progress, config_path
-        As in :func:`train`.
+    jobs, progress, config_path, tune, grid_path
+        As in :func:`train`; with ``tune``, the tuned classifier is scored
+        by nested cross-validation (:func:`~terrain_odom.app.tune.nested_tuning`)
+        on the same outer folds, beside ``cfg`` untuned.
 
     Returns
     -------
@@ -332,18 +379,23 @@ def report_accuracy(
         As :func:`train` (a file to write in ``out_dir`` is an input), or a
         class with fewer images than ``folds``.
     """
+    from terrain_odom.app.tune import feature_cache, load_grid, nested_tuning  # as in train
+
     cfg = ClassifierConfig() if cfg is None else cfg
     if folds < 2:
         raise ConfigError(f"folds: must be >= 2, got {folds}")
     out_dir = None if out_dir is None else Path(out_dir)
+    grid = load_grid(grid_path, cfg) if tune or grid_path is not None else None
     scan = scan_image_folder(images)
     if out_dir is not None:
-        check_outputs([*scan.paths, config_path], [out_dir / name for name in ACCURACY_FILES])
+        check_outputs(
+            [*scan.paths, config_path, grid_path], [out_dir / name for name in ACCURACY_FILES]
+        )
         out_dir.mkdir(parents=True, exist_ok=True)
     paper = paper_config()
-    chosen_data, paper_data = extract_feature_sets(
-        scan, [cfg, paper], read=read_image_rgb, jobs=jobs, progress=progress
-    )
+    cache = feature_cache(scan, jobs, progress)
+    cache.prepare([cfg, paper, *([] if grid is None else grid_configs(grid, cfg))])
+    chosen_data, paper_data = cache.features(cfg), cache.features(paper)
     report = AccuracyReport(
         images=Path(images),
         chosen=cross_validate(chosen_data, folds=folds),
@@ -352,6 +404,7 @@ def report_accuracy(
         counts=chosen_data.counts(),
         skipped=chosen_data.skipped,
         outputs=(),
+        tuned=None if grid is None else nested_tuning(cache, cfg, grid, folds=folds, jobs=jobs),
     )
     if out_dir is None:
         return report
@@ -378,17 +431,18 @@ def accuracy_csv(report: AccuracyReport) -> str:
         + [f"predicted_{name}_percent" for name in classes]
         + ["accuracy_percent", "feature_ms_mean", "feature_ms_max"]
     )
-    for name, cv in (("chosen", report.chosen), ("paper", report.paper)):
-        times = report.feature_ms[name]
+    for name, cv in report.configurations():
+        times = report.feature_ms.get(name)  # none for the tuned: its settings vary by fold
         for i, true in enumerate(classes):
             writer.writerow(
                 [name, true, int(cv.confusion[i].sum())]
                 + [f"{v:.2f}" for v in cv.percent[i]]
-                + [
-                    f"{cv.percent[i, i]:.2f}",
-                    f"{times[true]['mean']:.3f}",
-                    f"{times[true]['max']:.3f}",
-                ]
+                + [f"{cv.percent[i, i]:.2f}"]
+                + (
+                    ["", ""]
+                    if times is None
+                    else [f"{times[true]['mean']:.3f}", f"{times[true]['max']:.3f}"]
+                )
             )
         writer.writerow(
             [name, "mean", int(cv.confusion.sum())]
@@ -406,10 +460,12 @@ def plot_confusion(report: AccuracyReport, handle: BinaryIO) -> None:
     from terrain_odom.reporting.plots import new_figure
 
     classes = report.chosen.classes
-    fig = new_figure(4.2 * 2, 3.8)
+    titles = {"chosen": "chosen", "paper": "paper (Chen et al.)", "tuned": "tuned (nested)"}
+    panels = report.configurations()
+    fig = new_figure(4.2 * len(panels), 3.8)
     for ax, (title, cv) in zip(
-        fig.subplots(1, 2),
-        (("chosen", report.chosen), ("paper (Chen et al.)", report.paper)),
+        fig.subplots(1, len(panels)),
+        ((titles[name], cv) for name, cv in panels),
         strict=True,
     ):
         image = ax.imshow(cv.percent, vmin=0.0, vmax=100.0, cmap="Blues")

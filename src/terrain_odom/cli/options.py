@@ -417,6 +417,17 @@ def add_classifier_options(p: argparse.ArgumentParser) -> None:
         "a region's time is then proportional to its area",
     )
     p.add_argument("--jobs", type=int, help="feature-extraction processes (default: all cores)")
+    p.add_argument(
+        "--tune",
+        action="store_true",
+        help="choose the settings of a grid around the configuration by stratified "
+        "cross-validation (report accuracy: scored by nested cross-validation)",
+    )
+    p.add_argument(
+        "--grid",
+        help="YAML grid for --tune: classifier fields -> lists of values (implies --tune; "
+        "default: the built-in grid)",
+    )
 
 
 def classifier_config(args: argparse.Namespace) -> ClassifierConfig:

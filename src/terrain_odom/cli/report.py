@@ -6,10 +6,11 @@ import argparse
 from typing import TYPE_CHECKING
 
 from terrain_odom.cli.options import add_classifier_options, add_out_option, classifier_config
-from terrain_odom.cli.train import describe, print_skipped
+from terrain_odom.cli.train import describe, describe_values, print_skipped
 
 if TYPE_CHECKING:
     from terrain_odom.app.train import CrossValidation
+    from terrain_odom.app.tune import NestedTuning
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -26,8 +27,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     acc.set_defaults(func=_cmd_accuracy)
 
 
-def format_table(cv: CrossValidation, feature_ms: dict[str, dict[str, float]]) -> list[str]:
-    """Return the confusion matrix as text lines, plus per-class feature times (ms).
+def format_table(
+    cv: CrossValidation, feature_ms: dict[str, dict[str, float]] | None = None
+) -> list[str]:
+    """Return the confusion matrix as text lines, plus per-class feature times (ms) if given.
 
     Rows are the true class and sum to 100 %. (Chen et al.'s printed Table 1
     is the transpose: its columns sum to 100 %.)
@@ -36,20 +39,41 @@ def format_table(cv: CrossValidation, feature_ms: dict[str, dict[str, float]]) -
     first = max(len(corner), *(len(c) for c in cv.classes)) + 2
     width = max(8, *(len(c) + 2 for c in cv.classes))
     head = f"{corner:<{first}}" + "".join(f"{c:>{width}}" for c in cv.classes)
-    lines = [head + f"{'images':>8}{'feature ms mean':>17}{'max':>8}"]
+    lines = [
+        head
+        + f"{'images':>8}"
+        + ("" if feature_ms is None else f"{'feature ms mean':>17}{'max':>8}")
+    ]
     for i, name in enumerate(cv.classes):
         cells = "".join(f"{v:>{width}.1f}" for v in cv.percent[i])
-        ms = feature_ms[name]
-        lines.append(
-            f"{name:<{first}}{cells}{int(cv.confusion[i].sum()):>8}"
-            f"{ms['mean']:>17.1f}{ms['max']:>8.1f}"
+        times = (
+            ""
+            if feature_ms is None
+            else (f"{feature_ms[name]['mean']:>17.1f}{feature_ms[name]['max']:>8.1f}")
         )
+        lines.append(f"{name:<{first}}{cells}{int(cv.confusion[i].sum()):>8}{times}")
     worst, worst_acc = cv.worst_class()
     lines.append(
         f"mean accuracy {cv.mean_accuracy:.1f} % (overall {cv.overall_accuracy:.1f} %, "
         f"worst class {worst} {worst_acc:.1f} %)"
     )
     return lines
+
+
+def print_tuned(tuned: NestedTuning) -> None:
+    """Print the nested cross-validation of the tuned classifier: each fold's choice, the table."""
+    candidates = len(tuned.folds[0].search.candidates)
+    print(
+        f"\ntuned (nested: {candidates} candidates searched by {tuned.inner_folds}-fold "
+        f"cross-validation on the other folds of each fold): around {describe(tuned.base)}"
+    )
+    for i, fold in enumerate(tuned.folds):
+        inner = 100 * fold.search.mean_score[fold.search.best]
+        print(
+            f"  fold {i + 1}: {describe_values(fold.search.choice)} "
+            f"(inner {inner:.1f} %, this fold {fold.accuracy:.1f} %)"
+        )
+    print("\n".join(format_table(tuned.cross_validation)))
 
 
 def _cmd_accuracy(args: argparse.Namespace) -> int:
@@ -62,6 +86,8 @@ def _cmd_accuracy(args: argparse.Namespace) -> int:
         out_dir=args.out,
         jobs=args.jobs,
         config_path=args.config,
+        tune=args.tune,
+        grid_path=args.grid,
     )
     total = sum(report.counts.values())
     print(
@@ -76,6 +102,8 @@ def _cmd_accuracy(args: argparse.Namespace) -> int:
     ):
         print(f"\n{title}: {describe(cv.cfg)}")
         print("\n".join(format_table(cv, report.feature_ms[key])))
+    if report.tuned is not None:
+        print_tuned(report.tuned)
     if report.outputs:
         print()
         for path in report.outputs:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 from typing import TYPE_CHECKING
 
 from terrain_odom.cli.bag_import import add_bag_topic_options, wheels_from_bag
@@ -148,7 +149,17 @@ def _cmd_run(args: argparse.Namespace) -> int:
         overwrite=args.overwrite,
     )
     print_pose_delay(summary.time_calibration)
+    if summary.heading is not None:
+        h = summary.heading
+        print(
+            f"heading offset: {math.degrees(h.offset):+.2f} deg (auto: median of {h.stretches} "
+            f"straight stretches, spread {math.degrees(h.spread):.2f} deg)"
+        )
     print(f"{summary.rows} rows in {summary.seconds:.2f} s")
+    if summary.pose_use is not None:
+        print(f"pose:       {summary.pose_use.summary()}")
+    for warning in summary.warnings:
+        print(f"warning:    {warning}")
     if summary.frames is not None:
         _print_frames(summary.frames)
     if summary.unused_priors:

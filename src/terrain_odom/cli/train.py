@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import argparse
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from terrain_odom.cli.options import (
     add_classifier_options,
@@ -15,6 +15,7 @@ from terrain_odom.cli.options import (
 if TYPE_CHECKING:
     from terrain_odom.config.classifier import ClassifierConfig
     from terrain_odom.vision.dataset import SkippedImage
+    from terrain_odom.vision.tuning import Search
 
 
 def describe(cfg: ClassifierConfig) -> str:
@@ -39,6 +40,23 @@ def print_skipped(skipped: tuple[SkippedImage, ...]) -> None:
             print(f"  {item.path}: {item.reason}")
 
 
+def describe_values(params: dict[str, Any]) -> str:
+    """Return a grid candidate's values as ``name=value`` words."""
+    return " ".join(f"{name}={value}" for name, value in params.items())
+
+
+def print_search(search: Search, top: int = 5) -> None:
+    """Print how many candidates a search scored and its best ``top``, best first."""
+    print(
+        f"tuned: {len(search.candidates)} candidates of the grid, {search.folds}-fold "
+        "cross-validated mean accuracy, best first:"
+    )
+    ranked = sorted(range(len(search.candidates)), key=lambda i: -search.mean_score[i])
+    for i in ranked[:top]:  # a stable sort: of ties, the chosen (the first) first
+        score = f"{100 * search.mean_score[i]:5.1f} % +- {100 * search.std_score[i]:.1f}"
+        print(f"  {score}  {describe_values(search.candidates[i])}")
+
+
 def add_parser(sub: argparse._SubParsersAction) -> None:
     """Register the ``train`` subcommand."""
     p = sub.add_parser("train", help="train the terrain classifier on labelled images")
@@ -52,8 +70,16 @@ def _cmd_train(args: argparse.Namespace) -> int:
 
     warn_out_file(args.out, MODEL_SUFFIXES)
     summary = train(
-        args.images, args.out, classifier_config(args), jobs=args.jobs, config_path=args.config
+        args.images,
+        args.out,
+        classifier_config(args),
+        jobs=args.jobs,
+        config_path=args.config,
+        tune=args.tune,
+        grid_path=args.grid,
     )
+    if summary.tuning is not None:
+        print_search(summary.tuning.search)
     print(describe(summary.cfg))
     total = sum(summary.counts.values())
     print(f"{total} images: " + ", ".join(f"{k} {v}" for k, v in summary.counts.items()))
@@ -67,5 +93,10 @@ def _cmd_train(args: argparse.Namespace) -> int:
             f"{cv.folds}-fold cross-validated accuracy: mean {cv.mean_accuracy:.1f} % "
             f"(overall {cv.overall_accuracy:.1f} %, worst class {worst} {worst_acc:.1f} %)"
         )
+        if summary.tuning is not None:
+            print(
+                "  (optimistic: the settings were chosen on these folds; "
+                "'report accuracy --tune' scores the tuning by nested cross-validation)"
+            )
     print(f"model: {summary.model_path}")
     return 0

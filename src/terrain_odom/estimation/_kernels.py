@@ -188,56 +188,94 @@ def _inverse(s: np.ndarray) -> np.ndarray:  # pragma: no cover - compiled
 
 
 @njit(cache=True, error_model="numpy")
-def icr_update(
-    x: np.ndarray, p: np.ndarray, z: np.ndarray, r: np.ndarray, limits: np.ndarray
-) -> tuple[float, bool]:  # pragma: no cover - compiled
-    """Fuse the finite components of a pose measurement in place; return the NIS.
+def _sensor(
+    x: np.ndarray, rows: np.ndarray, mounting: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:  # pragma: no cover - compiled
+    """Return ``h`` and ``H`` of :func:`~terrain_odom.estimation.pose_measurement.measurement`."""
+    n, m = x.shape[0], rows.size
+    arm_x, arm_y, offset = mounting[0], mounting[1], mounting[2]
+    c, s = math.cos(x[2]), math.sin(x[2])
+    full_h = np.array([x[0] + (c * arm_x - s * arm_y), x[1] + (s * arm_x + c * arm_y), 0.0])
+    full_h[2] = _wrap(x[2] + offset)
+    h, jac = np.empty(m), np.zeros((m, n))
+    for i in range(m):
+        row = rows[i]
+        h[i] = full_h[row]
+        jac[i, row] = 1.0
+        if row == 0:
+            jac[i, 2] = -s * arm_x - c * arm_y
+        elif row == 1:
+            jac[i, 2] = c * arm_x - s * arm_y
+    return h, jac
 
-    The Joseph-form update of filterpy with ``H`` selecting the measured
-    components of ``x, y, yaw`` (yaw innovation wrapped), then the state is
-    constrained: yaw wrapped, ``y_l`` in ``[lim0, lim1]``, ``y_r`` in
-    ``[-lim1, -lim0]``, ``|x_icr| <= lim2``, ``alpha`` in ``[lim3, lim4]``;
-    ``P`` symmetrised.
+
+@njit(cache=True, error_model="numpy")
+def icr_update(
+    x: np.ndarray,
+    p: np.ndarray,
+    z: np.ndarray,
+    r: np.ndarray,
+    mounting: np.ndarray,
+    limits: np.ndarray,
+) -> tuple[float, bool]:  # pragma: no cover - compiled
+    """Fuse the measured components of a pose row in place; return the NIS.
+
+    filterpy's Joseph-form update with the pose sensors' measurement (the
+    antenna position ``x, y`` as a pair, the heading; ``h`` and ``H`` at the
+    prior state, heading innovation wrapped), then the state is constrained:
+    yaw wrapped, ``y_l`` in ``[lim0, lim1]``, ``y_r`` in ``[-lim1, -lim0]``,
+    ``|x_icr| <= lim2``, ``alpha`` in ``[lim3, lim4]``; ``P`` symmetrised.
 
     Parameters
     ----------
     x, p : ndarray, shapes (n,), (n, n)
         State and covariance.
     z : ndarray, shape (3,)
-        Measured ``x, y, yaw``; NaN where not measured.
+        Measured antenna ``x, y`` and heading; NaN where not measured (``x``
+        without ``y`` is left out).
     r : ndarray, shape (3, 3)
         Measurement noise covariance.
+    mounting : ndarray, shape (3,)
+        ``antenna_x, antenna_y, heading_offset``.
     limits : ndarray, shape (5,)
         ``half_width_min, half_width_max, x_icr_max, alpha_min, alpha_max``.
 
     Returns
     -------
     nis : float
-        Normalised innovation squared; NaN (and nothing done) if no
-        component of ``z`` is finite.
+        Normalised innovation squared; NaN (and nothing done) if nothing
+        was measured.
     finite : bool
         Whether ``x`` and ``P`` are finite after the update.
     """
     n = x.shape[0]
-    rows = np.flatnonzero(np.isfinite(z))
+    pair = math.isfinite(z[0]) and math.isfinite(z[1])
+    rows = np.flatnonzero(np.array([pair, pair, math.isfinite(z[2])]))
     m = rows.size
     if m == 0:
         return math.nan, True
+    h, jac = _sensor(x, rows, mounting)
+    pht = np.zeros((n, m))  # P H^T
+    for i in range(n):
+        for j in range(m):
+            for k in range(n):
+                pht[i, j] += p[i, k] * jac[j, k]
     s = np.empty((m, m))
     for i in range(m):
         for j in range(m):
-            s[i, j] = p[rows[i], rows[j]] + r[rows[i], rows[j]]
+            acc = r[rows[i], rows[j]]
+            for k in range(n):
+                acc += jac[i, k] * pht[k, j]
+            s[i, j] = acc
     si = _inverse(s)
     k_gain = np.zeros((n, m))
     for i in range(n):
         for j in range(m):
-            acc = 0.0
             for k in range(m):
-                acc += p[i, rows[k]] * si[k, j]
-            k_gain[i, j] = acc
+                k_gain[i, j] += pht[i, k] * si[k, j]
     y = np.empty(m)
     for j in range(m):
-        y[j] = z[rows[j]] - x[rows[j]]
+        y[j] = z[rows[j]] - h[j]
         if rows[j] == 2:
             y[j] = _wrap(y[j])
     for i in range(n):
@@ -247,20 +285,21 @@ def icr_update(
     for i in range(m):
         for j in range(m):
             nis += y[i] * si[i, j] * y[j]
-    _joseph(p, k_gain, rows, r)
+    _joseph(p, k_gain, jac, rows, r)
     return nis, constrain(x, p, limits)
 
 
 @njit(cache=True, error_model="numpy")
 def _joseph(
-    p: np.ndarray, k_gain: np.ndarray, rows: np.ndarray, r: np.ndarray
+    p: np.ndarray, k_gain: np.ndarray, jac: np.ndarray, rows: np.ndarray, r: np.ndarray
 ) -> None:  # pragma: no cover - compiled
-    """``P = (I - K H) P (I - K H)^T + K R K^T`` in place, ``H`` selecting ``rows``."""
+    """Set ``P = (I - K H) P (I - K H)^T + K R K^T`` in place (``R`` of ``rows``)."""
     n, m = k_gain.shape
     i_kh = np.eye(n)
     for i in range(n):
-        for j in range(m):
-            i_kh[i, rows[j]] -= k_gain[i, j]
+        for j in range(n):
+            for k in range(m):
+                i_kh[i, j] -= k_gain[i, k] * jac[k, j]
     left = _matmul(i_kh, p)
     kr = np.zeros((n, m))
     for i in range(n):

@@ -44,6 +44,7 @@ from numpy.typing import ArrayLike
 from terrain_odom.config import EkfConfig, IcrSigmas, IcrState, TerrainConfig
 from terrain_odom.errors import EstimationError
 from terrain_odom.estimation import _kernels
+from terrain_odom.estimation.pose_measurement import Mounting
 from terrain_odom.kinematics import (
     arc_increment_with_jacobian,
     twist_icr,
@@ -178,6 +179,9 @@ class IcrEkf:
         filter starts on it or changes to it (see
         :meth:`reset_on_terrain_change`), with covariance
         ``config.sigma_prior**2``.
+    mounting : Mounting, optional
+        Antenna lever arm and heading offset of the pose sensors
+        (:mod:`~terrain_odom.estimation.pose_measurement`); none by default.
 
     Examples
     --------
@@ -195,8 +199,10 @@ class IcrEkf:
         *,
         pose: ArrayLike | None = None,
         priors: IcrPriors | None = None,
+        mounting: Mounting | None = None,
     ) -> None:
         self.config = config
+        self.mounting = mounting if mounting is not None else Mounting()
         self.terrain_config = terrain if terrain is not None else TerrainConfig()
         self.priors = priors if priors is not None else IcrPriors()
         self.names = state_names(config.estimate_alpha)
@@ -273,11 +279,15 @@ class IcrEkf:
     def update(self, z: ArrayLike, *, R: ArrayLike | None = None) -> float:  # noqa: N803
         """Fuse a pose measurement; NaN components are left out.
 
+        The measurement is the pose sensors' (:attr:`mounting`): antenna
+        position and sensor heading (:func:`~terrain_odom.estimation.pose_measurement.measurement`).
+
         Parameters
         ----------
         z : array_like, shape (3,)
             Measured ``x, y, yaw`` (m, m, rad); NaN where not measured (e.g.
-            heading only during a GPS outage).
+            heading only during a GPS outage, position only from a GPS);
+            ``x`` without ``y`` is left out.
         R : array_like, shape (3,) or (3, 3), optional
             Measurement noise (variances) overriding the configured one.
 
@@ -293,7 +303,9 @@ class IcrEkf:
         else:
             r_full = np.asarray(R, dtype=float)
             r_full = np.diag(r_full) if r_full.ndim == 1 else r_full
-        nis, finite = _kernels.icr_update(self._x, self._P, z, r_full, self._limits)
+        sensor = self.mounting
+        mounting = np.array([sensor.antenna_x, sensor.antenna_y, sensor.heading_offset])
+        nis, finite = _kernels.icr_update(self._x, self._P, z, r_full, mounting, self._limits)
         if not finite:
             raise EstimationError("EKF state became non-finite; check the noise configuration")
         if not math.isnan(nis):  # NaN: nothing measured, nothing done

@@ -4,7 +4,8 @@
 with predict and update done as before the kernels of
 :mod:`terrain_odom.estimation._kernels`: a filterpy ``ExtendedKalmanFilter``
 whose prediction is :func:`~terrain_odom.estimation.icr_ekf.icr_step_with_jacobian`,
-filterpy's Joseph-form update with SciPy's inverse, numpy clipping. Everything
+filterpy's Joseph-form update with SciPy's inverse and the pose sensors'
+:func:`~terrain_odom.estimation.pose_measurement.measurement`, numpy clipping. Everything
 else (terrain resets, memory, priors) is inherited, so both run the same logs
 through the same streaming path. The tests hold the kernels to it within
 1e-12 and ``bench/ekf_speed.py`` times both; it is ~100x slower, and imports
@@ -20,6 +21,7 @@ from numpy.typing import ArrayLike
 
 from terrain_odom.errors import EstimationError
 from terrain_odom.estimation.icr_ekf import IcrEkf, icr_step_with_jacobian
+from terrain_odom.estimation.pose_measurement import measured_rows, measurement
 from terrain_odom.kinematics import wrap_angle
 
 __all__ = ["FilterpyIcrEkf"]
@@ -70,13 +72,11 @@ class FilterpyIcrEkf(IcrEkf):
     def update(self, z: ArrayLike, *, R: ArrayLike | None = None) -> float:  # noqa: N803
         """Fuse a pose measurement (see :meth:`IcrEkf.update`)."""
         z = np.asarray(z, dtype=float)
-        rows = np.flatnonzero(np.isfinite(z))
+        rows = measured_rows(z)
         if rows.size == 0:
             return float("nan")
         r_full = np.diag(self._r_diag) if R is None else np.asarray(R, dtype=float)
         r_full = np.diag(r_full) if r_full.ndim == 1 else r_full
-        H = np.zeros((rows.size, len(self._x)))  # noqa: N806
-        H[np.arange(rows.size), rows] = 1.0
         yaw_row = np.flatnonzero(rows == 2)
 
         def residual(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -84,11 +84,12 @@ class FilterpyIcrEkf(IcrEkf):
             res[yaw_row] = wrap_angle(res[yaw_row])
             return res
 
+        h, H = measurement(self._x, rows, self.mounting)  # noqa: N806
         ekf = _filterpy_ekf(self._x, self._P)
-        ekf.update(
+        ekf.update(  # filterpy evaluates both at the prior state
             z[rows][:, None],
             HJacobian=lambda _x: H,
-            Hx=lambda x: H @ x,
+            Hx=lambda _x: h[:, None],
             R=r_full[np.ix_(rows, rows)],
             residual=residual,
         )

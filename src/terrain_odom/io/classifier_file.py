@@ -4,7 +4,9 @@ A model file holds the arrays of
 :meth:`~terrain_odom.vision.classifier.TerrainClassifier.to_arrays` and a
 ``metadata`` array, a JSON string: the model's own metadata preceded by the
 file's ``format_version`` and followed by ``created`` (UTC) and
-``terrain_odom_version``. :func:`load_classifier` refuses a file whose format,
+``terrain_odom_version``, and, for a model trained with ``train --tune``,
+``tuning`` (the grid, every candidate's score and the choice; read back by
+:func:`load_tuning`; files without it load as before). :func:`load_classifier` refuses a file whose format,
 feature version or feature settings differ from this code's.
 
 The default model of ``terrain-odom run`` ships inside the package
@@ -18,6 +20,7 @@ import datetime
 import json
 import zipfile
 import zlib
+from collections.abc import Mapping
 from importlib import resources
 from pathlib import Path
 from typing import Any, BinaryIO
@@ -35,6 +38,7 @@ __all__ = [
     "MODEL_FORMAT_VERSION",
     "save_classifier",
     "load_classifier",
+    "load_tuning",
     "default_model_path",
     "default_model",
 ]
@@ -45,12 +49,22 @@ MODEL_FORMAT_VERSION = 2
 _ZIP_MAGIC = b"PK\x03\x04"  # a zip archive (an .npz file) starts with a local file header
 
 
-def save_classifier(model: TerrainClassifier, path: str | Path) -> Path:
+def save_classifier(
+    model: TerrainClassifier, path: str | Path, *, tuning: Mapping[str, Any] | None = None
+) -> Path:
     """Write a fitted model atomically to one ``.npz`` file (no pickle).
 
     Arrays: those of :meth:`~terrain_odom.vision.classifier.TerrainClassifier.to_arrays`
     and ``metadata``, a JSON string (see the module). The file is written as
     given, even without the ``.npz`` suffix.
+
+    Parameters
+    ----------
+    model : TerrainClassifier
+    path : str or Path
+    tuning : mapping, optional
+        JSON-able record of how the settings were chosen (``train --tune``:
+        grid, scores, choice), stored as the metadata's ``tuning``.
 
     Returns
     -------
@@ -68,6 +82,7 @@ def save_classifier(model: TerrainClassifier, path: str | Path) -> Path:
     metadata = {
         "format_version": MODEL_FORMAT_VERSION,
         **model_meta,
+        **({} if tuning is None else {"tuning": dict(tuning)}),
         "created": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
         "terrain_odom_version": __version__,
     }
@@ -115,6 +130,22 @@ def load_classifier(
         return TerrainClassifier.from_arrays(cfg, arrays)
     except ValueError as exc:
         raise InputFileError(f"{path}: inconsistent model file ({exc})") from None
+
+
+def load_tuning(path: str | Path) -> dict[str, Any] | None:
+    """Return the ``tuning`` record of a model file, or ``None`` if it was not tuned.
+
+    Raises
+    ------
+    InputFileError
+        As :func:`load_classifier`.
+    """
+    path = Path(path)
+    meta = _metadata(path, _read_arrays(path))
+    tuning = meta.get("tuning")
+    if tuning is not None and not isinstance(tuning, dict):
+        raise InputFileError(f"{path}: invalid model metadata (tuning is not a mapping)")
+    return tuning
 
 
 def _read_arrays(path: Path) -> dict[str, Any]:

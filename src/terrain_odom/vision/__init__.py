@@ -7,6 +7,7 @@ configuration does not import scikit-learn):
 - :mod:`terrain_odom.vision.features`: region and tile feature vectors (SFTA, colour);
 - :mod:`terrain_odom.vision.classifier`: KNN classifier, tile voting, model as arrays;
 - :mod:`terrain_odom.vision.dataset`: labelled image sets, parallel feature extraction;
+- :mod:`terrain_odom.vision.tuning`: settings chosen by (nested) cross-validation;
 - :mod:`terrain_odom.vision.frame_classifier`: one camera frame to one terrain label;
 - :mod:`terrain_odom.vision.camera`: ground-plane camera and region of interest.
 
