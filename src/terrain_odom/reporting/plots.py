@@ -36,7 +36,13 @@ __all__ = [
 STATE_UNITS = {"y_l": "m", "y_r": "m", "x_icr": "m", "alpha": "-"}
 """The states drawn against time, and their units."""
 
-_VARIANT_STYLES = ((0, (1, 1.5)), "--", "-.", (0, (5, 1, 1, 1, 1, 1)))
+_VARIANT_STYLES = (
+    ("tab:blue", (0, (1, 1.2))),
+    ("black", "--"),
+    ("tab:purple", "-."),
+    ("tab:brown", (0, (5, 1, 1, 1, 1, 1))),
+)
+"""Colour and line style of each filter variant (the run itself: solid, by terrain)."""
 
 
 def travelled(xy: np.ndarray, breaks: np.ndarray | None = None) -> np.ndarray:
@@ -86,7 +92,7 @@ def _draw_estimate(ax: Any, result: OdometryResult, starts: np.ndarray) -> dict[
     piece = np.searchsorted(index, starts)
     segments, seg_labels = _path_segments(xy, labels, piece)
     ax.add_collection(
-        LineCollection(segments, colors=[colour_of(colours, s) for s in seg_labels], lw=2.0)
+        LineCollection(segments, colors=[colour_of(colours, s) for s in seg_labels], lw=2.6)
     )
     if colours:
         for name, colour in colours.items():
@@ -96,6 +102,16 @@ def _draw_estimate(ax: Any, result: OdometryResult, starts: np.ndarray) -> dict[
     ax.plot(*xy[0], "o", ms=8, mfc="white", mec="black", mew=1.5, label="start", zorder=5)
     ax.plot(*xy[-1], "s", ms=7, color="black", label="end", zorder=5)
     return colours
+
+
+def _aspect(*paths: np.ndarray) -> float:
+    """Return the height-to-width ratio of the paths' extent, clipped to [0.35, 1.3]."""
+    xy = np.concatenate(paths)
+    xy = xy[np.isfinite(xy).all(axis=1)]
+    if len(xy) == 0:
+        return 1.0
+    dx, dy = np.ptp(xy, axis=0) + 1e-9
+    return float(np.clip(dy / dx, 0.35, 1.3))
 
 
 def _position_error(xy: np.ndarray, reference: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -138,8 +154,11 @@ def trajectory_figure(
     """
     measured = log.pose[:, :2]
     has_error = truth is not None or bool(np.isfinite(measured).all(axis=1).any())
-    fig = new_figure(7.5, 8.5 if has_error else 6.5)
-    axes = fig.subplots(2 if has_error else 1, 1, height_ratios=[3, 1.2] if has_error else None)
+    ratio = _aspect(result.states[:, :2], measured)
+    height = 5.6 * ratio + (2.6 if has_error else 0.6)
+    fig = new_figure(9.0, height)
+    ratios = [5.6 * ratio, 2.0] if has_error else None
+    axes = fig.subplots(2 if has_error else 1, 1, height_ratios=ratios)
     ax = axes[0] if has_error else axes
     starts = log.run_starts()
     if truth is not None:
@@ -151,15 +170,17 @@ def trajectory_figure(
         ax.plot(*_broken(measured, index, starts).T, ".", color="black", ms=2.0,
                 label="measured poses", zorder=3)  # fmt: skip
     _draw_estimate(ax, result, starts)
-    for style, (name, other) in zip(_VARIANT_STYLES, (variants or {}).items(), strict=False):
+    for (colour, style), (name, other) in zip(
+        _VARIANT_STYLES, (variants or {}).items(), strict=False
+    ):
         xy = _broken(other.states[:, :2], index, starts)
-        ax.plot(*xy.T, color="black", ls=style, lw=1.0, label=wrap(name, 24), zorder=4)
+        ax.plot(*xy.T, color=colour, ls=style, lw=1.0, label=wrap(name, 24), zorder=4)
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     ax.set_aspect("equal", adjustable="datalim")
     ax.autoscale_view()
     ax.grid(True, alpha=0.3)
-    ax.legend(fontsize=8, loc="best", framealpha=0.85)
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
     ax.set_title("trajectory")
     if has_error:
         _draw_errors(axes[1], log, result, truth, variants or {})
@@ -181,19 +202,21 @@ def _draw_errors(
     else:
         reference, what = log.pose[:, :2], "measured pose"
     paths = {"estimate": (xy, "C3", "-")}
-    for style, (name, other) in zip(_VARIANT_STYLES, variants.items(), strict=False):
-        paths[name] = (other.states[:, :2], "black", style)
+    for (colour, style), (name, other) in zip(_VARIANT_STYLES, variants.items(), strict=False):
+        paths[name] = (other.states[:, :2], colour, style)
+    marker = "" if truth is not None else "."
     for name, (path, colour, style) in paths.items():
         rows, error = _position_error(path, reference)
         keep = rows[decimate(rows.size)]
         ax.plot(distance[keep], error[np.searchsorted(rows, keep)], color=colour, ls=style,
-                lw=1.0, label=wrap(name, 24))  # fmt: skip
+                lw=0.9, marker=marker, ms=3, label=wrap(name, 24))  # fmt: skip
     ax.set_xlabel("distance travelled along the estimate (m)")
     ax.set_ylabel("position error (m)")
-    ax.set_title(f"distance from the {what}")
+    fused = "" if truth is not None else " (poses fused by the filter)"
+    ax.set_title(f"position error: distance from the {what}{fused}")
     ax.grid(True, alpha=0.3)
     if len(paths) > 1:
-        ax.legend(fontsize=8, ncol=2)
+        ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
 
 
 def _shade_terrain(ax: Any, spans: Sequence[tuple[float, float, str]], colours: dict) -> None:
@@ -269,8 +292,7 @@ def states_figure(
         if name in truth_values:
             ax.plot(t[index], truth_values[name][index], "k--", lw=1.0, label="truth")
         _mark_changes(ax, result.changes)
-        unit = STATE_UNITS[name]
-        ax.set_ylabel(name if unit == "-" else f"{name} ({unit})")
+        ax.set_ylabel(f"{name} ({STATE_UNITS[name]})")
         ax.grid(True, alpha=0.3)
     axes[0].set_title("ICR states (shaded: confirmed terrain)")
     axes[-1].set_xlabel("t (s)")
