@@ -212,6 +212,8 @@ def _draw_errors(
                 lw=0.9, marker=marker, ms=3, label=wrap(name, 24))  # fmt: skip
     ax.set_xlabel("distance travelled along the estimate (m)")
     ax.set_ylabel("position error (m)")
+    ax.set_ylim(bottom=0.0)
+    ax.ticklabel_format(axis="y", useOffset=False)
     fused = "" if truth is not None else " (poses fused by the filter)"
     ax.set_title(f"position error: distance from the {what}{fused}")
     ax.grid(True, alpha=0.3)

@@ -1,0 +1,109 @@
+"""app.plots: the plots every run writes, drawn from the run held in memory."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from terrain_odom.app import plots as app_plots
+from terrain_odom.app.run import run
+from terrain_odom.reporting.mosaic import MosaicPanel
+
+
+def _image(path: Path) -> np.ndarray:
+    image = cv2.imread(str(path))
+    assert image is not None, f"{path} is not an image"
+    grey = image.mean(axis=2)
+    assert (grey < 250).mean() > 0.02 and grey.std() > 10  # not blank
+    return image
+
+
+@pytest.fixture
+def figures(monkeypatch: pytest.MonkeyPatch) -> dict:
+    """Capture every figure a run writes, by file name."""
+    captured: dict = {}
+    write = app_plots.write_figures
+
+    def spy(folder, jobs):
+        drawn = {name: draw() for name, draw in jobs.items()}
+        captured.update(drawn)
+        return write(folder, {name: (lambda fig=fig: fig) for name, fig in drawn.items()})
+
+    monkeypatch.setattr(app_plots, "write_figures", spy)
+    return captured
+
+
+def test_a_wheel_log_run_draws_trajectory_with_error_and_states(examples_dir, tmp_path, figures):
+    out = tmp_path / "out"
+    summary = run(examples_dir / "demo_log.csv", out, config_path=examples_dir / "demo.yaml",
+                  progress=False)  # fmt: skip
+    assert [p.relative_to(out).as_posix() for p in summary.plots] == [
+        "plots/trajectory.png",
+        "plots/states.png",
+    ]
+    for path in summary.plots:
+        _image(path)
+    markdown = summary.report_md.read_text(encoding="utf-8")
+    assert "(plots/trajectory.png)" in markdown and "(plots/states.png)" in markdown
+    titles = [ax.get_title() for ax in figures["trajectory.png"].axes]
+    assert titles[0] == "trajectory" and titles[1].startswith("position error")
+    states = figures["states.png"].axes
+    assert [ax.get_ylabel() for ax in states] == ["y_l (m)", "y_r (m)", "x_icr (m)", "alpha (-)"]
+    legend = {t.get_text() for t in states[-1].get_legend().get_texts()}
+    assert {"grass", "gravel", "covariance reset"} <= legend
+
+
+def test_a_real_warthog_log_run_draws_its_plots(drive_dir, warthog_yaml, tmp_path, figures):
+    out = tmp_path / "out"
+    summary = run(drive_dir / "warthog_wheels_grass.csv", out, config_path=warthog_yaml,
+                  progress=False)  # fmt: skip
+    assert {p.name for p in summary.plots} == {"trajectory.png", "states.png"}
+    image = _image(out / "plots" / "trajectory.png")
+    assert image.shape[1] == 9 * 110
+    _, err = figures["trajectory.png"].axes
+    distance, error = err.lines[0].get_data()
+    assert 90 < distance[-1] < 110  # about 100 m driven
+    assert np.median(error) < 0.1  # the filter follows the ICP poses it fuses
+    assert len(figures["states.png"].axes) == 4
+
+
+def test_the_camera_run_draws_the_mosaic_with_roi_votes_and_truth(sample_dir, tmp_path, figures):
+    out = tmp_path / "out"
+    summary = run(sample_dir / "log.csv", out, images=sample_dir, progress=False,
+                  groundtruth=sample_dir / "groundtruth.csv")  # fmt: skip
+    names = [p.name for p in summary.plots]
+    assert names == ["trajectory.png", "states.png", "frames.png", "mosaic.png"]
+    for path in summary.plots:
+        _image(path)
+    mosaic = figures["mosaic.png"]
+    images = [ax for ax in mosaic.axes if ax.images]
+    assert len(images) == 2  # the two confirmed changes: to gravel, back to grass
+    titles = [ax.get_title() for ax in images]
+    assert "grass -> gravel confirmed" in titles[0] and "gravel -> grass confirmed" in titles[1]
+    assert all("right" in title for title in titles)
+
+
+def test_mosaic_panels_recompute_the_region_and_the_tiles_vote_the_frame_label(
+    sample_dir, tmp_path, monkeypatch
+):
+    panels: list[MosaicPanel] = []
+    draw = app_plots.mosaic_figure
+
+    def spy(given):
+        panels.extend(given)
+        return draw(given)
+
+    monkeypatch.setattr(app_plots, "mosaic_figure", spy)
+    run(sample_dir / "log.csv", tmp_path / "out", images=sample_dir, progress=False)
+    assert [p.label for p in panels] == ["gravel", "grass"]
+    for panel in panels:
+        assert panel.polygon is not None and len(panel.polygon) >= 3  # the run's box came out
+        votes = list(panel.votes)
+        assert max(set(votes), key=votes.count) == panel.label
+        assert votes.count(panel.label) / len(votes) == pytest.approx(panel.confidence)
+        x0, y0, x1, y1 = panel.box
+        assert (panel.tiles[:, :2] >= [x0, y0]).all() and (panel.tiles[:, 2:] <= [x1, y1]).all()
+        assert panel.verdict == "truth unknown"  # no ground truth given
