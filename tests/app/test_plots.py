@@ -107,3 +107,41 @@ def test_mosaic_panels_recompute_the_region_and_the_tiles_vote_the_frame_label(
         x0, y0, x1, y1 = panel.box
         assert (panel.tiles[:, :2] >= [x0, y0]).all() and (panel.tiles[:, 2:] <= [x1, y1]).all()
         assert panel.verdict == "truth unknown"  # no ground truth given
+
+
+def test_evaluate_draws_errors_against_distance_and_boxes_per_terrain(
+    examples_dir, tmp_path, figures
+):
+    from terrain_odom.app.evaluate import evaluate
+
+    out = tmp_path / "out"
+    log = examples_dir / "demo_log.csv"
+    run(log, out, config_path=examples_dir / "demo.yaml", progress=False)
+    result = evaluate(out, log)
+    assert [p.relative_to(out).as_posix() for p in result.plots] == [
+        "plots/evaluation_windows.png",
+        "plots/evaluation_boxes.png",
+    ]
+    for path in result.plots:
+        _image(path)
+    windows = figures["evaluation_windows.png"].axes
+    assert len(windows) == 2 * len(result.models)
+    for ax, (name, model) in zip(windows[::2], result.models.items(), strict=True):
+        assert ax.get_title(loc="left") == name
+        assert ax.get_title(loc="right") == f"median {model.errors.translation.median:.3g} m/m"
+        assert len(ax.collections[0].get_offsets()) == result.windows  # every window drawn
+    boxes = figures["evaluation_boxes.png"].axes
+    assert [t.get_text() for t in boxes[0].get_legend().get_texts()] == ["grass", "gravel"]
+    assert [t.get_text() for t in boxes[1].get_xticklabels()] == list(result.models)
+
+
+def test_evaluate_on_a_real_warthog_log_draws_its_plots(drive_dir, warthog_yaml, tmp_path):
+    from terrain_odom.app.evaluate import evaluate
+
+    out = tmp_path / "out"
+    log = drive_dir / "warthog_wheels_grass.csv"
+    run(log, out, config_path=warthog_yaml, progress=False)
+    result = evaluate(out, log)
+    assert {p.name for p in result.plots} == {"evaluation_windows.png", "evaluation_boxes.png"}
+    for path in result.plots:
+        _image(path)

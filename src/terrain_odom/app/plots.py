@@ -18,24 +18,52 @@ from terrain_odom.app.frames import FrameRecord
 from terrain_odom.app.groundtruth import GroundTruthReport
 from terrain_odom.config import Config
 from terrain_odom.estimation.odometry import OdometryResult
+from terrain_odom.evaluation.metrics import WindowErrors
 from terrain_odom.io.atomic import write_atomic
 from terrain_odom.io.images import read_image_rgb
 from terrain_odom.records import GroundTruth, WheelLog
 from terrain_odom.reporting.figure import save_png
+from terrain_odom.reporting.model_errors import (
+    ErrorValues,
+    error_boxes_figure,
+    error_values,
+    window_errors_figure,
+)
 from terrain_odom.reporting.mosaic import MosaicPanel, mosaic_figure
-from terrain_odom.reporting.plots import frame_labels_figure, states_figure, trajectory_figure
+from terrain_odom.reporting.plots import (
+    frame_labels_figure,
+    states_figure,
+    trajectory_figure,
+    travelled,
+)
 from terrain_odom.vision.camera import GroundCamera, crop, region_of_interest
 from terrain_odom.vision.classifier import TerrainClassifier
 from terrain_odom.vision.features import image_features, tile_boxes, tiles_within
 from terrain_odom.vision.frame_classifier import FULL_FRAME
 
-__all__ = ["PLOTS_DIR", "PLOT_FILES", "MOSAIC_FRAMES", "write_run_plots", "mosaic_panels"]
+__all__ = [
+    "PLOTS_DIR",
+    "PLOT_FILES",
+    "EVALUATION_PLOTS",
+    "MOSAIC_FRAMES",
+    "write_figures",
+    "write_run_plots",
+    "mosaic_panels",
+    "measured_distance",
+    "write_evaluation_plots",
+]
 
 PLOTS_DIR = "plots"
 """Folder of a run's plots, in its output folder."""
 
 PLOT_FILES = ("trajectory.png", "states.png", "frames.png", "mosaic.png")
 """Every plot a run may write into :data:`PLOTS_DIR`."""
+
+EVALUATION_PLOTS = ("evaluation_windows.png", "evaluation_boxes.png")
+"""The plots ``evaluate`` writes into :data:`PLOTS_DIR` beside its JSON."""
+
+ALL_TERRAINS = "all windows"
+"""The one group of the box plots of a log without terrain labels."""
 
 MOSAIC_FRAMES = 12
 """Most frames in the mosaic (evenly chosen among the changes when there are more)."""
@@ -195,3 +223,58 @@ def _with_votes(
     votes = classifier.predict(image_features(region, classifier.cfg, footprint))
     offset = np.array([x0, y0, x0, y0])
     return replace(panel, polygon=polygon, tiles=boxes + offset, votes=[str(v) for v in votes])
+
+
+def measured_distance(log: WheelLog) -> np.ndarray:
+    """Return the distance travelled along the measured positions at each row, m (NaN between).
+
+    Steps between segments count as zero (their poses need not join).
+    """
+    rows = np.flatnonzero(log.has_position)
+    runs = log.segment_runs()[rows]
+    breaks = np.flatnonzero(np.diff(runs) != 0) + 1
+    distance = np.full(len(log), np.nan)
+    distance[rows] = travelled(log.pose[rows, :2], breaks)
+    return distance
+
+
+def _by_terrain(errors: WindowErrors, terrain: np.ndarray | None) -> dict[str, ErrorValues]:
+    """Per-metre errors grouped by the terrain of each window's start row."""
+    values = error_values(errors)
+    if terrain is None:
+        return {ALL_TERRAINS: values}
+    start = np.asarray(terrain).astype(str)[errors.windows.start]
+    return {str(g): (values[0][start == g], values[1][start == g]) for g in np.unique(start)}
+
+
+def write_evaluation_plots(
+    folder: Path, log: WheelLog, errors: dict[str, WindowErrors], horizon: float
+) -> list[Path]:
+    """Write the plots of ``evaluate`` into ``folder``; return their paths.
+
+    ``evaluation_windows.png``: each model's error per metre, window by
+    window, against the distance travelled (coloured by the log's terrain),
+    with its median; ``evaluation_boxes.png``: box plots per model and terrain.
+
+    Parameters
+    ----------
+    folder : Path
+        Created if needed.
+    log : WheelLog
+        The evaluated log.
+    errors : dict of str to WindowErrors
+        Per model, its errors on the ``horizon`` windows (all, not decimated:
+        only the drawing is).
+    horizon : float
+        ``h_e``, m.
+    """
+    distance = measured_distance(log)
+    grouped = {name: _by_terrain(e, log.terrain) for name, e in errors.items()}
+    windows_png, boxes_png = EVALUATION_PLOTS
+    return write_figures(
+        folder,
+        {
+            windows_png: lambda: window_errors_figure(errors, distance, log.terrain, horizon),
+            boxes_png: lambda: error_boxes_figure(grouped, horizon),
+        },
+    )
