@@ -145,3 +145,10 @@ def test_evaluate_on_a_real_warthog_log_draws_its_plots(drive_dir, warthog_yaml,
     assert {p.name for p in result.plots} == {"evaluation_windows.png", "evaluation_boxes.png"}
     for path in result.plots:
         _image(path)
+
+
+def test_simulate_draws_the_map_with_axes(sim_output):
+    assert sim_output.map_plot == sim_output.out / "plots" / "map.png"
+    image = _image(sim_output.map_plot)
+    assert image.shape[1] == 8 * 110
+    assert sim_output.to_dict()["map"]["plot"] == "plots/map.png"
