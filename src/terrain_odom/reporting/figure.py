@@ -118,7 +118,7 @@ def terrain_spans(t: np.ndarray, labels: Sequence[Any]) -> list[tuple[float, flo
     >>> terrain_spans(np.arange(5.0), ["a", "a", "b", "b", "b"])
     [(0.0, 2.0, 'a'), (2.0, 4.0, 'b')]
     """
-    values = np.asarray([str(v) for v in labels])
+    values = np.asarray(labels).astype(str)
     if values.size == 0:
         return []
     starts = np.concatenate(([0], np.flatnonzero(values[1:] != values[:-1]) + 1))

@@ -87,8 +87,8 @@ def _draw_estimate(ax: Any, result: OdometryResult, starts: np.ndarray) -> dict[
 
     index = decimate(len(result.states))
     xy = result.states[index, :2]
-    labels = np.asarray([str(v) for v in result.terrain])[index]
-    colours = terrain_colours(labels)
+    labels = np.asarray(result.terrain).astype(str)[index]
+    colours = terrain_colours(np.unique(labels))
     piece = np.searchsorted(index, starts)
     segments, seg_labels = _path_segments(xy, labels, piece)
     ax.add_collection(
@@ -280,9 +280,9 @@ def states_figure(
     fig = new_figure(8.0, 1.2 + 1.9 * len(names))
     axes = fig.subplots(len(names), 1, sharex=True, squeeze=False)[:, 0]
     index = decimate(len(t))
-    labels = np.asarray([str(v) for v in result.terrain])
-    colours = terrain_colours(labels)
-    spans = terrain_spans(t[index], labels[index])
+    labels = np.asarray(result.terrain).astype(str)
+    colours = terrain_colours(np.unique(labels))
+    spans = terrain_spans(t, labels)  # every row: no span is lost to the decimation
     truth_values = _truth_states(truth, t) if truth is not None else {}
     for ax, name in zip(axes, names, strict=True):
         col = list(result.names).index(name)
