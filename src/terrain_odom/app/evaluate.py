@@ -319,6 +319,6 @@ def evaluate(
     if target is None:
         return result
     write_json(target, result.to_dict())
-    windows = {name: m.windows for name, m in models.items() if m.windows is not None}
-    plots = write_evaluation_plots(target.parent / PLOTS_DIR, log, windows, h_e)
+    errors = {name: m.windows for name, m in models.items() if m.windows is not None}
+    plots = write_evaluation_plots(target.parent / PLOTS_DIR, log, errors, h_e)
     return dataclasses.replace(result, plots=tuple(plots))

@@ -8,6 +8,7 @@ frame labels against the truth. Files go to ``OUT/plots/``, each atomically.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
@@ -79,8 +80,7 @@ def write_figures(folder: Path, jobs: dict[str, Draw]) -> list[Path]:
     folder.mkdir(parents=True, exist_ok=True)
     written = []
     for name, draw in jobs.items():
-        fig = draw()
-        write_atomic(folder / name, lambda handle, fig=fig: save_png(fig, handle))
+        write_atomic(folder / name, functools.partial(save_png, draw()))
         written.append(folder / name)
     return written
 

@@ -110,7 +110,9 @@ def colour_of(colours: dict[str, str], label: Any) -> str:
     return colours.get(str(label), "#9a9a9a")
 
 
-def terrain_spans(t: np.ndarray, labels: Sequence[Any]) -> list[tuple[float, float, str]]:
+def terrain_spans(
+    t: np.ndarray, labels: Sequence[Any] | np.ndarray
+) -> list[tuple[float, float, str]]:
     """Return ``(start, end, label)`` of each run of equal labels over the times ``t``.
 
     Examples

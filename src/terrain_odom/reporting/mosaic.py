@@ -134,7 +134,7 @@ def _legend(fig: Any, colours: dict[str, str]) -> None:
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
-    handles = [Patch(fc=c, alpha=0.5) for c in colours.values()]
+    handles: list[Any] = [Patch(fc=c, alpha=0.5) for c in colours.values()]
     labels = [f"tile vote: {wrap(n, 16)}" for n in colours]
     handles += [Line2D([], [], color="yellow", lw=1.8), Line2D([], [], color="0.4", ls="--")]
     labels += ["region of interest (footprint)", "its bounding box"]

@@ -36,7 +36,7 @@ __all__ = [
 STATE_UNITS = {"y_l": "m", "y_r": "m", "x_icr": "m", "alpha": "-"}
 """The states drawn against time, and their units."""
 
-_VARIANT_STYLES = (
+_VARIANT_STYLES: tuple[tuple[str, Any], ...] = (
     ("tab:blue", (0, (1, 1.2))),
     ("black", "--"),
     ("tab:purple", "-."),
@@ -201,7 +201,7 @@ def _draw_errors(
         reference, what = _truth_at(truth, log.t), "ground truth"
     else:
         reference, what = log.pose[:, :2], "measured pose"
-    paths = {"estimate": (xy, "C3", "-")}
+    paths: dict[str, tuple[np.ndarray, str, Any]] = {"estimate": (xy, "C3", "-")}
     for (colour, style), (name, other) in zip(_VARIANT_STYLES, variants.items(), strict=False):
         paths[name] = (other.states[:, :2], colour, style)
     marker = "" if truth is not None else "."
