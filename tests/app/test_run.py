@@ -69,6 +69,7 @@ def test_run_returns_summary_with_existing_paths(log_path: Path, tmp_path: Path)
     assert summary.config_yaml == out_dir / "config.yaml"
     assert sorted(p.name for p in out_dir.iterdir()) == [
         "config.yaml",
+        "plots",  # every run draws its trajectory and states
         "report.json",
         "report.md",
         "trajectory.csv",

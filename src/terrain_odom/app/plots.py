@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import functools
 from collections.abc import Callable, Sequence
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -195,8 +196,6 @@ def _with_votes(
     classifier: TerrainClassifier,
 ) -> MosaicPanel:
     """Add the footprint polygon and the tiles' votes to a panel (see :func:`mosaic_panels`)."""
-    from dataclasses import replace
-
     image = panel.image
     if record.box is None:
         return panel

@@ -21,6 +21,7 @@ __all__ = [
     "save_png",
     "decimate",
     "terrain_colours",
+    "colour_of",
     "terrain_spans",
     "wrap",
 ]

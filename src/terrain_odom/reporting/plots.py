@@ -166,9 +166,10 @@ def trajectory_figure(
         t_xy = truth.pose[inside, :2][decimate(int(inside.sum()))]
         ax.plot(*t_xy.T, "-", color="0.55", lw=5, alpha=0.5, label="ground truth", zorder=1)
     index = decimate(len(log))
-    if has_error:
-        ax.plot(*_broken(measured, index, starts).T, ".", color="black", ms=2.0,
-                label="measured poses", zorder=3)  # fmt: skip
+    posed = np.flatnonzero(np.isfinite(measured).all(axis=1))
+    if posed.size:
+        dots = measured[posed[decimate(posed.size)]]
+        ax.plot(*dots.T, ".", color="black", ms=2.0, label="measured poses", zorder=3)
     _draw_estimate(ax, result, starts)
     for (colour, style), (name, other) in zip(
         _VARIANT_STYLES, (variants or {}).items(), strict=False
