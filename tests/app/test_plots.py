@@ -1,4 +1,4 @@
-"""app.plots: the plots every run writes, drawn from the run held in memory."""
+"""app.plots: the plots every run and evaluation writes, drawn from the results in memory."""
 
 from __future__ import annotations
 
@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from terrain_odom.app import plots as app_plots
+from terrain_odom.app.evaluate import evaluate
 from terrain_odom.app.run import run
 from terrain_odom.reporting.mosaic import MosaicPanel
 
@@ -21,31 +22,35 @@ def _image(path: Path) -> np.ndarray:
     return image
 
 
+def _relative(paths, out: Path) -> list[str]:
+    return [p.relative_to(out).as_posix() for p in paths]
+
+
 @pytest.fixture
 def figures(monkeypatch: pytest.MonkeyPatch) -> dict:
-    """Capture every figure a run writes, by file name."""
+    """Capture every figure written, by file name (and the mosaic's panels, as "panels")."""
     captured: dict = {}
-    write = app_plots.write_figures
+    write, mosaic = app_plots.write_figures, app_plots.mosaic_figure
 
     def spy(folder, jobs):
         drawn = {name: draw() for name, draw in jobs.items()}
         captured.update(drawn)
         return write(folder, {name: (lambda fig=fig: fig) for name, fig in drawn.items()})
 
+    def mosaic_spy(panels):
+        captured["panels"] = list(panels)
+        return mosaic(panels)
+
     monkeypatch.setattr(app_plots, "write_figures", spy)
+    monkeypatch.setattr(app_plots, "mosaic_figure", mosaic_spy)
     return captured
 
 
-def test_a_wheel_log_run_draws_trajectory_with_error_and_states(examples_dir, tmp_path, figures):
+def test_a_wheel_log_run_and_its_evaluation_draw_their_plots(examples_dir, tmp_path, figures):
     out = tmp_path / "out"
-    summary = run(examples_dir / "demo_log.csv", out, config_path=examples_dir / "demo.yaml",
-                  progress=False)  # fmt: skip
-    assert [p.relative_to(out).as_posix() for p in summary.plots] == [
-        "plots/trajectory.png",
-        "plots/states.png",
-    ]
-    for path in summary.plots:
-        _image(path)
+    log = examples_dir / "demo_log.csv"
+    summary = run(log, out, config_path=examples_dir / "demo.yaml", progress=False)
+    assert _relative(summary.plots, out) == ["plots/trajectory.png", "plots/states.png"]
     markdown = summary.report_md.read_text(encoding="utf-8")
     assert "(plots/trajectory.png)" in markdown and "(plots/states.png)" in markdown
     titles = [ax.get_title() for ax in figures["trajectory.png"].axes]
@@ -55,74 +60,12 @@ def test_a_wheel_log_run_draws_trajectory_with_error_and_states(examples_dir, tm
     legend = {t.get_text() for t in states[-1].get_legend().get_texts()}
     assert {"grass", "gravel", "covariance reset"} <= legend
 
-
-def test_a_real_warthog_log_run_draws_its_plots(drive_dir, warthog_yaml, tmp_path, figures):
-    out = tmp_path / "out"
-    summary = run(drive_dir / "warthog_wheels_grass.csv", out, config_path=warthog_yaml,
-                  progress=False)  # fmt: skip
-    assert {p.name for p in summary.plots} == {"trajectory.png", "states.png"}
-    image = _image(out / "plots" / "trajectory.png")
-    assert image.shape[1] == 9 * 110
-    _, err = figures["trajectory.png"].axes
-    distance, error = err.lines[0].get_data()
-    assert 90 < distance[-1] < 110  # about 100 m driven
-    assert np.median(error) < 0.1  # the filter follows the ICP poses it fuses
-    assert len(figures["states.png"].axes) == 4
-
-
-def test_the_camera_run_draws_the_mosaic_with_roi_votes_and_truth(sample_dir, tmp_path, figures):
-    out = tmp_path / "out"
-    summary = run(sample_dir / "log.csv", out, images=sample_dir, progress=False,
-                  groundtruth=sample_dir / "groundtruth.csv")  # fmt: skip
-    names = [p.name for p in summary.plots]
-    assert names == ["trajectory.png", "states.png", "frames.png", "mosaic.png"]
-    for path in summary.plots:
-        _image(path)
-    mosaic = figures["mosaic.png"]
-    images = [ax for ax in mosaic.axes if ax.images]
-    assert len(images) == 2  # the two confirmed changes: to gravel, back to grass
-    titles = [ax.get_title() for ax in images]
-    assert "grass -> gravel confirmed" in titles[0] and "gravel -> grass confirmed" in titles[1]
-    assert all("right" in title for title in titles)
-
-
-def test_mosaic_panels_recompute_the_region_and_the_tiles_vote_the_frame_label(
-    sample_dir, tmp_path, monkeypatch
-):
-    panels: list[MosaicPanel] = []
-    draw = app_plots.mosaic_figure
-
-    def spy(given):
-        panels.extend(given)
-        return draw(given)
-
-    monkeypatch.setattr(app_plots, "mosaic_figure", spy)
-    run(sample_dir / "log.csv", tmp_path / "out", images=sample_dir, progress=False)
-    assert [p.label for p in panels] == ["gravel", "grass"]
-    for panel in panels:
-        assert panel.polygon is not None and len(panel.polygon) >= 3  # the run's box came out
-        votes = list(panel.votes)
-        assert max(set(votes), key=votes.count) == panel.label
-        assert votes.count(panel.label) / len(votes) == pytest.approx(panel.confidence)
-        x0, y0, x1, y1 = panel.box
-        assert (panel.tiles[:, :2] >= [x0, y0]).all() and (panel.tiles[:, 2:] <= [x1, y1]).all()
-        assert panel.verdict == "truth unknown"  # no ground truth given
-
-
-def test_evaluate_draws_errors_against_distance_and_boxes_per_terrain(
-    examples_dir, tmp_path, figures
-):
-    from terrain_odom.app.evaluate import evaluate
-
-    out = tmp_path / "out"
-    log = examples_dir / "demo_log.csv"
-    run(log, out, config_path=examples_dir / "demo.yaml", progress=False)
     result = evaluate(out, log)
-    assert [p.relative_to(out).as_posix() for p in result.plots] == [
+    assert _relative(result.plots, out) == [
         "plots/evaluation_windows.png",
         "plots/evaluation_boxes.png",
     ]
-    for path in result.plots:
+    for path in (*summary.plots, *result.plots):
         _image(path)
     windows = figures["evaluation_windows.png"].axes
     assert len(windows) == 2 * len(result.models)
@@ -135,16 +78,57 @@ def test_evaluate_draws_errors_against_distance_and_boxes_per_terrain(
     assert [t.get_text() for t in boxes[1].get_xticklabels()] == list(result.models)
 
 
-def test_evaluate_on_a_real_warthog_log_draws_its_plots(drive_dir, warthog_yaml, tmp_path):
-    from terrain_odom.app.evaluate import evaluate
-
+def test_a_real_warthog_log_run_and_evaluation_draw_their_plots(
+    drive_dir, warthog_yaml, tmp_path, figures
+):
     out = tmp_path / "out"
     log = drive_dir / "warthog_wheels_grass.csv"
-    run(log, out, config_path=warthog_yaml, progress=False)
+    summary = run(log, out, config_path=warthog_yaml, progress=False)
     result = evaluate(out, log)
-    assert {p.name for p in result.plots} == {"evaluation_windows.png", "evaluation_boxes.png"}
-    for path in result.plots:
+    names = [p.name for p in (*summary.plots, *result.plots)]
+    assert names == [
+        "trajectory.png",
+        "states.png",
+        "evaluation_windows.png",
+        "evaluation_boxes.png",
+    ]
+    assert _image(out / "plots" / "trajectory.png").shape[1] == 9 * 110
+    _, err = figures["trajectory.png"].axes
+    distance, error = err.lines[0].get_data()
+    assert 90 < distance[-1] < 110  # about 100 m driven
+    assert np.median(error) < 0.1  # the filter follows the ICP poses it fuses
+    assert len(figures["states.png"].axes) == 4
+    assert len(figures["evaluation_windows.png"].axes) == 4  # idd and the run, m/m and deg/m
+
+
+def test_the_camera_run_draws_the_mosaic_with_roi_votes_and_truth(sample_dir, tmp_path, figures):
+    out = tmp_path / "out"
+    summary = run(sample_dir / "log.csv", out, images=sample_dir, progress=False,
+                  groundtruth=sample_dir / "groundtruth.csv")  # fmt: skip
+    names = [p.name for p in summary.plots]
+    assert names == ["trajectory.png", "states.png", "frames.png", "mosaic.png"]
+    for path in summary.plots:
         _image(path)
+    images = [ax for ax in figures["mosaic.png"].axes if ax.images]
+    assert len(images) == 2  # the two confirmed changes: to gravel, back to grass
+    titles = [ax.get_title() for ax in images]
+    assert "grass -> gravel confirmed" in titles[0] and "gravel -> grass confirmed" in titles[1]
+    panels: list[MosaicPanel] = figures["panels"]
+    assert [(p.label, p.truth, p.verdict) for p in panels] == [
+        ("gravel", "gravel", "right"),
+        ("grass", "grass", "right"),
+    ]
+    for panel in panels:
+        assert panel.polygon is not None and len(panel.polygon) >= 3  # the run's box came out
+        votes = list(panel.votes)
+        assert max(set(votes), key=votes.count) == panel.label
+        assert votes.count(panel.label) / len(votes) == pytest.approx(panel.confidence)
+        x0, y0, x1, y1 = panel.box
+        assert (panel.tiles[:, :2] >= [x0, y0]).all() and (panel.tiles[:, 2:] <= [x1, y1]).all()
+    frames = figures["frames.png"].axes[0]
+    lines = {line.get_label(): line for line in frames.lines}
+    assert len(lines["label (wrong)"].get_xdata()) == 0  # the sample's frames are all right
+    assert len(lines["label (truth unknown)"].get_xdata()) == 1  # the last looks past the end
 
 
 def test_simulate_draws_the_map_with_axes(sim_output):
