@@ -33,20 +33,30 @@ NO_TERRAIN = "ekf (no terrain)"
 
 def _prepare(work: Path, seed: int, reuse: bool, pose_noise: list[str] | None = None) -> Path:
     sim = work / f"seed{seed}"
-    if not (reuse and (sim / "model.npz").is_file()):
+    if not (reuse and (sim / "classifier.npz").is_file()):
         args = ["--out", str(sim), "--scenario", "chen2023", "--seed", str(seed)]
         args += ["--pose-noise", *pose_noise] if pose_noise else []
         assert cli(["simulate", *args, "--frame-format", "jpg"]) == 0
-        patches, model = str(sim / "patches"), str(sim / "model.npz")
-        train = ["train", "--images", patches, "--out", model, "--jobs", "1", "--tile-size", "32"]
+        patches = str(sim / "patches")  # train --out SIM writes SIM/classifier.npz
+        train = [
+            "train",
+            "--images",
+            patches,
+            "--out",
+            str(sim),
+            "--jobs",
+            "1",
+            "--tile-size",
+            "32",
+        ]
         assert cli(train) == 0
     return sim
 
 
 def _run(sim: Path, out: Path, schedule: str) -> dict:
     args = ["run", "--images", str(sim), "--wheels", str(sim / "log.csv")]
-    args += ["--model", str(sim / "model.npz"), "--groundtruth", str(sim / "groundtruth.csv")]
-    assert cli([*args, "--reset-at", schedule, "--out", str(out)]) == 0
+    args += ["--classifier", str(sim), "--groundtruth", str(sim / "groundtruth.csv")]
+    assert cli([*args, "--reset-at", schedule, "--out", str(out), "--overwrite"]) == 0
     return json.loads((out / "report.json").read_text())["groundtruth"]
 
 

@@ -61,7 +61,7 @@ camera:
 
 
 TILE_SIZE = 128
-MODEL = f"model_tiles{TILE_SIZE}.npz"
+MODEL = f"model_tiles{TILE_SIZE}/classifier.npz"  # train --out model_tiles128
 
 
 def prepare(work: Path, duration: float, reuse: bool) -> Path:
@@ -75,7 +75,7 @@ def prepare(work: Path, duration: float, reuse: bool) -> Path:
     args = ["simulate", "--out", str(sim), "--scenario", "chen2023", "--seed", "0"]
     args += ["--duration", str(duration), "--frame-format", "jpg", "--config", str(camera)]
     assert cli(args) == 0
-    train = ["train", "--images", str(sim / "patches"), "--out", str(sim / MODEL)]
+    train = ["train", "--images", str(sim / "patches"), "--out", str((sim / MODEL).parent)]
     assert cli([*train, "--tile-size", str(TILE_SIZE), "--jobs", "1"]) == 0
     return sim
 
@@ -108,10 +108,23 @@ def main() -> None:
             assert cv2.imread(str(path), cv2.IMREAD_COLOR) is not None
 
     def full_run() -> None:
-        run(sim / "log.csv", args.work / "out", images=sim, model=sim / MODEL, progress=False)
+        run(
+            sim / "log.csv",
+            args.work / "out",
+            images=sim,
+            model=sim / MODEL,
+            progress=False,
+            overwrite=True,
+        )
 
     def wheels_only() -> None:
-        run(sim / "log.csv", args.work / "out_wheels", terrain=TerrainSource.NONE, progress=False)
+        run(
+            sim / "log.csv",
+            args.work / "out_wheels",
+            terrain=TerrainSource.NONE,
+            progress=False,
+            overwrite=True,
+        )
 
     with one_thread():
         t_decode = best_of(args.repeat, decode)
@@ -134,7 +147,14 @@ def main() -> None:
     )
     print(f"load average after: {os.getloadavg()}")
     scored = args.work / "out_scored"
-    run(sim / "log.csv", scored, images=sim, model=sim / MODEL, groundtruth=sim / "groundtruth.csv")
+    run(
+        sim / "log.csv",
+        scored,
+        images=sim,
+        model=sim / MODEL,
+        groundtruth=sim / "groundtruth.csv",
+        overwrite=True,
+    )
     accuracy = json.loads((scored / "report.json").read_text())["groundtruth"]["frames"]
     overall = accuracy["accuracy"]["overall"]
     print(f"frames right (untimed run with --groundtruth): {100 * overall['accuracy']:.1f} %")

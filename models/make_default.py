@@ -18,11 +18,14 @@ From the repository root::
 which runs exactly::
 
     terrain-odom simulate --out TMP --scenario chen2023 --seed 1 --duration 48 --no-frames
-    terrain-odom train --images TMP/patches --out src/terrain_odom/models/default.npz --tile-size 32
+    terrain-odom train --images TMP/patches --out TMP/model --tile-size 32
+
+and moves ``TMP/model/classifier.npz`` to ``src/terrain_odom/models/default.npz``.
 """
 
 from __future__ import annotations
 
+import shutil
 import sys
 import tempfile
 from pathlib import Path
@@ -41,9 +44,11 @@ def make(out: str | Path = MODEL) -> int:
         args = ["simulate", "--out", tmp, "--scenario", "chen2023", "--seed", str(SEED)]
         code = cli([*args, "--duration", "48", "--no-frames"])
         if code == 0:
-            patches = str(Path(tmp) / "patches")
-            train = ["train", "--images", patches, "--out", str(out)]
+            patches, model = str(Path(tmp) / "patches"), Path(tmp) / "model"
+            train = ["train", "--images", patches, "--out", str(model)]
             code = cli([*train, "--tile-size", str(TILE_SIZE)])
+        if code == 0:
+            shutil.move(model / "classifier.npz", out)
     return code
 
 

@@ -44,7 +44,7 @@ def test_quick_start_recovers_the_simulated_terrain_parameters(tmp_path, capsys)
     truth = _generator().TERRAINS["gravel"]
     estimate = [final["y_l"], final["y_r"], final["x_icr"], final["alpha"]]
     np.testing.assert_allclose(estimate, truth, atol=0.02)
-    assert main(["evaluate", "--run", str(out), "--log", log, "--config", cfg]) == 0
+    assert main(["evaluate", "--run", str(out), "--wheels", log, "--config", cfg]) == 0
     models = json.loads((out / "evaluation.json").read_text())["models"]
     ekf = models["ekf (online)"]["translation_m_per_m"]["median"]
     idd = models["idd (B=0.5 m)"]["translation_m_per_m"]["median"]

@@ -1,7 +1,7 @@
 """The camera quick start: the committed sample run and the default classifier.
 
 ``terrain-odom run --images sample_images/chen2023 --wheels
-sample_images/chen2023/log.csv --out out/`` needs neither ``--model`` (the
+sample_images/chen2023/log.csv --out out/`` needs neither ``--classifier`` (the
 default model, package data ``terrain_odom/models/default.npz``) nor
 ``--config`` (the run folder's ``config.yaml``).
 """
@@ -130,7 +130,7 @@ def test_missing_default_model_is_a_one_line_error(tmp_path, capsys, monkeypatch
     args = ["run", "--images", str(images), "--wheels", str(images / "log.csv")]
     assert main([*args, "--out", str(out)]) == 2
     err = capsys.readouterr().err.strip()
-    assert "\n" not in err and str(missing) in err and "pass --model" in err
+    assert "\n" not in err and str(missing) in err and "pass --classifier" in err
     assert not out.exists()
 
 
@@ -140,7 +140,11 @@ def test_without_a_config_in_the_folder_the_built_in_defaults_are_used(tmp_path,
     args = ["run", "--images", str(images), "--wheels", str(images / "log.csv")]
     assert main([*args, "--out", str(out)]) == 2  # the built-in camera is 640 x 480
     assert "camera configuration says 640x480" in capsys.readouterr().err
-    assert main([*args, "--out", str(out), "--no-roi"]) == 0
+    failed = json.loads((out / "report.json").read_text())
+    assert failed["status"] == "interrupted" and "640x480" in failed["reason"]
+    assert main([*args, "--out", str(out), "--no-roi"]) == 2  # the failed run is kept
+    assert "already holds an interrupted run" in capsys.readouterr().err
+    assert main([*args, "--out", str(out), "--no-roi", "--overwrite"]) == 0
     printed = capsys.readouterr().out
     assert "found in the --images folder" not in printed and "model:" in printed
     report = json.loads((out / "report.json").read_text())
@@ -158,7 +162,7 @@ def test_an_explicit_config_and_model_win_over_the_defaults(tmp_path, capsys, ex
     args = ["run", "--images", str(images), "--wheels", str(images / "log.csv")]
     args += ["--out", str(out)]
     if explicit:
-        args += ["--config", str(other), "--model", str(model)]
+        args += ["--config", str(other), "--classifier", str(model)]
     assert main(args) == 0
     printed = capsys.readouterr().out
     assert ("found in the --images folder" in printed) != explicit and (

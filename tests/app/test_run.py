@@ -141,18 +141,36 @@ def test_interrupted_run_keeps_streamed_rows(
     text = (out_dir / "trajectory.csv").read_text(encoding="utf-8")
     assert text.endswith("\n")
     assert len(text.splitlines()) == INTERRUPT_AFTER + 1
-    # the report is written atomically after the loop: never reached, and no temp files
-    assert not (out_dir / "report.json").exists()
-    assert sorted(p.name for p in out_dir.iterdir()) == ["config.yaml", "trajectory.csv"]
+    # report.json says the run was interrupted, and after how many rows; no temp files
+    report = json.loads((out_dir / "report.json").read_text(encoding="utf-8"))
+    assert report["status"] == "interrupted"
+    assert report["rows_written"] == INTERRUPT_AFTER
+    assert report["reason"] == "interrupted by the user"
+    assert report["inputs"]["wheels"] == str(log_path.resolve())
+    assert sorted(p.name for p in out_dir.iterdir()) == [
+        "config.yaml",
+        "report.json",
+        "trajectory.csv",
+    ]
 
 
-def test_interrupt_does_not_clobber_previous_report(
+def test_a_folder_holding_a_run_is_refused_unless_overwrite(
     log_path: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """A re-run interrupted in the same directory leaves the old report.json valid JSON."""
+    """A second run into a run's folder is refused (nothing touched); --overwrite replaces it.
+
+    The replacing run removes the first run's files before it starts, so
+    when it is interrupted nothing of the first run is left to mix with it.
+    """
     out_dir = tmp_path / "out"
     first = run(log_path, out_dir, progress=False)
-    before = first.report_json.read_text(encoding="utf-8")
+    (out_dir / "notes.txt").write_text("mine", encoding="utf-8")
+    before = {p.name: p.read_bytes() for p in out_dir.iterdir()}
+
+    with pytest.raises(InputFileError, match="already holds a run .*--overwrite"):
+        run(log_path, out_dir, progress=False)
+    assert {p.name: p.read_bytes() for p in out_dir.iterdir()} == before
+
     real = workflows.run_odometry
 
     def interrupted(log, odometry, *, on_row=None, **kw):  # type: ignore[no-untyped-def]
@@ -165,12 +183,26 @@ def test_interrupt_does_not_clobber_previous_report(
 
     monkeypatch.setattr(workflows, "run_odometry", interrupted)
     with pytest.raises(KeyboardInterrupt):
+        run(log_path, out_dir, progress=False, overwrite=True)
+
+    report = json.loads(first.report_json.read_text(encoding="utf-8"))
+    assert report["status"] == "interrupted" and report["rows_written"] == 10
+    assert len(read_trajectory_csv(out_dir / "trajectory.csv")["t"]) == 10
+    # the first run's trajectory.tum and report.md are gone; the user's file is kept
+    assert sorted(p.name for p in out_dir.iterdir()) == [
+        "config.yaml",
+        "notes.txt",
+        "report.json",
+        "trajectory.csv",
+    ]
+    with pytest.raises(InputFileError, match="already holds an interrupted run"):
         run(log_path, out_dir, progress=False)
 
-    assert first.report_json.read_text(encoding="utf-8") == before
-    json.loads(before)
-    assert len(read_trajectory_csv(out_dir / "trajectory.csv")["t"]) == 10
-    assert not [p.name for p in out_dir.iterdir() if p.name.endswith(".tmp")]
+
+def test_a_completed_run_says_so(log_path: Path, tmp_path: Path) -> None:
+    summary = run(log_path, tmp_path / "out", progress=False)
+    report = json.loads(summary.report_json.read_text(encoding="utf-8"))
+    assert report["status"] == "complete"
 
 
 def test_report_embeds_the_config_used(log_path: Path, tmp_path: Path) -> None:
@@ -279,4 +311,10 @@ def test_cli_run_interrupted_keeps_rows_and_exits_130(
     assert out == ""
     assert err.splitlines() == ["terrain-odom: interrupted; outputs written so far are kept"]
     assert len(read_trajectory_csv(out_dir / "trajectory.csv")["t"]) == 150
-    assert not (out_dir / "report.json").exists()
+    assert json.loads((out_dir / "report.json").read_text())["status"] == "interrupted"
+    # evaluate refuses the interrupted run, in one line
+    monkeypatch.undo()
+    code = main(["evaluate", "--wheels", str(log_path), "--run", str(out_dir)])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and "\n" not in err
+    assert "the run did not complete (status: interrupted)" in err

@@ -30,7 +30,7 @@ def sim(tmp_path_factory: pytest.TempPathFactory) -> Path:
     out = tmp_path_factory.mktemp("sim")
     args = ["simulate", "--out", str(out), "--seed", "0", "--duration", str(DURATION_S)]
     assert main([*args, "--frame-rate", str(FRAME_RATE_HZ)]) == 0
-    assert main(["train", "--images", str(out / "patches"), "--out", str(out / "model.npz")]) == 0
+    assert main(["train", "--images", str(out / "patches"), "--out", str(out)]) == 0
     return out
 
 
@@ -41,7 +41,7 @@ def _rows(path: Path) -> list[dict[str, str]]:
 
 def _run(sim: Path, out: Path, *extra: str, images: Path | None = None, log: Path | None = None):
     args = ["run", "--wheels", str(log or sim / "log.csv"), "--out", str(out)]
-    args += ["--images", str(images or sim), "--model", str(sim / "model.npz")]
+    args += ["--images", str(images or sim), "--classifier", str(sim)]
     if "--config" not in extra:
         args += ["--config", str(sim / "config.yaml")]
     return main([*args, *extra])
@@ -96,7 +96,7 @@ def test_camera_run_confirms_the_true_changes_and_converges(sim, tmp_path, capsy
     assert sum(frames["skipped"].values()) == 0 and report["frame_problems"] == []
     assert 0 < frames["ms_per_frame"]["mean"] <= frames["ms_per_frame"]["max"]
     assert report["inputs"]["images"] == str(sim.resolve())
-    assert report["inputs"]["model"] == str((sim / "model.npz").resolve())
+    assert report["inputs"]["model"] == str((sim / "classifier.npz").resolve())
     rows = _rows(out / "frames.csv")
     assert list(rows[0]) == list(FRAME_COLUMNS) and len(rows) == n_frames
     assert rows[0]["file"] == "frames/000000.png"
@@ -224,7 +224,7 @@ def test_frames_none_of_which_is_in_the_log_span_are_an_error(sim, tmp_path, cap
 
 
 def test_model_with_other_feature_settings_stops_before_processing(sim, tmp_path, capsys):
-    with np.load(sim / "model.npz") as data:
+    with np.load(sim / "classifier.npz") as data:
         arrays = {name: data[name] for name in data.files}
     meta = json.loads(str(arrays["metadata"]))
     meta["feature_version"] = 1
@@ -233,7 +233,7 @@ def test_model_with_other_feature_settings_stops_before_processing(sim, tmp_path
     np.savez(old, **arrays)
     out = tmp_path / "out"
     args = ["run", "--wheels", str(sim / "log.csv"), "--out", str(out), "--images", str(sim)]
-    assert main([*args, "--model", str(old)]) == 2
+    assert main([*args, "--classifier", str(old)]) == 2
     err = capsys.readouterr().err.strip()
     assert "\n" not in err and "feature_version is 1" in err and "retrain" in err
     assert not out.exists()
@@ -245,7 +245,7 @@ def test_images_without_a_model_or_its_default_is_an_error(sim, tmp_path, capsys
     )
     args = ["run", "--wheels", str(sim / "log.csv"), "--out", str(tmp_path / "o")]
     assert main([*args, "--images", str(sim)]) == 2
-    assert "--model" in capsys.readouterr().err
+    assert "--classifier" in capsys.readouterr().err
 
 
 def test_region_outside_the_image_is_recorded_without_fallback(sim, tmp_path):

@@ -28,15 +28,15 @@ def test_forgetting_the_config_stops_run_with_the_wheel_radius_named(grass, tmp_
 @pytest.mark.parametrize("command", ["evaluate", "fit"])
 def test_evaluate_and_fit_check_too(command, grass, tmp_path, capsys):
     args = {
-        "evaluate": ["evaluate", "--log", str(grass)],
+        "evaluate": ["evaluate", "--wheels", str(grass)],
         "fit": [
             "fit",
             "--model",
             "edd-sym",
-            "--log",
+            "--wheels",
             str(grass),
             "--out",
-            str(tmp_path / "p.yaml"),
+            str(tmp_path / "p"),
         ],
     }[command]
     assert main(args) == 2

@@ -189,8 +189,8 @@ def test_bad_yaml_file_names_the_key(
         output = tmp_path / "out"
         argv = ["run", "--wheels", log_path, "--out", output, "--config", bad]
     else:
-        output = tmp_path / "evaluation.json"
-        argv = ["evaluate", "--log", log_path, "--params", bad, "--out", output]
+        output = tmp_path / "evaluated"
+        argv = ["evaluate", "--wheels", log_path, "--params", bad, "--out", output]
 
     code, out, err = run_main(capsys, *argv)
 
@@ -251,7 +251,7 @@ def test_evaluate_run_dir_without_trajectory(
     run_dir = tmp_path / "empty_run"
     run_dir.mkdir()
 
-    code, out, err = run_main(capsys, "evaluate", "--run", run_dir, "--log", log_path)
+    code, out, err = run_main(capsys, "evaluate", "--run", run_dir, "--wheels", log_path)
 
     assert_one_line_error(code, out, err, str(run_dir / "trajectory.csv"), "no trajectory.csv")
     assert not (run_dir / "evaluation.json").exists()
@@ -271,7 +271,7 @@ def test_evaluate_run_of_another_log_is_rejected(
         synthetic_log(other_log, t0=3.0)
         expected = ["its 200 rows", "the 200 rows", str(other_log)]
 
-    code, out, err = run_main(capsys, "evaluate", "--run", run_dir, "--log", other_log)
+    code, out, err = run_main(capsys, "evaluate", "--run", run_dir, "--wheels", other_log)
 
     assert_one_line_error(
         code, out, err, str(run_dir / "trajectory.csv"), "do not match", *expected
@@ -291,8 +291,9 @@ def test_run_out_is_an_existing_file(
 def test_evaluate_out_in_missing_directory_names_the_given_path(
     log_path: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    target = tmp_path / "no_such_dir" / "evaluation.json"
-    code, out, err = run_main(capsys, "evaluate", "--log", log_path, "--out", target)
+    target = tmp_path / "no_such_dir" / "evaluation.json"  # the old form: a file
+    code, out, err = run_main(capsys, "evaluate", "--wheels", log_path, "--out", target)
+    err = "".join(line for line in err.splitlines(keepends=True) if "warning:" not in line)
     line = assert_one_line_error(code, out, err)
     assert ".tmp" not in line
     assert str(target) in line or str(target.parent) in line
@@ -342,7 +343,7 @@ def test_process_invalid_config(log_path: Path, tmp_path: Path) -> None:
 
 def test_process_evaluate_without_trajectory(log_path: Path, tmp_path: Path) -> None:
     (tmp_path / "run").mkdir()
-    proc = run_process("evaluate", "--run", "run", "--log", log_path, cwd=tmp_path)
+    proc = run_process("evaluate", "--run", "run", "--wheels", log_path, cwd=tmp_path)
     assert_process_error(proc, "trajectory.csv", "no trajectory.csv")
 
 
@@ -468,7 +469,7 @@ def test_evaluate_prints_table_and_writes_json(
     run_dir = tmp_path / "run"
     assert run_main(capsys, "run", "--wheels", log_path, "--out", run_dir)[0] == 0
 
-    code, out, err = run_main(capsys, "evaluate", "--run", run_dir, "--log", log_path)
+    code, out, err = run_main(capsys, "evaluate", "--run", run_dir, "--wheels", log_path)
 
     assert code == 0, err
     assert err == ""
@@ -495,12 +496,13 @@ def test_evaluate_prints_table_and_writes_json(
 def test_evaluate_horizon_and_out(
     log_path: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    out_json = tmp_path / "elsewhere.json"
+    out_dir = tmp_path / "elsewhere" / "deeper"
     code, out, err = run_main(
-        capsys, "evaluate", "--log", log_path, "--horizon", "1", "--out", out_json
+        capsys, "evaluate", "--wheels", log_path, "--horizon", "1", "--out", out_dir
     )
     assert code == 0, err
-    result = json.loads(out_json.read_text(encoding="utf-8"))
+    assert out.splitlines()[-1].split() == ["written:", str(out_dir / "evaluation.json")]
+    result = json.loads((out_dir / "evaluation.json").read_text(encoding="utf-8"))
     assert result["horizon_m"] == 1.0
     assert result["run"] is None
     assert list(result["models"]) == ["idd (B=0.5 m)"]
@@ -527,7 +529,7 @@ def test_evaluate_true_icr_params_give_zero_error(
         "evaluate",
         "--run",
         run_dir,
-        "--log",
+        "--wheels",
         log_path,
         "--params",
         true_params,

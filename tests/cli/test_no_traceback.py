@@ -120,14 +120,14 @@ _RUN_IMAGES = ["run", "--wheels", "log.csv", "--images", "images", "--out", "out
     ],
 )
 def test_a_bad_model_file(capsys, inputs, model, fragments):
-    line = assert_one_line_exit_2(capsys, [*_RUN_IMAGES, "--model", model], inputs, *fragments)
+    line = assert_one_line_exit_2(capsys, [*_RUN_IMAGES, "--classifier", model], inputs, *fragments)
     assert "pickle" not in line
 
 
 _YAML_USES = {
     "robot config": ["run", "--wheels", "log.csv", "--out", "out", "--config"],
-    "classifier config": ["train", "--images", "classes", "--out", "m.npz", "--config"],
-    "params file": ["evaluate", "--log", "log.csv", "--out", "e.json", "--params"],
+    "classifier config": ["train", "--images", "classes", "--out", "m", "--config"],
+    "params file": ["evaluate", "--wheels", "log.csv", "--out", "e", "--params"],
     "priors file": ["run", "--wheels", "log.csv", "--out", "out", "--priors"],
 }
 
@@ -147,7 +147,7 @@ def test_a_file_that_is_no_yaml(capsys, inputs, use, name, problem):
 
 @pytest.mark.parametrize("horizon", ["0", "-1", "nan", "1e-300"])
 def test_evaluate_horizon_not_a_distance(capsys, inputs, horizon):
-    argv = ["evaluate", "--log", "log.csv", "--out", "e.json", f"--horizon={horizon}"]
+    argv = ["evaluate", "--wheels", "log.csv", "--out", "e", f"--horizon={horizon}"]
     assert_one_line_exit_2(capsys, argv, inputs, "--horizon", "finite distance >= 0.001 m", horizon)
 
 
@@ -160,7 +160,7 @@ def test_simulate_negative_seed(capsys, inputs):
 @pytest.mark.parametrize(
     "argv",
     [
-        [*_RUN_IMAGES, "--model", "truncated.npz"],
+        [*_RUN_IMAGES, "--classifier", "truncated.npz"],
         ["run", "--wheels", "log.csv", "--out", "out", "--config", "nested.yaml"],
     ],
     ids=["truncated model", "nested yaml"],

@@ -80,14 +80,16 @@ def test_fit_arguments() -> None:
     p = argparse.ArgumentParser()
     add_fit_options(p)
 
-    args = fit_arguments(p.parse_args(["--log", "a.csv", "--seed", "4", "--sigma", "1", "2", "3"]))
+    args = fit_arguments(
+        p.parse_args(["--wheels", "a.csv", "--seed", "4", "--sigma", "1", "2", "3"])
+    )
 
     assert args["horizon"] == DEFAULT_TRAINING_HORIZON
     assert args["by_terrain"] is False
     assert args["options"] == FitOptions(seed=4, sigma=(1.0, 2.0, 3.0))
     assert args["config_path"] is None
     with pytest.raises(ConfigError, match="--popsize"):
-        fit_arguments(p.parse_args(["--log", "a.csv", "--popsize", "2"]))
+        fit_arguments(p.parse_args(["--wheels", "a.csv", "--popsize", "2"]))
 
 
 def test_no_checks_switches_the_checks_off(tmp_path: Path) -> None:

@@ -10,15 +10,16 @@ from terrain_odom.cli.main import main
 
 @pytest.fixture(scope="module")
 def icr_params(examples_dir, tmp_path_factory):
-    out = tmp_path_factory.mktemp("fit") / "icr.yaml"
-    args = ["fit", "--model", "icr", "--log", str(examples_dir / "demo_log.csv")]
+    """Return the --out folder of a fit: params_icr.yaml (a folder run and evaluate take)."""
+    out = tmp_path_factory.mktemp("fit")
+    args = ["fit", "--model", "icr", "--wheels", str(examples_dir / "demo_log.csv")]
     args += ["--config", str(examples_dir / "demo.yaml"), "--maxiter", "30", "--out", str(out)]
     assert main(args) == 0
     return out
 
 
 def test_the_file_records_wheel_radius_track_width_and_pose_delay(icr_params):
-    data = yaml.safe_load(icr_params.read_text())
+    data = yaml.safe_load((icr_params / "params_icr.yaml").read_text())
     assert data["wheel_radius"] == 0.1 and data["track_width"] == 0.5 and data["pose_delay"] == 0.0
 
 
@@ -37,7 +38,7 @@ def test_evaluate_params_with_another_geometry_is_refused(
     icr_params, examples_dir, warthog_yaml, capsys
 ):
     capsys.readouterr()
-    args = ["evaluate", "--log", str(examples_dir / "demo_log.csv"), "--params", str(icr_params)]
+    args = ["evaluate", "--wheels", str(examples_dir / "demo_log.csv"), "--params", str(icr_params)]
     assert main([*args, "--config", str(warthog_yaml)]) == 2
     assert "fitted with robot.wheel_radius 0.1 m" in capsys.readouterr().err
     assert main([*args, "--config", str(examples_dir / "demo.yaml")]) == 0
@@ -45,8 +46,8 @@ def test_evaluate_params_with_another_geometry_is_refused(
 
 def test_prior_terrains_the_run_never_meets_are_reported(examples_dir, tmp_path, capsys):
     demo, config = examples_dir / "demo_log.csv", str(examples_dir / "demo.yaml")
-    priors = tmp_path / "priors.yaml"
-    fit = ["fit", "--model", "icr", "--by-terrain", "--log", str(demo), "--config", config]
+    priors = tmp_path / "priors"
+    fit = ["fit", "--model", "icr", "--by-terrain", "--wheels", str(demo), "--config", config]
     assert main([*fit, "--maxiter", "20", "--out", str(priors)]) == 0
     grass_only = tmp_path / "grass.csv"  # the demo's first 45 s: grass
     grass_only.write_text("".join(demo.read_text().splitlines(True)[:901]))

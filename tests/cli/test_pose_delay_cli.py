@@ -49,7 +49,7 @@ def test_run_and_evaluate_record_the_estimated_delay(files, capsys):
     timing = json.loads((out / "report.json").read_text())["time_calibration"]
     assert timing["estimated"] and timing["pose_delay_s"] == pytest.approx(0.2, abs=0.05)
     assert "pose delay:" in (out / "report.md").read_text()
-    assert main(["evaluate", "--log", str(log), "--run", str(out), *base]) == 0
+    assert main(["evaluate", "--wheels", str(log), "--run", str(out), *base]) == 0
     result = json.loads((out / "evaluation.json").read_text())
     assert result["time_calibration"]["pose_delay_s"] == pytest.approx(timing["pose_delay_s"])
 
@@ -84,8 +84,8 @@ def test_bad_pose_delay_is_a_one_line_error(files, capsys, command, value, messa
     tmp, log, _ = files
     args = {
         "run": ["--wheels", str(log), "--out", str(tmp / "r")],
-        "evaluate": ["--log", str(log)],
-        "fit": ["--log", str(log), "--model", "idd", "--out", str(tmp / "p.yaml")],
+        "evaluate": ["--wheels", str(log)],
+        "fit": ["--wheels", str(log), "--model", "idd", "--out", str(tmp / "p")],
     }[command]
     code = main([command, *args, "--pose-delay", value])
     err = capsys.readouterr().err
@@ -102,7 +102,7 @@ def test_auto_on_a_log_without_turning_is_a_one_line_error(tmp_path, capsys):
 
 def test_fit_applies_the_delay_to_every_log(files, capsys):
     tmp, log, config = files
-    args = ["fit", "--log", str(log), "--model", "icr", "--out", str(tmp / "p.yaml")]
+    args = ["fit", "--wheels", str(log), "--model", "icr", "--out", str(tmp / "p")]
     assert main([*args, "--config", str(config), "--pose-delay", "auto", "--popsize", "5",
                  "--maxiter", "5"]) == 0  # fmt: skip
     shown = re.search(

@@ -34,12 +34,12 @@ def test_the_run_writes_the_configuration_it_used_with_the_pose_delay_resolved(
 def test_evaluate_run_without_config_uses_the_runs(grass_run, warthog_yaml, tmp_path, capsys):
     log, out = grass_run
     capsys.readouterr()
-    base = ["evaluate", "--log", str(log), "--run", str(out)]
-    assert main([*base, "--out", str(tmp_path / "a.json")]) == 0
-    implicit = json.loads((tmp_path / "a.json").read_text())
-    explicit_args = ["--config", str(out / "config.yaml"), "--out", str(tmp_path / "b.json")]
+    base = ["evaluate", "--wheels", str(log), "--run", str(out)]
+    assert main([*base, "--out", str(tmp_path / "a")]) == 0
+    implicit = json.loads((tmp_path / "a" / "evaluation.json").read_text())
+    explicit_args = ["--config", str(out / "config.yaml"), "--out", str(tmp_path / "b")]
     assert main([*base, *explicit_args]) == 0
-    explicit = json.loads((tmp_path / "b.json").read_text())
+    explicit = json.loads((tmp_path / "b" / "evaluation.json").read_text())
     assert implicit["models"] == explicit["models"]
     ekf = implicit["models"]["ekf (online)"]["translation_m_per_m"]["median"]
     assert ekf < 0.06  # the run's geometry, not the built-in 0.1 m wheel radius
@@ -48,7 +48,7 @@ def test_evaluate_run_without_config_uses_the_runs(grass_run, warthog_yaml, tmp_
 def test_a_config_with_other_geometry_than_the_run_is_refused(grass_run, examples_dir, capsys):
     log, out = grass_run
     capsys.readouterr()
-    args = ["evaluate", "--log", str(log), "--run", str(out)]
+    args = ["evaluate", "--wheels", str(log), "--run", str(out)]
     assert main([*args, "--config", str(examples_dir / "demo.yaml")]) == 2
     err = capsys.readouterr().err.strip()
     assert "\n" not in err and "robot.wheel_radius 0.1 m" in err and "made with 0.3 m" in err

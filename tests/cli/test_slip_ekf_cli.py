@@ -34,7 +34,7 @@ def test_run_slip_ekf_then_evaluate(tmp_path, capsys):
     assert header[:8] == ["t", "x", "y", "yaw", "y_l", "y_r", "x_icr", "terrain"]
     assert "l6" in header and "std_l1" in header
     assert json.loads((out / "report.json").read_text())["estimator"] == "slip-ekf"
-    assert main(["evaluate", "--log", str(log), "--run", str(out), "--config", str(config)]) == 0
+    assert main(["evaluate", "--wheels", str(log), "--run", str(out), "--config", str(config)]) == 0
     text = capsys.readouterr().out
     assert "slip-ekf (online)" in text and "2-s prediction" in text
     result = json.loads((out / "evaluation.json").read_text())["prediction_2s"]["models"]

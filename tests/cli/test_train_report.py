@@ -70,8 +70,8 @@ def test_train_prints_counts_and_accuracy_and_writes_a_model(tmp_path, capsys):
 def test_train_options_override_the_config_file(tmp_path, capsys):
     root = make_folder(tmp_path / "images", per_class=4)
     config = tmp_path / "c.yaml"
-    config.write_text("weights: uniform\nk: 1\n")
-    args = ["train", "--images", str(root), "--out", str(tmp_path / "m.npz"), "--jobs", "1"]
+    config.write_text("classifier: {weights: uniform, k: 1}\n")
+    args = ["train", "--images", str(root), "--out", str(tmp_path / "m"), "--jobs", "1"]
     args += [
         "--config",
         str(config),
@@ -89,7 +89,7 @@ def test_train_options_override_the_config_file(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "4-fold cross-validated" in out  # fewer images than 5 folds
     assert "tiles=2 min_tile_size=24" in out
-    model = load_classifier(tmp_path / "m.npz")
+    model = load_classifier(tmp_path / "m" / "classifier.npz")
     cfg = model.cfg
     assert (cfg.features, cfg.scale, cfg.k, cfg.tiles, cfg.min_tile_size, cfg.weights) == (
         "sfta",
@@ -215,7 +215,7 @@ def test_single_class_is_one_line_exit_2_without_traceback(tmp_path):
         for path in (root / name).iterdir():
             path.unlink()
         (root / name).rmdir()
-    proc = run_process("train", "--images", root, "--out", tmp_path / "m.npz")
+    proc = run_process("train", "--images", root, "--out", tmp_path / "m")
     assert proc.returncode == 2
     assert proc.stderr.count("\n") == 1 and "Traceback" not in proc.stderr
     assert "at least 2 classes, found ['grass']" in proc.stderr
@@ -240,13 +240,14 @@ def test_train_errors_exit_2(tmp_path, capsys):
     root = make_folder(tmp_path / "images", per_class=2)
     (root / "asphalt").mkdir()
     args = ["train", "--images", str(root), "--jobs", "1", "--out"]
-    assert main([*args, str(tmp_path / "m.npz")]) == 2
+    assert main([*args, str(tmp_path / "m")]) == 2
     assert "class 'asphalt' has no images" in capsys.readouterr().err
     (root / "asphalt").rmdir()
-    assert main([*args, str(tmp_path / "no" / "m.npz")]) == 2
-    assert "directory does not exist" in capsys.readouterr().err
-    assert main([*args, str(tmp_path)]) == 2
-    assert "is a directory" in capsys.readouterr().err
+    assert main([*args, str(tmp_path / "no" / "m.npz")]) == 2  # the old form: a file
+    assert "m.npz: its folder does not exist" in capsys.readouterr().err
+    (tmp_path / "file").write_text("")
+    assert main([*args, str(tmp_path / "file")]) == 2
+    assert "file: is a file, not an output folder" in capsys.readouterr().err
 
 
 def test_indoor_surface_accuracy_acceptance(indoor_dir):

@@ -1,7 +1,7 @@
 """Property-based tests of the configuration loaders (:mod:`terrain_odom.config.loader`).
 
 Whatever a YAML file holds, :func:`~terrain_odom.config.load_config` and
-:func:`~terrain_odom.config.classifier.load_classifier_config` give a
+:func:`~terrain_odom.config.loader.load_classifier_config` give a
 configuration or a :class:`~terrain_odom.errors.ConfigError`, never another
 exception.
 """
@@ -18,8 +18,8 @@ import yaml
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from terrain_odom.config import Config, load_config
-from terrain_odom.config.classifier import ClassifierConfig, load_classifier_config
+from terrain_odom.config import Config, load_classifier_config, load_config
+from terrain_odom.config.classifier import ClassifierConfig
 from terrain_odom.errors import ConfigError
 
 FUZZ = settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])

@@ -93,7 +93,7 @@ def test_stitched_run_and_evaluate_through_the_cli(tmp_path, capsys, drive_dir):
         ("grass", "asphalt")
     ]
     assert report["terrain_changes"][0]["t"] == pytest.approx(113.95, abs=0.1)
-    assert main(["evaluate", "--config", str(WARTHOG), "--run", str(out), "--log", log]) == 0
+    assert main(["evaluate", "--config", str(WARTHOG), "--run", str(out), "--wheels", log]) == 0
     models = json.loads((out / "evaluation.json").read_text())["models"]
     ekf = models["ekf (online)"]["translation_m_per_m"]["median"]
     idd = models["idd (B=1.08 m)"]["translation_m_per_m"]["median"]

@@ -44,13 +44,14 @@ def logs(tmp_path_factory):
 
 
 def test_fit_writes_parameters_and_held_out_errors(logs, tmp_path, capsys):
-    out = tmp_path / "p.yaml"
+    out = tmp_path / "p" / "params_edd-sym.yaml"
     code, text, err = run_main(
-        capsys, "fit", "--model", "edd-sym", "--log", logs["grass", "train"],
-        "--eval", logs["grass", "eval"], "--out", out, *FAST,
+        capsys, "fit", "--model", "edd-sym", "--wheels", logs["grass", "train"],
+        "--eval", logs["grass", "eval"], "--out", out.parent, *FAST,
     )  # fmt: skip
     assert code == 0, err
     assert "fitted in" in text and "m/m" in text
+    assert text.splitlines()[-1] == f"parameters: {out}"
     mp = read_params(out)
     np.testing.assert_allclose(mp.vector(), [0.9, 1.8], atol=0.02)
     data = yaml.safe_load(out.read_text())
@@ -63,9 +64,9 @@ def test_fit_writes_parameters_and_held_out_errors(logs, tmp_path, capsys):
 
 
 def test_fit_sigma_and_time_horizon_are_recorded(logs, tmp_path, capsys):
-    out = tmp_path / "p.yaml"
+    out = tmp_path / "params_edd-sym.yaml"
     code, _, err = run_main(
-        capsys, "fit", "--model", "edd-sym", "--log", logs["grass", "train"], "--out", out,
+        capsys, "fit", "--model", "edd-sym", "--wheels", logs["grass", "train"], "--out", tmp_path,
         "--horizon", "3s", "--sigma", "0.1", "0.1", "0.05", "--seed", "3", *FAST,
     )  # fmt: skip
     assert code == 0, err
@@ -74,18 +75,20 @@ def test_fit_sigma_and_time_horizon_are_recorded(logs, tmp_path, capsys):
     assert data["fit"]["duration_s"] >= 3.0 * data["fit"]["segments"]
     np.testing.assert_allclose(read_params(out).vector(), [0.9, 1.8], atol=0.02)
     code, text, err = run_main(
-        capsys, "fit", "--model", "edd-sym", "--log", logs["grass", "train"], "--out", out,
+        capsys, "fit", "--model", "edd-sym", "--wheels", logs["grass", "train"], "--out", tmp_path,
         "--sigma", "0.1", "0", "0.1",
     )  # fmt: skip
     assert_one_line_error(code, text, err, "--sigma", "> 0")
 
 
 def test_fit_by_terrain_and_evaluate_with_the_matching_set(logs, tmp_path, capsys):
-    out = tmp_path / "terrains.yaml"
+    folder = tmp_path / "terrains"
+    out = folder / "params_icr-slip.yaml"
     train = [logs["grass", "train"], logs["asphalt", "train"]]
     code, text, err = run_main(
-        capsys, "fit", "--model", "icr-slip", "--by-terrain", "--log", *train, "--out", out, *FAST
-    )
+        capsys, "fit", "--model", "icr-slip", "--by-terrain", "--wheels", *train, "--out", folder,
+        *FAST,
+    )  # fmt: skip
     assert code == 0, err
     assert "[grass]" in text and "[asphalt]" in text
     mp = read_params(out)
@@ -96,12 +99,12 @@ def test_fit_by_terrain_and_evaluate_with_the_matching_set(logs, tmp_path, capsy
     derived = yaml.safe_load(out.read_text())["terrains"]["grass"]["derived"]
     assert derived["steering_efficiency"] == pytest.approx(1.8 / 0.5, abs=0.1)
     code, text, err = run_main(
-        capsys, "evaluate", "--log", logs["asphalt", "eval"], "--params", out,
-        "--out", tmp_path / "e.json",
+        capsys, "evaluate", "--wheels", logs["asphalt", "eval"], "--params", folder,
+        "--out", tmp_path / "e",
     )  # fmt: skip
     assert code == 0, err
-    result = json.loads((tmp_path / "e.json").read_text())
-    entry = result["models"]["icr-slip (terrains.yaml)"]
+    result = json.loads((tmp_path / "e" / "evaluation.json").read_text())
+    entry = result["models"]["icr-slip (params_icr-slip.yaml)"]
     assert entry["translation_m_per_m"]["median"] < 0.01
 
 
@@ -109,8 +112,8 @@ def test_evaluate_per_terrain_file_on_an_unknown_terrain(logs, tmp_path, capsys)
     params = tmp_path / "grass_only.yaml"
     write_params(params, ModelParams("edd-sym", {"grass": ParamSet({"alpha": 0.9, "b_hat": 1.8})}))
     code, out, err = run_main(
-        capsys, "evaluate", "--log", logs["asphalt", "eval"], "--params", params,
-        "--out", tmp_path / "e.json",
+        capsys, "evaluate", "--wheels", logs["asphalt", "eval"], "--params", params,
+        "--out", tmp_path / "e",
     )  # fmt: skip
     assert_one_line_error(code, out, err, "asphalt_eval.csv", "terrain 'asphalt'", "['grass']")
 
@@ -120,7 +123,7 @@ def test_compare_writes_tables_plot_and_parameter_files(logs, tmp_path, capsys):
     train = [logs["grass", "train"], logs["asphalt", "train"]]
     evals = [logs["grass", "eval"], logs["asphalt", "eval"]]
     code, text, err = run_main(
-        capsys, "compare", "--log", *train, "--eval", *evals, "--by-terrain",
+        capsys, "compare", "--wheels", *train, "--eval", *evals, "--by-terrain",
         "--models", "idd", "edd-sym", "icr", "--out", out, *FAST,
     )  # fmt: skip
     assert code == 0, err
@@ -144,20 +147,20 @@ def test_bad_input_is_one_line_and_exit_2(logs, tmp_path, capsys):
     no_terrain = tmp_path / "no_terrain.csv"
     write_wheel_log(no_terrain, constant_model_log("edd-sym", [0.9, 1.8], seconds=10.0))
     grass = logs["grass", "train"]
-    out = tmp_path / "p.yaml"
+    out = tmp_path / "p"
     cases = [
-        (["--log", no_pose], ["no_pose.csv", "no pose measurements"]),
-        (["--log", grass, "--horizon", "2x"], ["horizon '2x'", "'2m' or '2s'"]),
-        (["--log", no_terrain, "--by-terrain"], ["no_terrain.csv", "no terrain column"]),
-        (["--log", grass, "--horizon", "500m"], ["no training segment of 500m", "shorter"]),
-        (["--log", tmp_path / "missing.csv"], ["missing.csv"]),
+        (["--wheels", no_pose], ["no_pose.csv", "no pose measurements"]),
+        (["--wheels", grass, "--horizon", "2x"], ["horizon '2x'", "'2m' or '2s'"]),
+        (["--wheels", no_terrain, "--by-terrain"], ["no_terrain.csv", "no terrain column"]),
+        (["--wheels", grass, "--horizon", "500m"], ["no training segment of 500m", "shorter"]),
+        (["--wheels", tmp_path / "missing.csv"], ["missing.csv"]),
     ]
     for extra, fragments in cases:
         code, text, err = run_main(capsys, "fit", "--model", "edd-sym", "--out", out, *extra)
         assert_one_line_error(code, text, err, *fragments)
     assert not out.exists()
     with pytest.raises(SystemExit) as exc:
-        main(["fit", "--model", "magic", "--log", str(grass), "--out", str(out)])
+        main(["fit", "--model", "magic", "--wheels", str(grass), "--out", str(out)])
     assert exc.value.code == 2
     assert "invalid choice: 'magic'" in capsys.readouterr().err
 

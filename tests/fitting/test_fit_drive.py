@@ -38,8 +38,7 @@ def test_roc_on_real_grass_is_flagged_at_its_beta_2_bound(
     from terrain_odom.cli.main import main
 
     logs = [str(p) for p in sorted(drive_dir.glob("warthog_wheels_grass*.csv"))]
-    out = tmp_path / "roc.yaml"
-    args = ["fit", "--model", "roc", "--log", *logs, "--config", str(warthog_yaml)]
-    assert main([*args, "--out", str(out)]) == 0
+    args = ["fit", "--model", "roc", "--wheels", *logs, "--config", str(warthog_yaml)]
+    assert main([*args, "--out", str(tmp_path)]) == 0
     assert "at a search bound: beta_2" in capsys.readouterr().out
-    assert "at_bounds: [beta_2]" in out.read_text()
+    assert "at_bounds: [beta_2]" in (tmp_path / "params_roc.yaml").read_text()

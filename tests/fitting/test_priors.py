@@ -54,9 +54,9 @@ def files(tmp_path_factory):
             train[-1],
             constant_model_log("icr-slip", truth, seconds=60.0, seed=seed, terrain=terrain),
         )
-    priors = folder / "priors.yaml"
-    argv = ["fit", "--model", "icr-slip", "--by-terrain", "--popsize", "8", "--out", priors]
-    assert main([str(a) for a in [*argv, "--log", *train]]) == 0
+    argv = ["fit", "--model", "icr-slip", "--by-terrain", "--popsize", "8", "--out", folder]
+    assert main([str(a) for a in [*argv, "--wheels", *train]]) == 0
+    priors = folder / "params_icr-slip.yaml"
     grass, gravel = (
         constant_model_log("icr-slip", truth, seconds=40.0, seed=seed, terrain=terrain)
         for seed, (terrain, truth) in enumerate(TRUTH.items(), start=10)

@@ -68,7 +68,7 @@ def test_default_model_is_package_data_and_loads():
 
 def test_missing_default_model_is_an_input_error(tmp_path):
     missing = tmp_path / "default.npz"
-    with pytest.raises(InputFileError, match="pass --model") as info:
+    with pytest.raises(InputFileError, match="pass --classifier") as info:
         default_model(missing)
     assert str(missing) in str(info.value)
 

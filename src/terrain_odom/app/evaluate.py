@@ -10,8 +10,10 @@ from typing import Any
 
 import numpy as np
 
+from terrain_odom.app.locate import check_out, create_folder, output_file
 from terrain_odom.app.plots import EVALUATION_PLOTS, PLOTS_DIR, write_evaluation_plots
-from terrain_odom.app.run import TRAJECTORY_CSV, read_calibrated_log, run_config
+from terrain_odom.app.run import read_calibrated_log, run_config
+from terrain_odom.app.run_folder import TRAJECTORY_CSV, check_complete
 from terrain_odom.config import Config, RobotConfig, load_config
 from terrain_odom.errors import ConfigError, InputFileError
 from terrain_odom.estimation.time_offset import TimeCalibration
@@ -41,7 +43,12 @@ from terrain_odom.kinematics import get_model, twist_icr
 from terrain_odom.kinematics.slip import SlipModel, param_names
 from terrain_odom.records import WheelLog
 
-__all__ = ["ModelErrors", "EvaluationResult", "evaluate"]
+__all__ = ["EVALUATION_JSON", "JSON_SUFFIXES", "ModelErrors", "EvaluationResult", "evaluate"]
+
+EVALUATION_JSON = "evaluation.json"
+"""The file :func:`evaluate` writes into its ``out`` folder (or ``run_dir``)."""
+JSON_SUFFIXES = (".json",)
+"""Suffixes by which ``out`` names the file itself (the old form)."""
 
 RowsTwist = tuple[np.ndarray, np.ndarray, np.ndarray]
 """Per-row body twist ``(v_x, v_y, omega)`` of a model, m/s and rad/s."""
@@ -210,8 +217,8 @@ def _params_model(
 
 def _output_path(out: str | Path | None, run_dir: str | Path | None) -> Path | None:
     if out is not None:
-        return Path(out)
-    return Path(run_dir) / "evaluation.json" if run_dir else None
+        return output_file(out, EVALUATION_JSON, JSON_SUFFIXES)
+    return Path(run_dir) / EVALUATION_JSON if run_dir else None
 
 
 def _evaluation_config(
@@ -265,7 +272,8 @@ def evaluate(
     Parameters
     ----------
     run_dir : str or Path, optional
-        Output directory of :func:`run` on the same log.
+        Output directory of :func:`run` on the same log; refused unless the
+        run completed (:func:`~terrain_odom.app.run_folder.check_complete`).
     wheels : str or Path
         The wheel log with pose measurements.
     config, config_path : optional
@@ -276,7 +284,8 @@ def evaluate(
     horizon : float, optional
         Evaluation horizon ``h_e``, m; ``config.evaluation.horizon`` if omitted.
     out : str or Path, optional
-        Where to write the JSON result; ``run_dir/evaluation.json`` by default.
+        Folder (created) to write ``evaluation.json`` into; ``run_dir`` by
+        default. A name ending in ``.json`` is the file itself (the old form).
         ``InputFileError`` before anything is read if it is an input.
 
     Returns
@@ -285,7 +294,11 @@ def evaluate(
         Per model: translational (m/m) and angular (deg/m) error statistics
         and dead-reckoning ATE (m); 2-s prediction errors.
     """
+    if run_dir is not None:
+        check_complete(run_dir)
     target = _output_path(out, run_dir)
+    if out is not None:
+        check_out(out, JSON_SUFFIXES)
     if target is not None:
         trajectory = None if run_dir is None else Path(run_dir) / TRAJECTORY_CSV
         plots = [target.parent / PLOTS_DIR / name for name in EVALUATION_PLOTS]
@@ -318,6 +331,8 @@ def evaluate(
     )
     if target is None:
         return result
+    if out is not None:
+        create_folder(out, JSON_SUFFIXES)
     write_json(target, result.to_dict())
     errors = {name: m.windows for name, m in models.items() if m.windows is not None}
     plots = write_evaluation_plots(target.parent / PLOTS_DIR, log, errors, h_e)

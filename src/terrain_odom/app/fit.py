@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from terrain_odom import __version__
+from terrain_odom.app.locate import check_out, create_folder, output_file
 from terrain_odom.app.run import calibrate_log
 from terrain_odom.config import Config, load_config
 from terrain_odom.errors import ConfigError, InputFileError
@@ -67,6 +68,8 @@ __all__ = [
     "fit",
     "evaluate_params",
     "compare",
+    "params_file_name",
+    "YAML_SUFFIXES",
 ]
 
 LogSource = str | Path | WheelLog
@@ -74,6 +77,14 @@ LogSource = str | Path | WheelLog
 
 COMPARE_FILES = ("compare.md", "compare.json", "compare.png")
 """Files :func:`compare` writes into its ``out_dir`` (besides ``params_MODEL.yaml``)."""
+YAML_SUFFIXES = (".yaml", ".yml")
+"""Suffixes by which :func:`fit`'s ``out`` names the parameter file itself (the old form)."""
+
+
+def params_file_name(model: str) -> str:
+    """Return the name of a model's parameter file in an output folder: ``params_<model>.yaml``."""
+    return f"params_{model}.yaml"
+
 
 ALL = "all"  # group name of evaluation windows when fits are not per terrain
 
@@ -126,6 +137,8 @@ class FitReport:
     time_calibration : dict of str to TimeCalibration
         Per log (its ``source``): the pose delay applied (see
         ``config.time.pose_delay``).
+    output : Path or None
+        The parameter file written (None without ``out``).
     """
 
     params: ModelParams
@@ -133,6 +146,7 @@ class FitReport:
     skipped: tuple[str, ...] = ()
     evaluation: FitEvaluation | None = None
     time_calibration: dict[str, TimeCalibration] = field(default_factory=dict)
+    output: Path | None = None
 
     @property
     def seconds(self) -> dict[str, float]:
@@ -403,9 +417,11 @@ def fit(
     model : str
         A name from :data:`terrain_odom.kinematics.MODELS`.
     out : str or Path, optional
-        Parameter file to write (YAML, see :mod:`terrain_odom.io.params`);
-        ``InputFileError`` before anything is read if it is one of the logs
-        or ``config_path``.
+        Folder (created) to write the parameter file ``params_<model>.yaml``
+        into (YAML, see :mod:`terrain_odom.io.params`); a name ending in
+        ``.yaml`` or ``.yml`` is the file itself (the old form).
+        ``InputFileError`` before anything is read if the file is one of the
+        logs or ``config_path``.
     horizon : str, float or Horizon, optional
         Training horizon ``h_t``: a distance like ``"2m"`` (default 2 m) or a
         duration like ``"2s"``.
@@ -423,13 +439,15 @@ def fit(
     -------
     FitReport
     """
-    if out is not None:
-        check_outputs(_paths(logs, eval_logs, config_path), [out])
-    cfg = config if config is not None else load_config(config_path)
     try:
         m = get_model(model)
     except ValueError as exc:
         raise ConfigError(str(exc)) from None
+    target = None if out is None else output_file(out, params_file_name(m.name), YAML_SUFFIXES)
+    if out is not None and target is not None:
+        check_out(out, YAML_SUFFIXES)
+        check_outputs(_paths(logs, eval_logs, config_path), [target])
+    cfg = config if config is not None else load_config(config_path)
     h_t = _horizon(horizon)
     timing: dict[str, TimeCalibration] = {}
     train = _load(logs, cfg, "training", timing)
@@ -450,9 +468,10 @@ def fit(
     evaluation = _evaluate_fit(mp, evals, cfg.evaluation.horizon, b) if evals else None
     if evaluation is not None:
         mp = ModelParams(m.name, sets, b, {**info, "evaluation": evaluation.to_dict()})
-    if out is not None:
-        write_params(out, mp)
-    return FitReport(mp, fits, skipped, evaluation, timing)
+    if out is not None and target is not None:
+        create_folder(out, YAML_SUFFIXES)
+        write_params(target, mp)
+    return FitReport(mp, fits, skipped, evaluation, timing, target)
 
 
 def _evaluate_fit(
@@ -532,7 +551,7 @@ def compare(
         if name not in MODELS:
             raise ConfigError(f"unknown kinematic model {name!r}; choose from {sorted(MODELS)}")
     if out_dir is not None:
-        files = [f"params_{name}.yaml" for name in names] + list(COMPARE_FILES)
+        files = [params_file_name(name) for name in names] + list(COMPARE_FILES)
         check_outputs(_paths(logs, eval_logs, config_path), [Path(out_dir) / f for f in files])
     cfg = config if config is not None else load_config(config_path)
     h_t = _horizon(horizon)
@@ -556,7 +575,7 @@ def compare(
         errors = {g: summarize(e) for g, e in raw_errors[name].items()}
         results[name] = ModelComparison(mp, skipped, errors)
         if target is not None:
-            write_params(target / f"params_{name}.yaml", mp)
+            write_params(target / params_file_name(name), mp)
     report = CompareReport(
         training_logs=tuple(log.source for log in train),
         evaluation_logs=tuple(log.source for log in evals),
@@ -574,7 +593,7 @@ def compare(
         values = {n: {g: error_values(e) for g, e in raw_errors[n].items()} for n in names}
         fig = error_boxes_figure(values, h_e, "Held-out model error")
         write_atomic(png, lambda handle: save_png(fig, handle))
-        params = tuple(target / f"params_{name}.yaml" for name in names)
+        params = tuple(target / params_file_name(name) for name in names)
         report = dataclasses.replace(report, outputs=(md, js, png, *params))
     return report
 

@@ -20,7 +20,20 @@ from tqdm import tqdm
 
 from terrain_odom.app.frames import FRAME_COLUMNS, FramePipeline, FrameRecord, one_thread
 from terrain_odom.app.groundtruth import GroundTruthReport, groundtruth_section
-from terrain_odom.app.plots import PLOT_FILES, PLOTS_DIR, write_run_plots
+from terrain_odom.app.plots import write_run_plots
+from terrain_odom.app.run_folder import (
+    COMPLETE,
+    FRAMES_CSV,
+    REPORT_JSON,
+    REPORT_MD,
+    RUN_CONFIG,
+    RUN_FILES,
+    TRAJECTORY_CSV,
+    TRAJECTORY_TUM,
+    mark_interrupted,
+    mark_running,
+    prepare_folder,
+)
 from terrain_odom.config import Config, TimeConfig, config_to_dict, dump_config, load_config
 from terrain_odom.errors import ConfigError, InputFileError
 from terrain_odom.estimation.icr_ekf import IcrPriors
@@ -52,14 +65,6 @@ __all__ = [
     "run_config",
     "check_plausible",
 ]
-
-TRAJECTORY_CSV = "trajectory.csv"
-TRAJECTORY_TUM = "trajectory.tum"
-FRAMES_CSV = "frames.csv"
-REPORT_JSON = "report.json"
-RUN_CONFIG = "config.yaml"
-"""The configuration a run used, written into its folder."""
-REPORT_MD = "report.md"
 
 
 def images_config(images: str | Path) -> Path | None:
@@ -302,15 +307,6 @@ class FrameCounts:
     problems: tuple[str, ...]
 
 
-def _output_dir(out_dir: str | Path) -> Path:
-    """Create the output directory ``out_dir``; refuse a file of that name."""
-    out = Path(out_dir)
-    if out.exists() and not out.is_dir():
-        raise InputFileError(f"{out}: --out must be a directory, but a file of that name exists")
-    out.mkdir(parents=True, exist_ok=True)
-    return out
-
-
 def run(
     wheels: str | Path,
     out_dir: str | Path,
@@ -325,6 +321,7 @@ def run(
     groundtruth: str | Path | None = None,
     estimator: Estimator = "icr-ekf",
     priors: str | Path | None = None,
+    overwrite: bool = False,
 ) -> RunSummary:
     """Run the terrain-adaptive ICR EKF (or slip EKF) over a wheel log; write the results.
 
@@ -340,8 +337,12 @@ def run(
         recorded in ``report.json`` ``time_calibration``.
     out_dir : str or Path
         Output directory (created): ``trajectory.csv`` (streamed row by row),
-        ``trajectory.tum`` and ``report.json``; ``InputFileError`` if a file
-        to write is one of the inputs (:func:`~terrain_odom.io.paths.check_outputs`).
+        ``trajectory.tum`` and ``report.json`` (its ``status`` is
+        ``running``, then ``complete``, or ``interrupted`` if the run
+        stopped; :mod:`~terrain_odom.app.run_folder`); ``InputFileError`` if
+        a file to write is one of the inputs
+        (:func:`~terrain_odom.io.paths.check_outputs`) or the folder already
+        holds a run and ``overwrite`` is false.
     config : Config, optional
         Configuration; loaded from ``config_path`` (or the defaults) if omitted.
     config_path : str or Path, optional
@@ -380,6 +381,8 @@ def run(
         (``--by-terrain``), takes a terrain's set on each confirmed change
         to it (see :class:`~terrain_odom.estimation.icr_ekf.IcrEkf`).
         Not for ``slip-ekf``.
+    overwrite : bool
+        Replace a run already in ``out_dir``: its files are removed first.
 
     Returns
     -------
@@ -390,8 +393,8 @@ def run(
         wheels, config, config_path, terrain, images, model, groundtruth, estimator, priors
     )
     _check_run_outputs(out_dir, inputs, [wheels, groundtruth, priors], images)
-    out = _output_dir(out_dir)
-    config_yaml = _write_run_config(out, inputs.cfg, inputs.timing)
+    out = prepare_folder(out_dir, overwrite=overwrite)
+    config_yaml, read = _start(out, inputs, wheels, priors)
     odometry = OnlineOdometry(
         inputs.cfg,
         inputs.classifier,
@@ -401,7 +404,7 @@ def run(
         time_full_frame=inputs.gt is not None,
     )
     root = None if images is None else Path(images)
-    result, pipeline, records = _stream(inputs, odometry, out, root, progress)
+    result, pipeline, records = _stream(inputs, odometry, out, root, progress, read)
     log, states = inputs.log, result.states
     tum_path = out / TRAJECTORY_TUM
     write_tum(tum_path, log.t, *states[:, :3].T)
@@ -437,6 +440,19 @@ def run(
     )
 
 
+def _start(
+    out: Path, inputs: _Inputs, wheels: str | Path, priors: str | Path | None
+) -> tuple[Path, dict[str, str | None]]:
+    """Write ``config.yaml`` and a ``report.json`` saying the run has started.
+
+    Returns the configuration's path and the ``inputs`` section of the report.
+    """
+    config_yaml = _write_run_config(out, inputs.cfg, inputs.timing)
+    read = _report_inputs(inputs, wheels, priors)
+    mark_running(out, read)
+    return config_yaml, read
+
+
 def _write_reports(out: Path, report: dict[str, Any], plots: list[str]) -> tuple[Path, Path]:
     """Write ``report.json`` and ``report.md`` atomically; return their paths."""
     report_path, md_path = out / REPORT_JSON, out / REPORT_MD
@@ -459,9 +475,7 @@ def _check_run_outputs(
     read = [*files, inputs.config_path, inputs.model]
     if images is not None:
         read += [Path(images) / FRAMES_CSV, *(inputs.frames.files if inputs.frames else [])]
-    out = Path(out_dir)
-    names = (TRAJECTORY_CSV, TRAJECTORY_TUM, FRAMES_CSV, REPORT_JSON, REPORT_MD, RUN_CONFIG)
-    check_outputs(read, [out / n for n in names] + [out / PLOTS_DIR / n for n in PLOT_FILES])
+    check_outputs(read, [Path(out_dir) / name for name in RUN_FILES])
 
 
 def _score(
@@ -491,11 +505,17 @@ def _stream(
     out: Path,
     images: Path | None,
     progress: bool | None,
+    read: dict[str, str | None],
 ) -> tuple[OdometryResult, FramePipeline | None, list[FrameRecord]]:
-    """Stream the log through ``odometry``, writing ``trajectory.csv`` (and ``frames.csv``)."""
+    """Stream the log through ``odometry``, writing ``trajectory.csv`` (and ``frames.csv``).
+
+    If anything stops the stream, ``report.json`` says the run was
+    interrupted, with the rows written and the files ``read``.
+    """
     log = inputs.log
     names = odometry.names
     records: list[FrameRecord] = []
+    written = [0]  # rows handed to the writer
     bar = tqdm(total=len(log), unit="row", disable=None if progress is None else not progress)
     with contextlib.ExitStack() as stack:
         writer = stack.enter_context(
@@ -524,8 +544,17 @@ def _stream(
             values.update((f"std_{n}", s) for n, s in zip(names, row.std.tolist(), strict=True))
             writer.write(values)
             bar.update(1)
+            written[0] += 1
 
-        result = run_odometry(log, odometry, labels=inputs.labels, on_row=on_row, frames=pipeline)
+        try:
+            result = run_odometry(
+                log, odometry, labels=inputs.labels, on_row=on_row, frames=pipeline
+            )
+        except BaseException as exc:
+            stack.close()  # flush the rows streamed so far before saying how many
+            reason = "interrupted by the user" if isinstance(exc, KeyboardInterrupt) else repr(exc)
+            mark_interrupted(out, read, written[0], reason)
+            raise
     return result, pipeline, records
 
 
@@ -546,12 +575,9 @@ def _report(
         source = terrain.value if inputs.labels is not None else "none"
     return {
         **report_header("run"),
+        "status": COMPLETE,
         "estimator": estimator,
-        "inputs": {
-            "wheels": str(Path(wheels).resolve()),
-            "config": path_or_none(inputs.config_path),
-            "priors": path_or_none(priors),
-        },
+        "inputs": _report_inputs(inputs, wheels, priors),
         "terrain_source": source,
         "config": config_to_dict(inputs.cfg),
         "time_calibration": inputs.timing.to_dict(),
@@ -567,6 +593,17 @@ def _report(
         "final_std": dict(zip(names, result.stds[-1].tolist(), strict=True)),
         "outputs": {"trajectory_csv": TRAJECTORY_CSV, "trajectory_tum": TRAJECTORY_TUM},
         "run_time_s": seconds,
+    }
+
+
+def _report_inputs(
+    inputs: _Inputs, wheels: str | Path, priors: str | Path | None
+) -> dict[str, str | None]:
+    """Return the ``inputs`` section of ``report.json``: the files a run read."""
+    return {
+        "wheels": path_or_none(wheels),
+        "config": path_or_none(inputs.config_path),
+        "priors": path_or_none(priors),
     }
 
 

@@ -13,7 +13,6 @@ from __future__ import annotations
 import csv
 import dataclasses
 import datetime
-import errno
 import io
 from dataclasses import dataclass
 from pathlib import Path
@@ -23,6 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 from sklearn.model_selection import StratifiedKFold
 
+from terrain_odom.app.locate import check_out, create_folder, output_file
 from terrain_odom.config.classifier import ClassifierConfig, paper_config
 from terrain_odom.errors import ConfigError, InputFileError
 from terrain_odom.io.atomic import write_atomic, write_text_atomic
@@ -37,6 +37,8 @@ from terrain_odom.vision.dataset import LabelledFeatures, SkippedImage, extract_
 
 __all__ = [
     "CV_SEED",
+    "MODEL_FILE",
+    "MODEL_SUFFIXES",
     "CrossValidation",
     "TrainSummary",
     "AccuracyReport",
@@ -48,6 +50,11 @@ __all__ = [
 
 CV_SEED = 0
 """Seed of the fold shuffling: every report uses the same folds."""
+
+MODEL_FILE = "classifier.npz"
+"""The model file :func:`train` writes into its ``out`` folder."""
+MODEL_SUFFIXES = (".npz",)
+"""Suffixes by which :func:`train`'s ``out`` names the model file itself (the old form)."""
 
 ACCURACY_FILES = ("accuracy.json", "accuracy.csv", "confusion.png")
 """Files :func:`report_accuracy` writes into its ``out_dir``."""
@@ -168,15 +175,6 @@ def feature_times_ms(data: LabelledFeatures) -> dict[str, dict[str, float]]:
     return out
 
 
-def _check_output_file(path: Path) -> None:
-    if path.is_dir():
-        raise IsADirectoryError(
-            errno.EISDIR, "is a directory, expected a model file name", str(path)
-        )
-    if not path.parent.is_dir():
-        raise FileNotFoundError(errno.ENOENT, "directory does not exist", str(path.parent))
-
-
 @dataclass(frozen=True)
 class TrainSummary:
     """What :func:`train` did.
@@ -216,8 +214,9 @@ def train(
     images : str or Path
         Folder with one sub-folder of images per terrain class.
     out : str or Path
-        Model file to write (``.npz``, see
-        :func:`~terrain_odom.io.classifier_file.save_classifier`).
+        Folder (created) to write the model file :data:`MODEL_FILE` into (see
+        :func:`~terrain_odom.io.classifier_file.save_classifier`); a name
+        ending in ``.npz`` is the model file itself (the old form).
     cfg : ClassifierConfig, optional
         Default: :class:`ClassifierConfig`.
     folds : int
@@ -242,16 +241,17 @@ def train(
         ``k`` larger than the number of training samples.
     """
     cfg = ClassifierConfig() if cfg is None else cfg
-    out = Path(out)
-    _check_output_file(out)
+    target = output_file(out, MODEL_FILE, MODEL_SUFFIXES)
+    check_out(out, MODEL_SUFFIXES)
     scan = scan_image_folder(images)
-    check_outputs([*scan.paths, config_path], [out])
+    check_outputs([*scan.paths, config_path], [target])
     data = extract_feature_sets(scan, [cfg], read=read_image_rgb, jobs=jobs, progress=progress)[0]
     model = TerrainClassifier(cfg).fit(data.features, data.labels, data.region)
     folds = min(folds, *data.counts().values())
     validation = cross_validate(data, folds=folds) if folds >= 2 else None
-    save_classifier(model, out)
-    return TrainSummary(out, cfg, data.counts(), data.skipped, validation)
+    create_folder(out, MODEL_SUFFIXES)
+    save_classifier(model, target)
+    return TrainSummary(target, cfg, data.counts(), data.skipped, validation)
 
 
 @dataclass(frozen=True)

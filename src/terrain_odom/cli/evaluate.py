@@ -11,10 +11,13 @@ from terrain_odom.cli.options import (
     add_config_option,
     add_log_options,
     add_out_option,
-    check_horizon,
+    add_wheels_option,
+    find_input,
+    horizon_option,
     load_config_option,
     print_pose_delay,
     print_written,
+    warn_out_file,
 )
 
 if TYPE_CHECKING:
@@ -24,12 +27,23 @@ if TYPE_CHECKING:
 def add_parser(sub: argparse._SubParsersAction) -> None:
     """Register the ``evaluate`` subcommand."""
     p = sub.add_parser("evaluate", help="model-odometry error per metre and ATE")
-    p.add_argument("--log", required=True, help="wheel log CSV with pose measurements")
-    p.add_argument("--run", help="output directory of 'terrain-odom run' on this log")
-    p.add_argument("--params", nargs="*", default=[], help="parameter files of constant models")
-    add_config_option(p, "YAML configuration (robot geometry, horizon)")
-    p.add_argument("--horizon", type=float, help="evaluation horizon h_e in metres (default 2)")
-    add_out_option(p, "JSON output (default RUN/evaluation.json)")
+    add_wheels_option(p, "wheel log CSV with pose measurements")
+    p.add_argument("--run", metavar="DIR", help="output folder of 'terrain-odom run' on this log")
+    p.add_argument(
+        "--params",
+        nargs="*",
+        default=[],
+        metavar="FILE_OR_DIR",
+        help="parameter files of constant models, or --out folders of 'terrain-odom fit'",
+    )
+    add_config_option(p, "project configuration (robot geometry, horizon)")
+    p.add_argument(
+        "--horizon",
+        metavar="H",
+        help="evaluation horizon h_e: a distance like 2m (bare 2: metres; default: the "
+        "configuration's evaluation.horizon, 2 m)",
+    )
+    add_out_option(p, "folder for evaluation.json (created; default: the --run folder)")
     add_log_options(p)
     p.set_defaults(func=_cmd_evaluate)
 
@@ -70,15 +84,17 @@ def _run_config(args: argparse.Namespace) -> Path | None:
 
 
 def _cmd_evaluate(args: argparse.Namespace) -> int:
-    from terrain_odom.app.evaluate import evaluate
+    from terrain_odom.app.evaluate import JSON_SUFFIXES, evaluate
 
+    horizon = horizon_option(args.horizon, durations=False)
+    warn_out_file(args.out, JSON_SUFFIXES)
     result = evaluate(
         args.run,
-        args.log,
+        args.wheels,
         config=load_config_option(args, _run_config(args)),
         config_path=args.config,
-        params=args.params,
-        horizon=check_horizon(args.horizon),
+        params=[find_input(p, "params_*.yaml", "parameter file") for p in args.params],
+        horizon=None if horizon is None else horizon.value,
         out=args.out,
     )
     print(f"{result.windows} windows of {result.horizon:g} m on {result.log}")

@@ -11,6 +11,7 @@ from terrain_odom.cli.options import (
     add_out_option,
     fit_arguments,
     print_pose_delays,
+    warn_out_file,
 )
 
 if TYPE_CHECKING:
@@ -22,8 +23,14 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("fit", help="fit a constant kinematic model to logs with poses")
     add_fit_options(p)
     p.add_argument("--model", required=True, choices=MODEL_CHOICES, help="model to fit")
-    p.add_argument("--eval", nargs="+", default=[], help="held-out logs to evaluate the fit on")
-    add_out_option(p, "parameter file to write (YAML)", required=True)
+    p.add_argument(
+        "--eval",
+        nargs="+",
+        default=[],
+        metavar="LOG",
+        help="held-out logs to evaluate the fit on",
+    )
+    add_out_option(p, "folder (created) for the parameter file params_MODEL.yaml", required=True)
     p.set_defaults(func=_cmd_fit)
 
 
@@ -62,12 +69,13 @@ def _print_evaluation(ev: FitEvaluation) -> None:
 
 
 def _cmd_fit(args: argparse.Namespace) -> int:
-    from terrain_odom.app.fit import fit
+    from terrain_odom.app.fit import YAML_SUFFIXES, fit
 
-    report = fit(args.log, args.model, out=args.out, eval_logs=args.eval, **fit_arguments(args))
+    warn_out_file(args.out, YAML_SUFFIXES)
+    report = fit(args.wheels, args.model, out=args.out, eval_logs=args.eval, **fit_arguments(args))
     print_pose_delays(report.time_calibration)
     _print_sets(report)
     if report.evaluation is not None:
         _print_evaluation(report.evaluation)
-    print(f"parameters: {args.out}")
+    print(f"parameters: {report.output}")
     return 0

@@ -15,11 +15,22 @@ import sys
 from collections.abc import Sequence
 
 from terrain_odom import __version__
-from terrain_odom.cli import compare, evaluate, fit, report, run, simulate, train
+from terrain_odom.cli import (
+    bag_import,
+    compare,
+    evaluate,
+    fit,
+    inspect,
+    report,
+    run,
+    simulate,
+    train,
+)
+from terrain_odom.cli.options import warn_deprecated_spellings
 from terrain_odom.errors import TerrainOdomError
 
 # One module per subcommand, each with ``add_parser(subparsers)``.
-SUBCOMMANDS = (run, evaluate, train, report, simulate, fit, compare)
+SUBCOMMANDS = (run, evaluate, train, report, simulate, fit, compare, inspect, bag_import)
 
 EXIT_USAGE = 2
 EXIT_INTERRUPTED = 130
@@ -41,8 +52,9 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; returns the exit code."""
     parser = build_parser()
-    args = parser.parse_args(argv)
     try:
+        args = parser.parse_args(argv)  # two spellings of one option: a ConfigError
+        warn_deprecated_spellings(args)
         return args.func(args)
     except TerrainOdomError as exc:
         print(f"terrain-odom: error: {exc}", file=sys.stderr)

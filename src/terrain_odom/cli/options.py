@@ -1,11 +1,17 @@
-"""Options shared by several subcommands, and their loading.
+"""Options shared by several subcommands, and their loading: one grammar.
 
-``--config`` (the YAML configuration), ``--pose-delay`` (and the line that
-reports the delay applied), ``--out`` (and the lines naming the files
-written), the optimiser options of ``fit`` and
-``compare``, and the classifier options of ``train`` and ``report accuracy``.
-Heavy modules are imported inside the functions, so building the parser
-stays fast.
+One spelling per concept across the subcommands (the table at the top of
+``docs/cli.md``): ``--wheels`` (wheel logs), ``--eval`` (held-out logs),
+``--out`` (always a folder), ``--config`` (always the project
+configuration), ``--classifier`` (a classifier model), ``--model`` /
+``--models`` (kinematic models), ``--horizon`` (``2m``, ``2s``, bare
+metres; :func:`horizon_option`). Old spellings still parse for a release,
+through one mechanism (:func:`add_option`), each use printing a
+deprecation line. Also here: ``--pose-delay`` (and the line that reports
+the delay applied), the lines naming the files written, the optimiser
+options of ``fit`` and ``compare``, and the classifier options of ``train``
+and ``report accuracy``. Heavy modules are imported inside the functions,
+so building the parser stays fast.
 """
 
 from __future__ import annotations
@@ -13,9 +19,10 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import math
+import sys
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, TypedDict
+from typing import TYPE_CHECKING, Any, TypedDict, overload
 
 if TYPE_CHECKING:
     from terrain_odom.config import Config
@@ -25,16 +32,125 @@ if TYPE_CHECKING:
 
 MODEL_CHOICES = ("idd", "edd-sym", "edd-asym", "roc", "linear", "icr", "icr-slip")
 FEATURE_CHOICES = ("sfta", "sfta+lab", "sfta+hsv")
+REMOVED_IN = "0.3"
+"""The release that drops the deprecated spellings."""
+
+
+def warn_deprecated(old: str, new: str) -> None:
+    """Print the one deprecation line of an old spelling ``old`` (stderr)."""
+    print(
+        f"terrain-odom: warning: {old} is deprecated and will be removed in {REMOVED_IN}; "
+        f"use {new}",
+        file=sys.stderr,
+    )
+
+
+class _Spellings(argparse.Action):
+    """Store an option's value under any of its spellings; note the old ones used.
+
+    The new spelling is ``option_strings[0]``; the parser also dispatches the
+    old spellings here (see :func:`add_option`). Giving two spellings of the
+    same option is a :class:`~terrain_odom.errors.ConfigError` (one line).
+    The old spellings used are kept in the namespace for
+    :func:`warn_deprecated_spellings` (printed once parsing succeeded, so an
+    error stays one line).
+    """
+
+    def __init__(self, option_strings: Sequence[str], dest: str, **kwargs: Any) -> None:
+        super().__init__(option_strings, dest, **kwargs)
+        self.new = option_strings[0]
+
+    def __call__(
+        self,
+        parser: argparse.ArgumentParser,
+        namespace: argparse.Namespace,
+        values: Any,
+        option_string: str | None = None,
+    ) -> None:
+        from terrain_odom.errors import ConfigError
+
+        spelling = option_string or self.new
+        used: dict[str, tuple[str, str]] = vars(namespace).setdefault(_SPELLINGS, {})
+        _, first = used.setdefault(self.dest, (self.new, spelling))
+        if first != spelling:
+            old = first if first != self.new else spelling
+            raise ConfigError(
+                f"{old} and {self.new} given: {old} is the deprecated spelling of {self.new}; "
+                f"give {self.new} only"
+            )
+        setattr(namespace, self.dest, values)
+
+
+_SPELLINGS = "_spellings"
+"""Namespace attribute: option dest -> (new spelling, spelling used)."""
+
+
+def warn_deprecated_spellings(args: argparse.Namespace) -> None:
+    """Print one deprecation line per old spelling used in ``args`` (see :func:`add_option`)."""
+    for new, used in getattr(args, _SPELLINGS, {}).values():
+        if used != new:
+            warn_deprecated(used, new)
+
+
+def add_option(p: argparse.ArgumentParser, name: str, *old: str, **kwargs: Any) -> argparse.Action:
+    """Add option ``name`` (``add_argument`` keywords) with deprecated spellings ``old``.
+
+    The old spellings parse as ``name`` does, each printing one deprecation
+    line (:func:`warn_deprecated_spellings`, after parsing); ``--help`` and
+    the usage show ``name`` only; both spellings at once are a one-line error.
+    """
+    action = p.add_argument(name, *old, action=_Spellings, **kwargs)
+    action.option_strings = [name]  # the parser still maps the old spellings to this action
+    return action
 
 
 def add_config_option(p: argparse.ArgumentParser, help: str) -> None:
-    """Add ``--config`` (a YAML file; what it configures is told by ``help``)."""
-    p.add_argument("--config", help=help)
+    """Add ``--config`` (the project configuration; what the subcommand uses of it: ``help``)."""
+    p.add_argument("--config", metavar="YAML", help=help)
 
 
 def add_out_option(p: argparse.ArgumentParser, help: str, *, required: bool = False) -> None:
-    """Add ``--out`` (where the subcommand writes; told by ``help``)."""
-    p.add_argument("--out", required=required, help=help)
+    """Add ``--out`` (the folder the subcommand writes into; told by ``help``)."""
+    p.add_argument("--out", metavar="DIR", required=required, help=help)
+
+
+def add_wheels_option(
+    p: argparse.ArgumentParser, help: str, *, many: bool = False, old: Sequence[str] = ("--log",)
+) -> None:
+    """Add ``--wheels`` (the wheel log, or logs if ``many``; deprecated spellings ``old``)."""
+    nargs = "+" if many else None
+    add_option(p, "--wheels", *old, nargs=nargs, required=True, metavar="LOG", help=help)
+
+
+def warn_out_file(out: str | None, suffixes: Sequence[str]) -> None:
+    """Print the deprecation line if ``--out`` names a file (the old form).
+
+    ``--out DIR`` is a folder; a name ending in one of ``suffixes`` (the
+    file's own, :func:`~terrain_odom.app.locate.names_a_file`) names the
+    file, as before.
+    """
+    from terrain_odom.app.locate import names_a_file
+
+    if out is not None and names_a_file(out, suffixes):
+        warn_deprecated(f"--out {Path(out).name}", "--out DIR (a folder)")
+
+
+@overload
+def find_input(path: str, pattern: str, kind: str) -> str: ...
+
+
+@overload
+def find_input(path: None, pattern: str, kind: str) -> None: ...
+
+
+def find_input(path: str | None, pattern: str, kind: str) -> str | None:
+    """Return the file an input option names: the file itself, or the one ``pattern`` in a folder.
+
+    See :func:`~terrain_odom.app.locate.find_input` (None passes).
+    """
+    from terrain_odom.app.locate import find_input as find
+
+    return None if path is None else str(find(path, pattern, kind))
 
 
 def print_written(label: str, paths: Sequence[Path | None]) -> None:
@@ -114,6 +230,51 @@ def _shows(timing: TimeCalibration) -> bool:
     return shows_pose_delay(timing.to_dict())
 
 
+def horizon_option(
+    text: str | None, *, durations: bool, option: str = "--horizon"
+) -> Horizon | None:
+    """Parse a command-line horizon: ``2m`` (distance), ``2s`` (duration), ``2`` (metres).
+
+    Parameters
+    ----------
+    text : str or None
+        The option's value (None, not given, passes).
+    durations : bool
+        Whether the subcommand takes a duration (``fit``, ``compare``) or
+        only a distance (``evaluate``, whose distance must also pass
+        :func:`check_horizon`).
+
+    Raises
+    ------
+    ConfigError
+        Malformed, not positive and finite, or a duration where only a
+        distance is taken.
+    """
+    from terrain_odom.errors import ConfigError
+    from terrain_odom.evaluation.windows import MIN_HORIZON
+    from terrain_odom.fitting import parse_horizon
+
+    if text is None:
+        return None
+    try:
+        horizon = parse_horizon(text)
+    except ValueError as exc:
+        if durations:
+            raise ConfigError(f"{option}: {exc}") from None
+        raise ConfigError(
+            f"{option}: must be a finite distance >= {MIN_HORIZON:g} m like 2m (or 2, metres), "
+            f"got {text!r}"
+        ) from None
+    if horizon.unit == "s" and not durations:
+        raise ConfigError(
+            f"{option}: {text!r} is a duration; this subcommand takes a distance like 2m "
+            "(or 2, metres)"
+        )
+    if not durations:
+        check_horizon(horizon.value, option)
+    return horizon
+
+
 def check_horizon(value: float | None, option: str = "--horizon") -> float | None:
     """Return a command-line horizon, m, or raise unless it is a finite distance >= 1 mm.
 
@@ -150,12 +311,12 @@ def check_seed(value: int, option: str = "--seed") -> int:
 
 def add_fit_options(p: argparse.ArgumentParser) -> None:
     """Add the options shared by ``fit`` and ``compare``."""
-    p.add_argument(
-        "--log", nargs="+", required=True, help="training wheel logs (CSV with x, y, yaw)"
-    )
+    add_wheels_option(p, "training wheel logs (CSV with x, y, yaw)", many=True)
     p.add_argument(
         "--horizon",
-        help="training segment length h_t: a distance like 2m (default) or a duration like 2s",
+        metavar="H",
+        help="training segment length h_t: a distance like 2m (default; bare 2: metres) "
+        "or a duration like 2s",
     )
     p.add_argument(
         "--by-terrain",
@@ -174,7 +335,7 @@ def add_fit_options(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument("--maxiter", type=int, help="most generations (300)")
     p.add_argument("--seed", type=int, help="seed of the optimiser, for reproducible fits (0)")
-    add_config_option(p, "YAML configuration (wheel radius, track width, h_e)")
+    add_config_option(p, "project configuration (wheel radius, track width, h_e)")
     add_log_options(p)
 
 
@@ -201,7 +362,7 @@ def fit_options(args: argparse.Namespace) -> FitOptions:
 class FitArguments(TypedDict):
     """The keyword arguments of ``fit`` and ``compare`` set by :func:`add_fit_options`."""
 
-    horizon: str | Horizon
+    horizon: Horizon
     by_terrain: bool
     options: FitOptions
     config: Config
@@ -213,7 +374,7 @@ def fit_arguments(args: argparse.Namespace) -> FitArguments:
     from terrain_odom.fitting import DEFAULT_TRAINING_HORIZON
 
     return {
-        "horizon": args.horizon or DEFAULT_TRAINING_HORIZON,
+        "horizon": horizon_option(args.horizon, durations=True) or DEFAULT_TRAINING_HORIZON,
         "by_terrain": args.by_terrain,
         "options": fit_options(args),
         "config": load_config_option(args),
@@ -228,8 +389,9 @@ def add_classifier_options(p: argparse.ArgumentParser) -> None:
     )
     add_config_option(
         p,
-        "classifier YAML: any of features, n_t, relative_counts, pyramid_levels, "
-        "scale, k, weights, tiles, min_tile_size, tile_size (default: built-in defaults)",
+        "project configuration: its classifier section (any of features, n_t, "
+        "relative_counts, pyramid_levels, scale, k, weights, tiles, min_tile_size, "
+        "tile_size; default: built-in defaults)",
     )
     p.add_argument(
         "--features",
@@ -258,8 +420,12 @@ def add_classifier_options(p: argparse.ArgumentParser) -> None:
 
 
 def classifier_config(args: argparse.Namespace) -> ClassifierConfig:
-    """Return the :class:`ClassifierConfig` of ``--config`` and the options that override it."""
-    from terrain_odom.config.classifier import load_classifier_config
+    """Return the :class:`ClassifierConfig` of ``--config`` and the options that override it.
+
+    ``--config``'s ``classifier`` section; a flat classifier YAML (its keys at
+    the top level, the old layout) is read too, with a deprecation line.
+    """
+    from terrain_odom.config import load_classifier_config
 
     overrides: dict[str, Any] = {
         name: getattr(args, name)
@@ -268,4 +434,11 @@ def classifier_config(args: argparse.Namespace) -> ClassifierConfig:
     }
     if args.no_scale:
         overrides["scale"] = False
-    return load_classifier_config(args.config, overrides)
+    return load_classifier_config(args.config, overrides, on_flat=_warn_flat)
+
+
+def _warn_flat(path: Path) -> None:
+    warn_deprecated(
+        f"a flat classifier YAML ({path})",
+        "--config with the classifier settings in a classifier: section",
+    )

@@ -22,7 +22,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     add_classifier_options(acc)
     acc.add_argument("--folds", type=int, default=5, help="cross-validation folds (default 5)")
-    add_out_option(acc, "folder for accuracy.json, accuracy.csv, confusion.png")
+    add_out_option(acc, "folder (created) for accuracy.json, accuracy.csv, confusion.png")
     acc.set_defaults(func=_cmd_accuracy)
 
 

@@ -5,27 +5,40 @@ from __future__ import annotations
 import argparse
 from typing import TYPE_CHECKING
 
+from terrain_odom.cli.bag_import import add_bag_topic_options, wheels_from_bag
 from terrain_odom.cli.options import (
     add_config_option,
     add_log_options,
+    add_option,
     add_out_option,
+    add_wheels_option,
+    find_input,
     load_config_option,
     print_pose_delay,
     print_written,
 )
 
 if TYPE_CHECKING:
+    from pathlib import Path
+
     from terrain_odom.app.run import FrameCounts
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     """Register the ``run`` subcommand."""
     p = sub.add_parser("run", help="EKF odometry over a wheel log (terrain-adaptive)")
-    p.add_argument("--wheels", required=True, help="wheel log CSV")
-    add_out_option(p, "output directory", required=True)
+    add_wheels_option(
+        p, "wheel log CSV, or a ROS bag with --wheels-topic", old=()
+    )  # run never had --log
+    add_out_option(p, "output folder (created; one run per folder)", required=True)
+    p.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="replace the run already in --out (its files are removed first; other files kept)",
+    )
     add_config_option(
         p,
-        "YAML configuration (default: IMAGES/config.yaml if --images has one, "
+        "project configuration (default: IMAGES/config.yaml if --images has one, "
         "else built-in defaults)",
     )
     p.add_argument(
@@ -33,10 +46,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help="folder of camera frames (frames.csv with t,file, or images named by their "
         "time in s): their classified terrain drives the reset; writes OUT/frames.csv",
     )
-    p.add_argument(
+    add_option(
+        p,
+        "--classifier",
         "--model",
-        help="terrain classifier model (from 'terrain-odom train'; default: the "
-        "default model shipped with the package)",
+        metavar="FILE_OR_DIR",
+        help="terrain classifier model, or the --out folder of 'terrain-odom train' "
+        "(default: the model shipped with the package)",
     )
     p.add_argument(
         "--no-roi", action="store_true", help="classify whole frames, not the region of interest"
@@ -61,12 +77,14 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument(
         "--priors",
-        metavar="PARAMS.yaml",
-        help="offline ICRs from 'terrain-odom fit --model icr|icr-slip' (icr-ekf only): the "
+        metavar="FILE_OR_DIR",
+        help="offline ICRs from 'terrain-odom fit --model icr|icr-slip' (its parameter file "
+        "or --out folder; icr-ekf only): the "
         "filter starts from them and, with --by-terrain sets, takes a terrain's set on "
         "each confirmed change to it (covariance ekf.sigma_prior)",
     )
     add_log_options(p)
+    add_bag_topic_options(p)
     terrain = p.add_mutually_exclusive_group()
     terrain.add_argument(
         "--terrain-from-log",
@@ -83,6 +101,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     import dataclasses
 
     from terrain_odom.app.run import TerrainSource, images_config, run
+    from terrain_odom.app.run_folder import prepare_folder
     from terrain_odom.errors import ConfigError
     from terrain_odom.io.classifier_file import default_model
 
@@ -94,21 +113,27 @@ def _cmd_run(args: argparse.Namespace) -> int:
         source = TerrainSource.AUTO
     if args.images is not None and args.terrain_from_log:
         raise ConfigError("--images and --terrain-from-log exclude each other")
-    config, model = args.config, args.model
+    if (
+        args.wheels_topic is not None
+    ):  # a bag is imported into OUT/bag/: refuse a run's folder first
+        prepare_folder(args.out, overwrite=args.overwrite)
+    wheels, bag_config = wheels_from_bag(args, args.out)
+    config = args.config or bag_config
+    model: str | Path | None = find_input(args.classifier, "*.npz", "classifier model")
     if args.images is not None and config is None:
         config = images_config(args.images)
         if config is not None:
             print(f"config:     {config} (found in the --images folder; --config to change)")
     if args.images is not None and not args.no_terrain and model is None:
         model = default_model()
-        print(f"model:      {model} (default; --model to change)")
+        print(f"model:      {model} (default; --classifier to change)")
     cfg = load_config_option(args, config)
     if args.reset_at is not None:
         cfg = dataclasses.replace(
             cfg, terrain=dataclasses.replace(cfg.terrain, reset_at=args.reset_at)
         )
     summary = run(
-        args.wheels,
+        wheels,
         args.out,
         config=cfg,
         config_path=config,
@@ -118,7 +143,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
         use_roi=not args.no_roi,
         groundtruth=args.groundtruth,
         estimator=args.estimator,
-        priors=args.priors,
+        priors=find_input(args.priors, "params_*.yaml", "parameter file"),
+        overwrite=args.overwrite,
     )
     print_pose_delay(summary.time_calibration)
     print(f"{summary.rows} rows in {summary.seconds:.2f} s")

@@ -5,7 +5,12 @@ from __future__ import annotations
 import argparse
 from typing import TYPE_CHECKING
 
-from terrain_odom.cli.options import add_classifier_options, add_out_option, classifier_config
+from terrain_odom.cli.options import (
+    add_classifier_options,
+    add_out_option,
+    classifier_config,
+    warn_out_file,
+)
 
 if TYPE_CHECKING:
     from terrain_odom.config.classifier import ClassifierConfig
@@ -38,13 +43,14 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     """Register the ``train`` subcommand."""
     p = sub.add_parser("train", help="train the terrain classifier on labelled images")
     add_classifier_options(p)
-    add_out_option(p, "model file to write (.npz)", required=True)
+    add_out_option(p, "folder (created) for the model file classifier.npz", required=True)
     p.set_defaults(func=_cmd_train)
 
 
 def _cmd_train(args: argparse.Namespace) -> int:
-    from terrain_odom.app.train import train
+    from terrain_odom.app.train import MODEL_SUFFIXES, train
 
+    warn_out_file(args.out, MODEL_SUFFIXES)
     summary = train(
         args.images, args.out, classifier_config(args), jobs=args.jobs, config_path=args.config
     )

@@ -2,21 +2,20 @@
 
 :class:`ClassifierConfig` is a frozen dataclass validated by
 :func:`~terrain_odom.config.fields.build_section` like every section of the
-run configuration; :func:`paper_config` is Chen et al.'s recipe (2023,
-§3.2.3) and :func:`load_classifier_config` reads a classifier YAML file. What
+run configuration (it is the ``classifier`` section of
+:class:`~terrain_odom.config.sections.Config`); :func:`paper_config` is Chen
+et al.'s recipe (2023, §3.2.3), and
+:func:`~terrain_odom.config.loader.load_classifier_config` reads the settings
+of a configuration file. What
 the settings do is described in :mod:`terrain_odom.vision.classifier` and
 :mod:`terrain_odom.vision.features`.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-from dataclasses import dataclass
-from pathlib import Path
+from dataclasses import dataclass, fields
 from typing import Any, Literal
 
-from terrain_odom.config.fields import build_section
-from terrain_odom.config.loader import read_yaml
 from terrain_odom.errors import ConfigError
 
 __all__ = [
@@ -26,7 +25,7 @@ __all__ = [
     "FeatureOption",
     "ClassifierConfig",
     "paper_config",
-    "load_classifier_config",
+    "is_flat_classifier",
 ]
 
 PAPER_K = 5
@@ -123,41 +122,16 @@ def paper_config(n_t: int = 4) -> ClassifierConfig:
     )
 
 
-def load_classifier_config(
-    path: str | Path | None = None, overrides: Mapping[str, Any] | None = None
-) -> ClassifierConfig:
-    """Load a classifier configuration (YAML, keys of :class:`ClassifierConfig`).
+def is_flat_classifier(data: Any) -> bool:
+    """Return whether YAML data is a flat classifier file: only classifier keys, at the top level.
 
-    A file holds any subset of the fields at its top level, e.g. Chen et
-    al.'s recipe::
+    The old layout of the classifier settings, before they became the
+    ``classifier`` section of the configuration.
 
-        features: sfta
-        relative_counts: false
-        scale: false
-        k: 5
-        weights: uniform
-        tiles: 1
-
-    Parameters
-    ----------
-    path : str or Path, optional
-        YAML file; keys left out keep the defaults. ``None``: the defaults.
-    overrides : mapping, optional
-        Values that replace those of the file (e.g. command-line options),
-        validated by the same rules.
-
-    Raises
-    ------
-    ConfigError
-        Naming the file and the first unknown or invalid key.
+    Examples
+    --------
+    >>> is_flat_classifier({"k": 3, "tiles": 1}), is_flat_classifier({"classifier": {"k": 3}})
+    (True, False)
     """
-    cfg = ClassifierConfig()
-    if path is not None:
-        path = Path(path)
-        data = read_yaml(path)
-        try:
-            cfg = build_section(cfg, data or {})
-        except ConfigError as exc:
-            raise ConfigError(f"{path}: {exc}") from None
-    result: ClassifierConfig = build_section(cfg, dict(overrides or {}))
-    return result
+    names = {f.name for f in fields(ClassifierConfig)}
+    return isinstance(data, dict) and bool(data) and all(key in names for key in data)

@@ -4,16 +4,25 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any, Literal
 
 import yaml
 
-from terrain_odom.config.fields import _build
+from terrain_odom.config.classifier import ClassifierConfig, is_flat_classifier
+from terrain_odom.config.fields import _build, build_section
 from terrain_odom.config.sections import FORMAT_VERSION, MAX_POSE_DELAY, Config, TimeConfig
 from terrain_odom.errors import ConfigError, TerrainOdomError
 
-__all__ = ["load_config", "read_yaml", "config_to_dict", "dump_config", "with_pose_delay"]
+__all__ = [
+    "load_config",
+    "load_classifier_config",
+    "read_yaml",
+    "config_to_dict",
+    "dump_config",
+    "with_pose_delay",
+]
 
 
 def _check_pose_delay(delay: float | Literal["auto"], where: str) -> None:
@@ -150,13 +159,72 @@ def load_config(path: str | Path | None = None) -> Config:
     if path is None:
         return Config()
     path = Path(path)
-    data = read_yaml(path)
+    return _validated(read_yaml(path), path)
+
+
+def _validated(data: Any, path: Path) -> Config:
+    """Return the configuration of a file's YAML data, validated; errors name ``path``."""
     try:
         cfg = _build(Config(), data or {}, "")
         _check_consistency(cfg)
     except ConfigError as exc:
         raise ConfigError(f"{path}: {exc}") from None
     return cfg
+
+
+def load_classifier_config(
+    path: str | Path | None = None,
+    overrides: Mapping[str, Any] | None = None,
+    *,
+    on_flat: Callable[[Path], None] | None = None,
+) -> ClassifierConfig:
+    """Load the classifier settings of a configuration: its ``classifier`` section.
+
+    A configuration file (the layout of ``config/default.yaml``, validated
+    whole) holds them as, e.g. Chen et al.'s recipe::
+
+        classifier:
+          features: sfta
+          relative_counts: false
+          scale: false
+          k: 5
+          weights: uniform
+          tiles: 1
+
+    A flat classifier file, those keys at the top level (the old layout,
+    deprecated), is read too.
+
+    Parameters
+    ----------
+    path : str or Path, optional
+        YAML file; keys left out keep the defaults. ``None``: the defaults.
+    overrides : mapping, optional
+        Values that replace those of the file (e.g. command-line options),
+        validated by the same rules.
+    on_flat : callable, optional
+        Called with ``path`` when the file is a flat classifier file (e.g. to
+        say that the layout is deprecated).
+
+    Raises
+    ------
+    ConfigError
+        Naming the file and the first unknown or invalid key.
+    """
+    cfg = ClassifierConfig()
+    if path is not None:
+        path = Path(path)
+        data = read_yaml(path)
+        if not is_flat_classifier(data):
+            cfg = _validated(data, path).classifier
+        else:
+            if on_flat is not None:
+                on_flat(path)
+            try:
+                cfg = build_section(cfg, data)
+            except ConfigError as exc:
+                raise ConfigError(f"{path}: {exc}") from None
+    result: ClassifierConfig = build_section(cfg, dict(overrides or {}))
+    return result
 
 
 def config_to_dict(cfg: Config) -> dict[str, Any]:

@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 from typing import Literal
 
 from terrain_odom.config.camera import CameraConfig, RoiConfig
+from terrain_odom.config.classifier import ClassifierConfig
 from terrain_odom.config.fields import NON_NEGATIVE, SIGNED
 
 __all__ = [
@@ -368,3 +369,4 @@ class Config:
     checks: ChecksConfig = field(default_factory=ChecksConfig)
     camera: CameraConfig = field(default_factory=CameraConfig)
     roi: RoiConfig = field(default_factory=RoiConfig)
+    classifier: ClassifierConfig = field(default_factory=ClassifierConfig)

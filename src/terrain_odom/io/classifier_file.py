@@ -249,7 +249,7 @@ def default_model(path: Path | None = None) -> Path:
     path = default_model_path() if path is None else path
     if not path.is_file():
         raise InputFileError(
-            f"no --model given and the default classifier {path} is missing (it ships as "
-            "package data of terrain_odom): pass --model FILE"
+            f"no --classifier given and the default classifier {path} is missing (it ships "
+            "as package data of terrain_odom): pass --classifier FILE"
         )
     return path

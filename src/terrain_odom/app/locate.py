@@ -1,0 +1,100 @@
+"""Where an ``out`` folder's file goes, and which file an input folder holds.
+
+The command line's grammar: ``--out`` is a folder the subcommand writes its
+file into under a fixed name (``params_<model>.yaml``, ``classifier.npz``,
+``evaluation.json``); a name with the file's own suffix is the old form and
+names the file itself. Inputs written that way (``run --classifier``,
+``run --priors``, ``evaluate --params``) may be given as the file or as a
+folder holding exactly one such file.
+"""
+
+from __future__ import annotations
+
+import errno
+from collections.abc import Sequence
+from pathlib import Path
+
+from terrain_odom.errors import InputFileError
+
+__all__ = ["names_a_file", "output_file", "check_out", "create_folder", "find_input"]
+
+
+def names_a_file(out: str | Path, suffixes: Sequence[str]) -> bool:
+    """Return whether ``out`` names a file: it ends in one of ``suffixes`` and is no folder.
+
+    Examples
+    --------
+    >>> names_a_file("fit/grass.yaml", (".yaml", ".yml")), names_a_file("fit/grass", (".yaml",))
+    (True, False)
+    """
+    path = Path(out)
+    return path.suffix.lower() in suffixes and not path.is_dir()
+
+
+def output_file(out: str | Path, name: str, suffixes: Sequence[str]) -> Path:
+    """Return the file to write for ``out``: ``out`` itself if it names a file, else ``out/name``.
+
+    Examples
+    --------
+    >>> str(output_file("fit", "params_idd.yaml", (".yaml",)))
+    'fit/params_idd.yaml'
+    >>> str(output_file("grass.yaml", "params_idd.yaml", (".yaml",)))
+    'grass.yaml'
+    """
+    return Path(out) if names_a_file(out, suffixes) else Path(out) / name
+
+
+def check_out(out: str | Path, suffixes: Sequence[str]) -> None:
+    """Raise unless ``out`` can be written: a file's folder exists, a folder is no file.
+
+    Raises
+    ------
+    FileNotFoundError
+        ``out`` names a file in a folder that does not exist (naming the file).
+    NotADirectoryError
+        ``out`` is a folder to create, but a file of that name exists.
+    """
+    path = Path(out)
+    if names_a_file(path, suffixes):
+        if not path.parent.is_dir():
+            raise FileNotFoundError(errno.ENOENT, "its folder does not exist", str(path))
+    elif path.exists() and not path.is_dir():
+        raise NotADirectoryError(errno.ENOTDIR, "is a file, not an output folder", str(path))
+
+
+def create_folder(out: str | Path, suffixes: Sequence[str]) -> None:
+    """Create the folder ``out`` (and its parents) unless it names a file."""
+    if not names_a_file(out, suffixes):
+        Path(out).mkdir(parents=True, exist_ok=True)
+
+
+def find_input(path: str | Path, pattern: str, kind: str) -> Path:
+    """Return the file an input names: ``path`` itself, or the one file matching ``pattern`` in it.
+
+    Parameters
+    ----------
+    path : str or Path
+        A file, or a folder (e.g. the ``--out`` folder of ``fit`` or ``train``).
+    pattern : str
+        Glob pattern of the file in a folder, e.g. ``"params_*.yaml"``.
+    kind : str
+        What the file is, for messages.
+
+    Raises
+    ------
+    InputFileError
+        ``path`` is a folder with no file matching ``pattern``, or with
+        several (listed).
+    """
+    folder = Path(path)
+    if not folder.is_dir():
+        return folder
+    found = sorted(p for p in folder.glob(pattern) if p.is_file())
+    if len(found) == 1:
+        return found[0]
+    if not found:
+        raise InputFileError(f"{folder}: no {kind} ({pattern}) in this folder")
+    names = ", ".join(p.name for p in found)
+    raise InputFileError(
+        f"{folder}: {len(found)} {kind}s ({names}) in this folder; name one of them"
+    )

@@ -1,0 +1,283 @@
+"""Collect the streams of a bag import, message by message.
+
+:class:`WheelStream`, :class:`PoseStream` and :class:`HeadingStream` each
+take the messages of one topic (:meth:`add`) and keep only the few numbers
+per message the wheel log needs (a stamp and two or three floats, in
+compact arrays: 24-32 bytes a message), so a long bag is read in one pass
+at small memory; :meth:`rows` returns them as
+:class:`~terrain_odom.io.bag_log.StampedRows`. Each raises a one-line
+:class:`~terrain_odom.errors.InputFileError` naming the topic on a message
+it cannot use (a ``JointState`` without velocities or without the joints
+asked for, an ``Imu`` without orientation on every message, a
+``NavSatFix`` topic without any fix, ``/tf`` without the frames asked for).
+"""
+
+from __future__ import annotations
+
+from array import array
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from terrain_odom.errors import InputFileError
+from terrain_odom.io.bag_log import StampedRows
+from terrain_odom.io.bag_messages import (
+    JOINT_STATE,
+    NAV_SAT_FIX,
+    ODOMETRY,
+    POSE_COV_STAMPED,
+    TF_MESSAGE,
+    enu_from_geodetic,
+    fix_status,
+    imu_yaw,
+    joint_speeds,
+    match_joints,
+    planar_pose,
+    pose_sigmas,
+    stamp_ns,
+    tf_pose,
+    track_speeds,
+)
+from terrain_odom.io.bag_reader import BagMessage
+
+__all__ = ["HeadingStream", "PoseStream", "StampRule", "WheelStream", "median_sigma"]
+
+
+@dataclass(frozen=True)
+class StampRule:
+    """Which time a message gets: its header stamp (``header``) or the bag's (``receive``)."""
+
+    kind: str = "header"
+
+    def of(self, message: BagMessage, header: Any | None = None) -> int | None:
+        """Return the stamp (ns) of ``message`` (``header``: another header than the message's own).
+
+        None for a header stamp of 0 (never set by the sender).
+        """
+        if self.kind == "receive":
+            return message.receive_ns
+        ns = stamp_ns((header if header is not None else message.msg.header).stamp)
+        return ns or None
+
+
+def median_sigma(values: Sequence[float]) -> float | None:
+    """Median of the finite positive standard deviations, or None if there are none.
+
+    Examples
+    --------
+    >>> median_sigma([0.1, float("nan"), 0.3, 0.2])
+    0.2
+    """
+    good = [v for v in values if np.isfinite(v) and v > 0]
+    return float(np.median(good)) if good else None
+
+
+@dataclass
+class _Stream:
+    """Stamps and values of one topic, with counts of what was skipped."""
+
+    where: str
+    stamps: StampRule
+    stamps_kept: array[int] = field(default_factory=lambda: array("q"))
+    values_kept: array[float] = field(default_factory=lambda: array("d"))
+    skipped: dict[str, int] = field(default_factory=dict)
+
+    def _keep(
+        self, message: BagMessage, value: float | Sequence[float], header: Any | None = None
+    ) -> None:
+        """Keep a value (a float, or a fixed number of floats per message) at the message's stamp."""
+        stamp = self.stamps.of(message, header)
+        if stamp is None:
+            self._skip("header stamp 0 (unset; --stamps receive uses the bag's time)")
+            return
+        self.stamps_kept.append(stamp)
+        if isinstance(value, float):
+            self.values_kept.append(value)
+        else:
+            self.values_kept.extend(value)
+
+    def _skip(self, reason: str) -> None:
+        self.skipped[reason] = self.skipped.get(reason, 0) + 1
+
+    def rows(self, width: int) -> StampedRows:
+        """Return the stamps and values kept so far; values of shape (N, width) (or (N,) if 0)."""
+        n = len(self.stamps_kept)
+        values = np.array(self.values_kept, dtype=float).reshape((n, width) if width else (n,))
+        return StampedRows(np.array(self.stamps_kept, dtype=np.int64), values)
+
+
+@dataclass
+class WheelStream(_Stream):
+    """Track speeds from ``JointState`` (joint velocities) or a body twist (Odometry, TwistStamped).
+
+    ``wheel_radius`` (m) and the joint patterns serve ``JointState``;
+    ``track_width`` (m) serves the twists.
+    """
+
+    wheel_radius: float | None = None
+    track_width: float | None = None
+    left: tuple[str, ...] = ("*left*",)
+    right: tuple[str, ...] = ("*right*",)
+    _joints: dict[tuple[str, ...], tuple[list[int], list[int]]] = field(default_factory=dict)
+
+    def add(self, message: BagMessage) -> None:
+        """Convert and keep one wheel message."""
+        msg = message.msg
+        if message.msgtype == JOINT_STATE:
+            self._keep(message, self._joint_state(msg))
+        else:
+            twist = msg.twist.twist if message.msgtype == ODOMETRY else msg.twist
+            assert self.track_width is not None
+            speeds = track_speeds(float(twist.linear.x), float(twist.angular.z), self.track_width)
+            self._keep(message, speeds)
+
+    def _joint_state(self, msg: Any) -> tuple[float, float]:
+        names = tuple(msg.name)
+        if len(msg.velocity) != len(names) or not names:
+            raise InputFileError(
+                f"{self.where}: a JointState without velocities ({len(msg.velocity)} for "
+                f"{len(names)} joints); expected a velocity per joint, rad/s"
+            )
+        if names not in self._joints:
+            left, right = match_joints(names, self.left), match_joints(names, self.right)
+            if not left or not right or set(left) & set(right):
+                raise InputFileError(
+                    f"{self.where}: joints {list(names)} do not split into left "
+                    f"{list(self.left)} and right {list(self.right)} (--left-joints, "
+                    "--right-joints: shell patterns, each joint on one side only)"
+                )
+            self._joints[names] = (left, right)
+        assert self.wheel_radius is not None
+        return joint_speeds(msg.velocity, *self._joints[names], self.wheel_radius)
+
+    def wheel_rows(self) -> StampedRows:
+        """Stamps and ``v_l, v_r`` (m/s), shape (N, 2)."""
+        return self.rows(2)
+
+
+@dataclass
+class PoseStream(_Stream):
+    """Planar poses from Odometry, PoseStamped, PoseWithCovarianceStamped, ``/tf`` or NavSatFix.
+
+    ``frames`` (parent, child) select the ``/tf`` transform; ``origin``
+    (lat, lon deg, alt m) is the ENU origin of a NavSatFix topic (default
+    the first valid fix in time). Standard deviations of the message
+    covariances are kept for the configuration.
+    """
+
+    frames: tuple[str, str] | None = None
+    origin: tuple[float, float, float] | None = None
+    sigmas: list[tuple[float, float, float]] = field(default_factory=list)
+    frames_seen: set[tuple[str, str]] = field(default_factory=set)
+    origin_used: tuple[float, float, float] | None = None
+
+    def add(self, message: BagMessage) -> None:
+        """Convert and keep one pose message (or the matching transforms of a ``/tf`` message)."""
+        msg, kind = message.msg, message.msgtype
+        if kind == TF_MESSAGE:
+            self._transforms(message)
+        elif kind == NAV_SAT_FIX:
+            self._fix(message)
+        elif kind in (ODOMETRY, POSE_COV_STAMPED):
+            self._keep(message, planar_pose(msg.pose.pose))
+            self.sigmas.append(pose_sigmas(msg.pose.covariance))
+        else:
+            self._keep(message, planar_pose(msg.pose))
+
+    def _transforms(self, message: BagMessage) -> None:
+        assert self.frames is not None
+        for tr in message.msg.transforms:
+            pair = (tr.header.frame_id.lstrip("/"), tr.child_frame_id.lstrip("/"))
+            self.frames_seen.add(pair)
+            if pair == self.frames:
+                self._keep(message, tf_pose(tr.transform), tr.header)
+
+    def _fix(self, message: BagMessage) -> None:
+        msg = message.msg
+        position = (float(msg.latitude), float(msg.longitude), float(msg.altitude))
+        if fix_status(msg) < 0 or not np.all(np.isfinite(position)):
+            self._skip("GPS fix without a solution (status < 0 or NaN)")
+            return
+        self._keep(message, position)
+        if int(msg.position_covariance_type) > 0:
+            cov = msg.position_covariance
+            self.sigmas.append((float(np.sqrt(cov[0])), float(np.sqrt(cov[4])), np.nan))
+
+    def pose_rows(self, topic_type: str) -> StampedRows:
+        """Stamps and ``x, y, yaw``, shape (N, 3); GPS fixes as east, north, NaN.
+
+        Raises
+        ------
+        InputFileError
+            If ``/tf`` had no transform between the frames asked for, or a
+            NavSatFix topic no fix with a solution.
+        """
+        if topic_type == TF_MESSAGE and not self.stamps_kept:
+            assert self.frames is not None
+            seen = ", ".join(f"{p} -> {c}" for p, c in sorted(self.frames_seen)) or "none"
+            raise InputFileError(
+                f"{self.where}: no transform {self.frames[0]} -> {self.frames[1]} "
+                f"(--pose-frames PARENT CHILD; transforms seen: {seen})"
+            )
+        if topic_type != NAV_SAT_FIX:
+            return self.rows(3)
+        return self._enu_rows()
+
+    def _enu_rows(self) -> StampedRows:
+        if not self.stamps_kept:
+            raise InputFileError(
+                f"{self.where}: a NavSatFix topic without fixes (every message has status < 0 "
+                "or NaN position); expected at least one fix with a solution"
+            )
+        geo = self.rows(3)
+        first = int(np.argmin(geo.stamp_ns))
+        self.origin_used = self.origin or tuple(float(v) for v in geo.values[first])  # type: ignore[assignment]
+        assert self.origin_used is not None
+        enu = enu_from_geodetic(
+            geo.values[:, 0], geo.values[:, 1], geo.values[:, 2], self.origin_used
+        )
+        values = np.column_stack([enu[:, 0], enu[:, 1], np.full(len(geo), np.nan)])
+        return StampedRows(geo.stamp_ns, values)
+
+    def sigma(self) -> dict[str, float]:
+        """Median standard deviations of x, y, yaw over the message covariances (known ones)."""
+        columns = list(zip(*self.sigmas, strict=True)) if self.sigmas else [(), (), ()]
+        found = {k: median_sigma(c) for k, c in zip(("x", "y", "yaw"), columns, strict=True)}
+        return {k: v for k, v in found.items() if v is not None}
+
+
+@dataclass
+class HeadingStream(_Stream):
+    """Yaw from ``Imu`` orientations (messages without an orientation are skipped and counted)."""
+
+    sigmas: list[float] = field(default_factory=list)
+
+    def add(self, message: BagMessage) -> None:
+        """Convert and keep one Imu message."""
+        yaw = imu_yaw(message.msg)
+        if yaw is None:
+            self._skip("Imu without orientation")
+            return
+        self._keep(message, yaw)
+        self.sigmas.append(float(np.sqrt(max(float(message.msg.orientation_covariance[8]), 0.0))))
+
+    def heading_rows(self) -> StampedRows:
+        """Stamps and yaw (rad), shape (N,).
+
+        Raises
+        ------
+        InputFileError
+            If no message had an orientation.
+        """
+        if not self.stamps_kept and "Imu without orientation" in self.skipped:
+            raise InputFileError(
+                f"{self.where}: an Imu topic without orientation (orientation_covariance[0] "
+                "= -1 on every message); expected an orientation for the heading"
+            )
+        return self.rows(0)
+
+    def sigma(self) -> float | None:
+        """Median yaw standard deviation of the orientation covariances, if known."""
+        return median_sigma(self.sigmas)

@@ -1,0 +1,192 @@
+"""``terrain-odom inspect`` and ``terrain-odom import``: what they print, exit codes, bad input."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from terrain_odom.cli.main import main
+from terrain_odom.io.bag_writer import MessageFactory, write_bag
+from terrain_odom.io.wheel_log import read_wheel_log
+
+M = MessageFactory()
+BASE = 1_700_000_000 * 10**9
+
+
+@pytest.fixture
+def bag(tmp_path: Path) -> Path:
+    """Write a 1-s MCAP bag: Odometry at 20 Hz, Imu at 10 Hz."""
+    records = [
+        (
+            "/odom",
+            "nav_msgs/msg/Odometry",
+            BASE + k * 50_000_000,
+            M.odometry(BASE + k * 50_000_000, twist=(0.5, 0.2)),
+        )
+        for k in range(21)
+    ] + [
+        (
+            "/imu/data",
+            "sensor_msgs/msg/Imu",
+            BASE + k * 100_000_000 + 7_000_000,
+            M.imu(BASE + k * 100_000_000 + 7_000_000, 0.1 * k),
+        )
+        for k in range(10)
+    ]
+    folder = write_bag(tmp_path / "rec", "mcap", sorted(records, key=lambda r: r[2]))
+    return next(folder.glob("*.mcap"))
+
+
+def test_inspect_prints_every_topic_with_its_roles(
+    bag: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(["inspect", str(bag)]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[0] == f"bag:      {bag} (MCAP)"
+    assert out[1] == "messages: 31 over 1.0 s"
+    assert out[3].split() == ["/imu/data", "sensor_msgs/Imu", "10", "10.0", "0.9", "heading"]
+    assert out[4].split() == ["/odom", "nav_msgs/Odometry", "21", "20.0", "1.0", "wheels,", "pose"]
+
+
+def test_import_prints_counts_and_files(
+    bag: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out_dir = tmp_path / "out"
+    argv = [
+        "import",
+        str(bag),
+        "--out",
+        str(out_dir),
+        "--wheels-topic",
+        "/odom",
+        "--heading-topic",
+        "/imu/data",
+        "--track-width",
+        "0.4",
+    ]
+    assert main(argv) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].startswith(
+        "31 rows over 1.0 s (1 segment): 0 with x, y, 10 with yaw; 0 frames;"
+    )
+    assert lines[1:] == [
+        f"log:        {out_dir / 'log.csv'}",
+        f"config:     {out_dir / 'config.yaml'}",
+        f"report:     {out_dir / 'import.json'}",
+    ]
+    log = read_wheel_log(out_dir / "log.csv")
+    np.testing.assert_allclose([log.v_l[0], log.v_r[0]], [0.46, 0.54])  # 0.5 -+ 0.2 * 0.4 / 2
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        (
+            ["--wheels-topic", "/imu/data"],
+            "--wheels-topic /imu/data: type sensor_msgs/Imu, expected",
+        ),
+        (["--wheels-topic", "/odom"], "body twist (nav_msgs/Odometry): give --track-width"),
+        (
+            ["--wheels-topic", "/cmd_vel", "--track-width", "1"],
+            "--wheels-topic /cmd_vel: no such topic",
+        ),
+        (["--wheels-topic", "/odom", "--track-width", "1", "--max-gap", "0"], "--max-gap must be"),
+    ],
+)
+def test_bad_input_is_one_line_exit_2(
+    bag: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str], extra: list[str], message: str
+) -> None:
+    assert main(["import", str(bag), "--out", str(tmp_path / "o"), *extra]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and message in err and err.startswith("terrain-odom: error: ")
+
+
+def test_not_a_bag_is_one_line_exit_2(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    path = tmp_path / "log.bag"
+    path.write_text("t,v_l,v_r\n")
+    assert main(["inspect", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert (
+        err
+        == f"terrain-odom: error: {path}: not a readable ROS bag (File magic is invalid.); expected a ROS 1 .bag file, a ROS 2 bag folder (metadata.yaml) or a .mcap file\n"
+    )
+
+
+def test_run_reads_a_bag_through_the_import(
+    bag: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    topics = ["--wheels-topic", "/odom", "--heading-topic", "/imu/data", "--track-width", "0.4"]
+    direct = tmp_path / "direct"
+    assert (
+        main(
+            ["run", "--wheels", str(bag), "--out", str(direct), "--estimator", "slip-ekf", *topics]
+        )
+        == 0
+    )
+    out = capsys.readouterr().out
+    assert f"log:        {direct / 'bag' / 'log.csv'}" in out
+    assert main(["import", str(bag), "--out", str(tmp_path / "imp"), *topics]) == 0
+    argv = [
+        "run",
+        "--wheels",
+        str(tmp_path / "imp" / "log.csv"),
+        "--config",
+        str(tmp_path / "imp" / "config.yaml"),
+        "--out",
+        str(tmp_path / "csv"),
+        "--estimator",
+        "slip-ekf",
+    ]
+    assert main(argv) == 0
+    assert (direct / "trajectory.csv").read_text() == (
+        tmp_path / "csv" / "trajectory.csv"
+    ).read_text()
+
+
+@pytest.mark.parametrize(
+    ("wheels", "extra", "message"),
+    [
+        ("bag", [], "is a ROS bag: give --wheels-topic"),
+        ("csv", ["--wheels-topic", "/odom"], "--wheels-topic reads a ROS bag, but --wheels"),
+    ],
+)
+def test_run_bag_options_misused(
+    bag: Path,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    wheels: str,
+    extra: list[str],
+    message: str,
+) -> None:
+    csv = tmp_path / "log.csv"
+    csv.write_text("t,v_l,v_r\n0,1,1\n0.1,1,1\n")
+    path = bag if wheels == "bag" else csv
+    assert main(["run", "--wheels", str(path), "--out", str(tmp_path / "o"), *extra]) == 2
+    assert message in capsys.readouterr().err
+
+
+def test_run_on_a_bag_refuses_a_run_folder_before_importing(
+    bag: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    argv = [
+        "run",
+        "--wheels",
+        str(bag),
+        "--out",
+        str(tmp_path),
+        "--wheels-topic",
+        "/odom",
+        "--track-width",
+        "0.4",
+    ]
+    assert main(argv) == 0
+    log = (tmp_path / "bag" / "log.csv").read_bytes()
+    (tmp_path / "bag" / "log.csv").write_bytes(b"kept")
+    capsys.readouterr()
+    assert main(argv) == 2
+    assert "already holds a run" in capsys.readouterr().err
+    assert (tmp_path / "bag" / "log.csv").read_bytes() == b"kept"  # nothing imported
+    assert main([*argv, "--overwrite"]) == 0
+    assert (tmp_path / "bag" / "log.csv").read_bytes() == log
