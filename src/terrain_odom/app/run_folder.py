@@ -98,6 +98,8 @@ def prepare_folder(out_dir: str | Path, *, overwrite: bool = False) -> Path:
         )
     for name in RUN_FILES if found else ():
         (out / name).unlink(missing_ok=True)
+    if found and (out / PLOTS_DIR).is_dir() and not any((out / PLOTS_DIR).iterdir()):
+        (out / PLOTS_DIR).rmdir()  # emptied of the previous run's plots
     out.mkdir(parents=True, exist_ok=True)
     return out
 
