@@ -103,5 +103,5 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
     for name, entry in result.models.items():
         print(f"{name:<32} {_format_stats(entry)}")
     _print_prediction(result)
-    print_written("written:", [result.output])
+    print_written("written:", [result.output, *result.plots])
     return 0
