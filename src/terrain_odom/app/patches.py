@@ -195,8 +195,6 @@ class _Labels:
     """The recording's labels: one, intervals, or the log's terrain column."""
 
     def __init__(self, log: WheelLog, label: str | None, intervals: LabelIntervals | None) -> None:
-        if label is not None and intervals is not None:
-            raise ConfigError("--label and --labels exclude each other")
         self.log, self.label, self.intervals = log, label, intervals
         if label is not None:
             self.source = "label"
@@ -462,6 +460,8 @@ def make_patches(
     """
     started = time.perf_counter()
     root = Path(out)
+    if label is not None and intervals is not None:
+        raise ConfigError("--label and --labels exclude each other")
     _refuse_previous(root, overwrite)
     if config is None:
         config_path = config_path if config_path is not None else images_config(images)
