@@ -2,13 +2,16 @@
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import pytest
+import yaml
 
 from terrain_odom.cli.main import main
 from terrain_odom.io.bag_writer import log_records, write_bag
 from terrain_odom.io.wheel_log import read_wheel_log
+from tests.conftest import SHARED_DATA
 
 TOPICS = ["--wheels-topic", "/joint_states", "--pose-topic", "/pose", "--wheel-radius", "0.1"]
 
@@ -102,3 +105,21 @@ def test_bag_options_misused(
     assert main(argv) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and message in err, err
+
+
+def test_fit_and_evaluate_on_the_real_bag(tmp_path: Path) -> None:
+    """The Jackal bag's controller pose: re-integrated to 0.5 %, its geometry fitted back."""
+    bag = SHARED_DATA / "bags" / "jackal_odom_imu.bag"
+    if not bag.is_file():
+        pytest.skip(f"real data not present: {bag} (../shared beside the repository)")
+    odom = "/jackal_velocity_controller/odom"
+    topics = ["--wheels-topic", odom, "--pose-topic", odom, "--track-width", "0.563"]
+    assert main(["evaluate", "--wheels", str(bag), *topics, "--out", str(tmp_path / "e")]) == 0
+    report = json.loads((tmp_path / "e" / "evaluation.json").read_text())
+    idd = report["models"]["idd (B=0.563 m)"]["translation_m_per_m"]
+    assert idd["median"] == pytest.approx(0.0049, abs=5e-5)  # docs/bags.md
+    argv = ["fit", "--model", "edd-sym", "--wheels", str(bag), *topics, "--out", str(tmp_path)]
+    assert main(argv) == 0
+    params = yaml.safe_load((tmp_path / "params_edd-sym.yaml").read_text())
+    assert params["params"]["b_hat"] == pytest.approx(0.5634, abs=5e-5)  # docs/bags.md
+    assert params["params"]["alpha"] == pytest.approx(1.0005, abs=5e-5)
