@@ -151,16 +151,39 @@ def test_refuses_a_folder_with_patches_unless_overwrite(
     make_patches(folder, folder / "log.csv", out, config=cfg, label="new", overwrite=True)
     assert [p.name for p in (out / "old").iterdir()] == ["mine.png"]  # only listed ones removed
     assert set(json.loads((out / PATCHES_JSON).read_text())["counts"]) == {"new"}
+    with pytest.raises(ConfigError, match="exclude each other"):
+        make_patches(folder, folder / "log.csv", out, label="x", overwrite=True, append=True)
 
 
-def test_refuses_to_write_over_a_frame(tmp_path: Path) -> None:
-    """Patches into the frame folder itself, under a label that is its sub-folder: refused."""
+def test_append_adds_a_recording(recording: tuple[Simulation, Path], tmp_path: Path) -> None:
+    """One recording per terrain into one folder; a name taken gets -2."""
+    _, folder = recording
+    cfg, out = _config(folder), tmp_path / "t"
+    first = make_patches(folder, folder / "log.csv", out, config=cfg, label="grass")
+    second = make_patches(folder, folder / "log.csv", out, config=cfg, label="gravel", append=True)
+    third = make_patches(folder, folder / "log.csv", out, config=cfg, label="grass", append=True)
+    n = first.counts["grass"]
+    assert second.counts == {"gravel": n} and third.counts == {"grass": n}
+    assert third.total == {"grass": 2 * n, "gravel": n}
+    report = json.loads((out / PATCHES_JSON).read_text())
+    assert report["counts"] == third.total and len(report["recordings"]) == 3
+    assert [r["inputs"]["label"] for r in report["recordings"]] == ["grass", "gravel", "grass"]
+    files = [e["file"] for e in report["patches"] if e["recording"] == 2]
+    assert all(f.endswith("-2.png") for f in files)
+    assert len(list((out / "grass").iterdir())) == 2 * n
+
+
+def test_never_writes_over_a_file_it_did_not_write(tmp_path: Path) -> None:
+    """Patches into the frame folder, under a label that is its frames' sub-folder: renamed."""
     sim = simulate(dataclasses.replace(get_scenario("chen2023"), duration=6.0, frame_rate=1.0))
     write_simulation(sim, tmp_path, frames=True, patches=False)
-    with pytest.raises(InputFileError, match="refusing to overwrite the input"):
-        make_patches(
-            tmp_path, tmp_path / "log.csv", tmp_path, config=_config(tmp_path), label="frames"
-        )
+    before = {p.name: p.read_bytes() for p in (tmp_path / "frames").iterdir()}
+    result = make_patches(
+        tmp_path, tmp_path / "log.csv", tmp_path, config=_config(tmp_path), label="frames"
+    )
+    files = [e["file"] for e in json.loads(result.patches_json.read_text())["patches"]]
+    assert files and all(f.startswith("frames/") and f.endswith("-2.png") for f in files)
+    assert {n: (tmp_path / "frames" / n).read_bytes() for n in before} == before
 
 
 def test_a_frame_of_another_size_is_one_error(

@@ -73,3 +73,9 @@ def test_errors_are_one_line(sim: Path, tmp_path: Path, capsys: pytest.CaptureFi
     assert main([*base, *out, "--label", "grass", "--horizon", "2s"]) == 0
     _fails(capsys, [*base, *out, "--label", "grass"], "holds patches already", "--overwrite")
     assert main([*base, *out, "--label", "grass", "--horizon", "2s", "--overwrite"]) == 0
+    capsys.readouterr()
+    assert main([*base, *out, "--label", "gravel", "--horizon", "2s", "--append"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    total = json.loads((tmp_path / "t" / "patches.json").read_text())["counts"]
+    assert f"in --out:   grass {total['grass']}, gravel {total['gravel']}" in lines
+    assert f"            {tmp_path / 't' / 'gravel'}" in lines

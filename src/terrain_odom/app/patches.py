@@ -33,7 +33,7 @@ import math
 import re
 import time
 from collections import Counter
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -180,6 +180,8 @@ class PatchesResult:
         ``label``, ``intervals`` or ``log`` (the log's terrain column).
     seconds : float
         Wall time, s.
+    total : dict of str to int
+        Patches per label in the folder (with ``append``, the earlier ones too).
     """
 
     out: Path
@@ -189,6 +191,7 @@ class PatchesResult:
     frames: int
     label_source: str
     seconds: float
+    total: dict[str, int] = field(default_factory=dict)
 
 
 class _Labels:
@@ -316,45 +319,77 @@ def _skip(skipped: dict[str, int], reason: str) -> None:
     skipped[reason] = skipped.get(reason, 0) + 1
 
 
-def _patch_name(patch: _Patch, frames: FrameList) -> str:
-    """``label/<frame stem>.png``, relative to the training folder."""
-    return f"{patch.label}/{frames.files[patch.index].stem}.png"
+@dataclass(frozen=True)
+class _Previous:
+    """The patches already in the training folder (its ``patches.json``)."""
+
+    patches: list[dict[str, Any]]
+    recordings: list[dict[str, Any]]
+    files: frozenset[str]  # relative to the folder
 
 
-def _refuse_previous(out: Path, overwrite: bool) -> None:
-    """Refuse a folder holding patches already, unless ``overwrite``.
+def _previous(out: Path, overwrite: bool, append: bool) -> _Previous:
+    """Read the patches already in ``out``; refuse them unless ``overwrite`` or ``append``.
 
     Raises
     ------
     InputFileError
-        ``out/patches.json`` exists and ``overwrite`` is false.
+        ``out/patches.json`` exists and neither option is given, or it is not
+        one that ``patches`` wrote.
+    ConfigError
+        Both options.
     """
-    if (out / PATCHES_JSON).is_file() and not overwrite:
-        raise InputFileError(
-            f"{out}: holds patches already ({PATCHES_JSON}); choose another --out, or "
-            "--overwrite to replace them"
-        )
-
-
-def _remove_previous(out: Path) -> None:
-    """Remove the patches listed in ``out/patches.json``, then that file (if it exists)."""
+    if overwrite and append:
+        raise ConfigError("--overwrite and --append exclude each other")
     report = out / PATCHES_JSON
     if not report.is_file():
-        return
+        return _Previous([], [], frozenset())
+    if not (overwrite or append):
+        raise InputFileError(
+            f"{out}: holds patches already ({PATCHES_JSON}); --append adds this recording's, "
+            "--overwrite replaces them, or choose another --out"
+        )
     try:
-        previous = json.loads(report.read_text(encoding="utf-8")).get("patches", [])
-        names = [str(entry["file"]) for entry in previous]
-    except (ValueError, TypeError, KeyError, AttributeError):
-        raise InputFileError(f"{report}: not a patches.json of terrain-odom patches") from None
+        data = json.loads(report.read_text(encoding="utf-8"))
+        files = frozenset(str(entry["file"]) for entry in data["patches"])
+        previous = _Previous(list(data["patches"]), list(data["recordings"]), files)
+    except (ValueError, TypeError, KeyError):
+        raise InputFileError(f"{report}: not a patches.json of 'terrain-odom patches'") from None
+    return previous
+
+
+def _names(
+    plan: list[_Patch], frames: FrameList, out: Path, previous: _Previous, append: bool
+) -> list[str]:
+    """Name each patch ``label/<frame stem>.png`` (``-2``, ``-3`` ... where that is taken).
+
+    Taken: the previous patches if they are kept (``append``), and any file
+    in the folder that no ``patches`` wrote.
+    """
+    listed = previous.files
+    taken = set(listed) if append else set()
+    names = []
+    for patch in plan:
+        stem, n = frames.files[patch.index].stem, 1
+        name = f"{patch.label}/{stem}.png"
+        while name in taken or (name not in listed and (out / name).exists()):
+            n += 1
+            name = f"{patch.label}/{stem}-{n}.png"
+        taken.add(name)
+        names.append(name)
+    return names
+
+
+def _remove(out: Path, previous: _Previous) -> None:
+    """Remove the previous patches' files (only ``out/<label>/<name>.png``)."""
     root = out.resolve()
-    for name in names:
+    for name in previous.files:
         path = (out / name).resolve()
         if path.parent.parent == root and path.suffix == ".png":
             path.unlink(missing_ok=True)
-    report.unlink()
 
 
-def _check_size(plan: list[_Patch], frames: FrameList, cfg: Config) -> None:
+def _check_size(plan: list[_Patch], frames: FrameList) -> None:
     """Refuse frames of another size than the camera's (the first readable one is checked).
 
     Raises
@@ -383,17 +418,21 @@ def _write_patch(path: Path, image: np.ndarray) -> None:
 
 
 def _cut(
-    plan: list[_Patch], frames: FrameList, cfg: Config, out: Path, skipped: dict[str, int]
+    plan: list[_Patch],
+    names: list[str],
+    frames: FrameList,
+    out: Path,
+    skipped: dict[str, int],
 ) -> list[dict[str, Any]]:
     """Decode the frames of ``plan`` and write their patches; return the entries written."""
     written = []
-    for patch in plan:
+    for patch, name in zip(plan, names, strict=True):
         path = frames.files[patch.index]
         image, _ = read_frame(path)
-        if image is None or image.shape[:2] != (cfg.camera.height, cfg.camera.width):
+        width, height = patch.roi.image_size
+        if image is None or image.shape[:2] != (height, width):
             _skip(skipped, "missing_or_unreadable")
             continue
-        name = _patch_name(patch, frames)
         (out / patch.label).mkdir(exist_ok=True)
         _write_patch(out / name, crop(image, patch.roi))
         written.append(
@@ -410,6 +449,11 @@ def _cut(
     return written
 
 
+def _counts(entries: list[dict[str, Any]]) -> dict[str, int]:
+    """Patches per label, sorted by label."""
+    return dict(sorted(Counter(str(entry["label"]) for entry in entries).items()))
+
+
 def make_patches(
     images: str | Path,
     wheels: str | Path,
@@ -420,6 +464,7 @@ def make_patches(
     config: Config | None = None,
     config_path: str | Path | None = None,
     overwrite: bool = False,
+    append: bool = False,
 ) -> PatchesResult:
     """Cut labelled training patches from a recording's frames (see the module doc).
 
@@ -433,7 +478,7 @@ def make_patches(
     out : str or Path
         Training folder (created): ``<label>/<frame stem>.png`` and
         ``patches.json``. Refused if it holds patches already, unless
-        ``overwrite`` (the patches listed in its ``patches.json`` are removed).
+        ``overwrite`` or ``append``.
     label : str, optional
         One label for the whole recording.
     intervals : str or Path, optional
@@ -444,7 +489,10 @@ def make_patches(
         ``config_path``, else ``images/config.yaml`` if it exists, else the
         built-in defaults.
     overwrite : bool
-        Replace the patches already in ``out``.
+        Replace the patches already in ``out`` (those its ``patches.json`` lists).
+    append : bool
+        Add this recording's patches to those already in ``out`` (a name
+        taken gets ``-2``, ``-3`` ...), e.g. one recording per terrain.
 
     Returns
     -------
@@ -456,13 +504,14 @@ def make_patches(
         Unreadable inputs; an output would overwrite an input; a frame of
         another size than the configured camera's.
     ConfigError
-        Both ``label`` and ``intervals``; a label that cannot name a folder.
+        Both ``label`` and ``intervals``, or ``overwrite`` and ``append``; a
+        label that cannot name a folder.
     """
     started = time.perf_counter()
     root = Path(out)
     if label is not None and intervals is not None:
         raise ConfigError("--label and --labels exclude each other")
-    _refuse_previous(root, overwrite)
+    previous = _previous(root, overwrite, append)
     if config is None:
         config_path = config_path if config_path is not None else images_config(images)
         config = load_config(config_path)
@@ -472,16 +521,17 @@ def make_patches(
     frames = read_frames(images)
     skipped: dict[str, int] = {}
     plan = _plan(frames, log, config, labels, skipped)
+    kept = previous if append else _Previous([], [], frozenset())
+    names = _names(plan, frames, root, previous, append)
     inputs = [wheels, config_path, intervals, Path(images) / FRAMES_CSV, *frames.files]
-    check_outputs(inputs, [root / PATCHES_JSON, *(root / _patch_name(p, frames) for p in plan)])
-    _check_size(plan, frames, config)
+    check_outputs(inputs, [root / PATCHES_JSON, *(root / name for name in names)])
+    _check_size(plan, frames)
     root.mkdir(parents=True, exist_ok=True)
-    _remove_previous(root)
-    written = _cut(plan, frames, config, root, skipped)
-    counts = dict(sorted(Counter(entry["label"] for entry in written).items()))
+    if not append:
+        _remove(root, previous)
+    written = _cut(plan, names, frames, root, skipped)
     skipped = {reason: skipped[reason] for reason in SKIP_REASONS if reason in skipped}
-    report = {
-        **report_header("patches"),
+    recording = {
         "inputs": {
             "images": path_or_none(images),
             "wheels": path_or_none(wheels),
@@ -493,12 +543,25 @@ def make_patches(
         "label_time": "arrival at the region (odometer of the ICR EKF's motion)",
         "config": config_to_dict(config),
         "frames": len(frames),
-        "counts": counts,
+        "counts": _counts(written),
         "skipped": skipped,
-        "patches": written,
+    }
+    number = len(kept.recordings)
+    patches = kept.patches + [{**entry, "recording": number} for entry in written]
+    report = {
+        **report_header("patches"),
+        "counts": _counts(patches),
+        "recordings": [*kept.recordings, recording],
+        "patches": patches,
     }
     write_json(root / PATCHES_JSON, report)
-    seconds = time.perf_counter() - started
     return PatchesResult(
-        root, root / PATCHES_JSON, counts, skipped, len(frames), labels.source, seconds
+        root,
+        root / PATCHES_JSON,
+        _counts(written),
+        skipped,
+        len(frames),
+        labels.source,
+        time.perf_counter() - started,
+        total=_counts(patches),
     )

@@ -68,10 +68,17 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help="predict the region this long ahead, a duration like 2s (default: the "
         "configuration's roi.horizon, as run; longer puts it further into the image)",
     )
-    p.add_argument(
+    existing = p.add_mutually_exclusive_group()
+    existing.add_argument(
         "--overwrite",
         action="store_true",
         help="replace the patches already in --out (those its patches.json lists)",
+    )
+    existing.add_argument(
+        "--append",
+        action="store_true",
+        help="add this recording's patches to those already in --out (e.g. one recording "
+        "per terrain)",
     )
     add_log_options(p)
     p.set_defaults(func=_cmd_patches)
@@ -114,6 +121,7 @@ def _cmd_patches(args: argparse.Namespace) -> int:
         config=cfg,
         config_path=path,
         overwrite=args.overwrite,
+        append=args.append,
     )
     _print_result(result)
     return 0
@@ -130,5 +138,7 @@ def _print_result(result: PatchesResult) -> None:
     )
     for i, (reason, n) in enumerate(result.skipped.items()):
         print(f"{'skipped:' if i == 0 else '':<12}{n} {_REASONS[reason]} ({reason})")
-    print_written("patches:", [result.out / label for label in result.counts])
+    if result.total != result.counts:
+        print(f"in --out:   {', '.join(f'{k} {v}' for k, v in result.total.items())}")
+    print_written("patches:", [result.out / label for label in result.total])
     print_written("report:", [result.patches_json])
