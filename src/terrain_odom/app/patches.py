@@ -4,7 +4,9 @@ From each camera frame, the ground region the robot is about to drive over
 is cropped and filed under the terrain it was driven on, in the labelled
 folder layout that ``terrain-odom train`` reads:
 ``OUT/<label>/<frame stem>.png``, plus ``OUT/patches.json`` (counts per
-label, frames skipped per reason, the inputs, one entry per patch).
+label; per recording the inputs, counts and frames skipped per reason; one
+entry per patch). Several recordings can go into one folder (``append``,
+e.g. one per terrain); a patch never replaces a file it did not write.
 
 The region is that of ``terrain-odom run``: the robot's expanded footprint
 ``roi.horizon`` s ahead, predicted from the row's wheel speeds and the ICR
