@@ -548,15 +548,8 @@ def make_patches(
         "counts": _counts(written),
         "skipped": skipped,
     }
-    number = len(kept.recordings)
-    patches = kept.patches + [{**entry, "recording": number} for entry in written]
-    report = {
-        **report_header("patches"),
-        "counts": _counts(patches),
-        "recordings": [*kept.recordings, recording],
-        "patches": patches,
-    }
-    write_json(root / PATCHES_JSON, report)
+    total = _write_report(root, kept, recording, written)
+    seconds = time.perf_counter() - started
     return PatchesResult(
         root,
         root / PATCHES_JSON,
@@ -564,6 +557,23 @@ def make_patches(
         skipped,
         len(frames),
         labels.source,
-        time.perf_counter() - started,
-        total=_counts(patches),
+        seconds,
+        total=total,
     )
+
+
+def _write_report(
+    out: Path, kept: _Previous, recording: dict[str, Any], written: list[dict[str, Any]]
+) -> dict[str, int]:
+    """Write ``patches.json``: the kept patches and this recording's; return the counts."""
+    number = len(kept.recordings)
+    patches = kept.patches + [{**entry, "recording": number} for entry in written]
+    total = _counts(patches)
+    report = {
+        **report_header("patches"),
+        "counts": total,
+        "recordings": [*kept.recordings, recording],
+        "patches": patches,
+    }
+    write_json(out / PATCHES_JSON, report)
+    return total
