@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -10,6 +11,7 @@ from typing import Any
 import numpy as np
 
 from terrain_odom.app.locate import check_out, create_folder, output_file
+from terrain_odom.app.plots import EVALUATION_PLOTS, PLOTS_DIR, write_evaluation_plots
 from terrain_odom.app.run import read_calibrated_log, run_config
 from terrain_odom.app.run_folder import TRAJECTORY_CSV, check_complete
 from terrain_odom.config import Config, RobotConfig, load_config
@@ -32,6 +34,7 @@ from terrain_odom.evaluation import (
     summarize,
     window_errors,
 )
+from terrain_odom.evaluation.metrics import WindowErrors
 from terrain_odom.io import read_trajectory_csv
 from terrain_odom.io.params import check_geometry, read_params
 from terrain_odom.io.paths import check_outputs
@@ -61,10 +64,13 @@ class ModelErrors:
         Translational (m/m) and angular (deg/m) error per metre over the windows.
     ate : AteResult
         ATE of the model dead-reckoned over every segment, m.
+    windows : WindowErrors or None
+        The errors window by window (what the plots draw).
     """
 
     errors: ErrorSummary
     ate: AteResult
+    windows: WindowErrors | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """Return the model's entry of ``evaluation.json``."""
@@ -96,6 +102,8 @@ class EvaluationResult:
         2-s prediction errors of the nominal model and of the run.
     output : Path or None
         The JSON file written (``None``: nothing written).
+    plots : tuple of Path
+        PNG plots written beside it, in ``plots/`` (:func:`write_evaluation_plots`).
     """
 
     log: Path
@@ -107,6 +115,7 @@ class EvaluationResult:
     prediction_windows: int
     prediction: dict[str, PredictionSummary]
     output: Path | None = None
+    plots: tuple[Path, ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
         """Return the content of ``evaluation.json``."""
@@ -146,9 +155,11 @@ def _model_errors(
 ) -> ModelErrors:
     """Window errors of ``twist_fn`` and the ATE of the per-row twist ``rows`` dead-reckoned."""
     reckoned = dead_reckon(log, *rows)
+    errors = window_errors(log, windows, twist_fn)
     return ModelErrors(
-        summarize(window_errors(log, windows, twist_fn)),
+        summarize(errors),
         absolute_trajectory_error(reckoned[:, :2], log.pose[:, :2]),
+        errors,
     )
 
 
@@ -290,7 +301,8 @@ def evaluate(
         check_out(out, JSON_SUFFIXES)
     if target is not None:
         trajectory = None if run_dir is None else Path(run_dir) / TRAJECTORY_CSV
-        check_outputs([wheels, config_path, trajectory, *(params or [])], [target])
+        plots = [target.parent / PLOTS_DIR / name for name in EVALUATION_PLOTS]
+        check_outputs([wheels, config_path, trajectory, *(params or [])], [target, *plots])
     cfg = _evaluation_config(run_dir, config, config_path)
     log, timing = read_calibrated_log(wheels, cfg)
     h_e = cfg.evaluation.horizon if horizon is None else float(horizon)
@@ -317,8 +329,11 @@ def evaluate(
         prediction=prediction,
         output=target,
     )
-    if target is not None:
-        if out is not None:
-            create_folder(out, JSON_SUFFIXES)
-        write_json(target, result.to_dict())
-    return result
+    if target is None:
+        return result
+    if out is not None:
+        create_folder(out, JSON_SUFFIXES)
+    write_json(target, result.to_dict())
+    errors = {name: m.windows for name, m in models.items() if m.windows is not None}
+    plots = write_evaluation_plots(target.parent / PLOTS_DIR, log, errors, h_e)
+    return dataclasses.replace(result, plots=tuple(plots))

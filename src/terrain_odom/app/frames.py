@@ -16,7 +16,6 @@ import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field, fields
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
@@ -24,12 +23,18 @@ from threadpoolctl import threadpool_limits
 
 from terrain_odom.errors import ConfigError, InputFileError
 from terrain_odom.estimation.online import OnlineOdometry
+from terrain_odom.io.frames import FrameList
+from terrain_odom.io.images import read_image_rgb
 from terrain_odom.vision.frame_classifier import FrameClassification
 
-if TYPE_CHECKING:  # image reading (OpenCV, scikit-image) loads with frames only
-    from terrain_odom.io.frames import FrameList
-
-__all__ = ["FRAME_COLUMNS", "FrameRecord", "FramePipeline", "ReplayedFrames", "one_thread"]
+__all__ = [
+    "FRAME_COLUMNS",
+    "FrameRecord",
+    "FramePipeline",
+    "ReplayedFrames",
+    "one_thread",
+    "read_frame",
+]
 
 FRAME_COLUMNS = (
     "t",
@@ -69,6 +74,14 @@ def one_thread() -> Iterator[None]:
             yield
     finally:
         cv2.setNumThreads(threads)
+
+
+def read_frame(path: Path) -> tuple[np.ndarray | None, str]:
+    """Decode a frame file to RGB; ``(None, problem)`` if it is missing or unreadable."""
+    image = read_image_rgb(path)
+    if image is not None:
+        return image, ""
+    return None, "missing" if not path.is_file() else "unreadable (not a decodable image)"
 
 
 @dataclass
@@ -151,13 +164,10 @@ class FramePipeline:
         InputFileError
             The frame's size is not the configured camera's.
         """
-        from terrain_odom.io.images import read_image_rgb
-
         started = time.perf_counter()
         t, path = float(self.frames.t[index]), self.frames.files[index]
-        image = read_image_rgb(path)
+        image, problem = read_frame(path)
         if image is None:
-            problem = "missing" if not path.is_file() else "unreadable (not a decodable image)"
             self.problems.append({"t": t, "file": self.names(path), "problem": problem})
             return
         decoding = 1e3 * (time.perf_counter() - started)

@@ -20,6 +20,7 @@ from tqdm import tqdm
 
 from terrain_odom.app.frames import FRAME_COLUMNS, FramePipeline, FrameRecord, one_thread
 from terrain_odom.app.groundtruth import GroundTruthReport, groundtruth_section
+from terrain_odom.app.plots import write_run_plots
 from terrain_odom.app.run_folder import (
     COMPLETE,
     FRAMES_CSV,
@@ -43,7 +44,7 @@ from terrain_odom.estimation.time_offset import TimeCalibration, calibrate_pose_
 from terrain_odom.evaluation import check_log
 from terrain_odom.evaluation.mounting import MountingLimits, fit_mounting, x_icr_limit
 from terrain_odom.io import TrajectoryWriter, read_wheel_log, write_tum
-from terrain_odom.io.atomic import write_atomic, write_text_atomic
+from terrain_odom.io.atomic import write_text_atomic
 from terrain_odom.io.groundtruth import read_groundtruth
 from terrain_odom.io.params import read_priors
 from terrain_odom.io.paths import check_outputs
@@ -104,7 +105,8 @@ class RunSummary:
     frames_csv : Path or None
         ``frames.csv``, when frames were classified.
     plots : tuple of Path
-        PNG plots written (with ground truth).
+        PNG plots written (``out/plots``: trajectory and states of every run,
+        the frames' mosaic with ``images``, frame labels with ground truth).
     updates : int
         Pose measurements fused.
     terrain_changes : int
@@ -448,8 +450,9 @@ def run(
     groundtruth : str or Path, optional
         Ground truth of the run (``groundtruth.csv`` of a simulated run):
         scores the run and its filter variants against it in ``report.json``
-        (section ``groundtruth``), ``report.md`` and PNG plots in
-        ``out/plots/``; also times classification on whole frames.
+        (section ``groundtruth``), ``report.md`` and the plots (drawn
+        against it, with the frame labels); also times classification on
+        whole frames.
     estimator : {"icr-ekf", "slip-ekf"}
         The ICR EKF over pose and ICRs, or the slip-parameter EKF
         (:mod:`terrain_odom.estimation.slip_ekf`), whose ``x, y, yaw`` columns
@@ -497,11 +500,15 @@ def run(
         report["heading_calibration"] = asdict(inputs.heading)
     if root is not None:
         _add_frames_report(report, root, inputs, result, pipeline, use_roi)
-    plots: list[str] = []
+    scored = None
     if inputs.gt is not None and groundtruth is not None:
         frames = records if pipeline is not None else None
-        plots = _score(out, inputs, inputs.gt, report, frames, use_roi)
+        scored = _score(inputs, inputs.gt, report, frames, use_roi)
         report["inputs"]["groundtruth"] = str(Path(groundtruth).resolve())
+    plots = write_run_plots(
+        out, log, result, inputs.cfg, truth=inputs.gt, scored=scored, records=records,
+        images=root, classifier=inputs.classifier,
+    )  # fmt: skip
     report_path, md_path = _write_reports(out, report, plots)
     return RunSummary(
         out / TRAJECTORY_CSV,
@@ -563,14 +570,13 @@ def _check_run_outputs(
 
 
 def _score(
-    out: Path,
     inputs: _Inputs,
     gt: GroundTruth,
     report: dict[str, Any],
     records: list[FrameRecord] | None,
     use_roi: bool,
-) -> list[str]:
-    """Score the run against ground truth into ``report``; write the plots, return their paths."""
+) -> GroundTruthReport:
+    """Score the run against ground truth into ``report``; return the scores."""
     scored = groundtruth_section(
         inputs.log,
         inputs.cfg,
@@ -581,7 +587,7 @@ def _score(
         priors=inputs.priors,
     )
     report["groundtruth"] = scored.section
-    return _write_plots(out, gt, inputs.log, scored, records or [])
+    return scored
 
 
 def _stream(
@@ -740,34 +746,6 @@ def _add_frames_report(
     if pipeline is not None:
         report["frame_problems"] = pipeline.problems
         report["outputs"]["frames_csv"] = FRAMES_CSV
-
-
-def _write_plots(
-    out: Path,
-    gt: GroundTruth,
-    log: WheelLog,
-    scored: GroundTruthReport,
-    records: list[FrameRecord],
-) -> list[str]:
-    """Write the PNG plots of a scored run into ``out/plots``; return their relative paths."""
-    from terrain_odom.reporting import plots
-
-    folder = out / "plots"
-    folder.mkdir(exist_ok=True)
-    jobs: dict[str, Any] = {
-        "trajectory.png": lambda h: plots.plot_trajectory(h, gt, log.t, scored.results),
-        "icr.png": lambda h: plots.plot_icr(
-            h, gt, log.t, scored.results, scored.section["true_changes"]
-        ),
-    }
-    if scored.frame_truth is not None:
-        t = np.array([r.t for r in records], dtype=float)
-        labels = [r.label for r in records]
-        truth = scored.frame_truth.tolist()
-        jobs["frames.png"] = lambda h: plots.plot_frames(h, t, labels, truth)
-    for name, draw in jobs.items():
-        write_atomic(folder / name, draw)
-    return [f"plots/{name}" for name in jobs]
 
 
 def _relative(path: Path, root: Path) -> str:

@@ -93,5 +93,6 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
         print(f"patches:      {out.patches_dir} ({counts})")
     print(f"config:       {out.config_yaml}")
     print(f"map preview:  {out.map_preview}")
+    print(f"map plot:     {out.map_plot}")
     print(f"metadata:     {out.metadata_json}")
     return 0

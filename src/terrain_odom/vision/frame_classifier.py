@@ -154,7 +154,7 @@ class FrameClassifier:
             result = region_of_interest(camera, self.roi, v_l, v_r, icr_params)
             record.roi_status = result.status.value
             record.box = result.box
-            record.ahead = float(np.hypot(*result.pose[:2]))
+            record.ahead = result.ahead
             region = footprint = None
             if result.box is not None:  # the footprint's tiles vote, not its bounding box's
                 region = crop(image, result)
