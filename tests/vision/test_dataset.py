@@ -138,7 +138,7 @@ def test_parallel_extraction_equals_serial_and_shares_equal_feature_settings(tmp
 def test_relative_paths_reach_reused_workers_whatever_their_working_directory(
     tmp_path, monkeypatch
 ):
-    """joblib reuses worker processes: a relative path must not be resolved in their cwd."""
+    """Worker processes are reused: a relative path must not be resolved in their cwd."""
     first, second = tmp_path / "a", tmp_path / "b"
     make_folder(first / "set1")
     make_folder(second / "set2")
