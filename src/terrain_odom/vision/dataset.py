@@ -257,7 +257,10 @@ def _run_all(
             tasks = (_extract_one(path, configs, read) for path in paths)
         else:  # loky workers do not re-run the caller's __main__ (unlike spawn)
             parallel = Parallel(n_jobs=jobs, return_as="generator", batch_size="auto")
-            tasks = parallel(delayed(_extract_in_worker)(path, configs, read) for path in paths)
+            # absolute: a reused worker keeps the working directory it started in
+            tasks = parallel(
+                delayed(_extract_in_worker)(Path(path).absolute(), configs, read) for path in paths
+            )
         results = []
         for result in tasks:
             results.append(result)
