@@ -147,8 +147,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--base-frame",
         default="base_link",
-        help="the robot's frame: the camera mounting is read from /tf_static as the image's "
-        "frame in it (default base_link)",
+        help="the robot's frame: the mountings are read from /tf_static as the frames of the "
+        "image, the pose sensor (GPS antenna) and the Imu in it (default base_link)",
     )
     p.add_argument(
         "--image-format", choices=("jpg", "png"), default="jpg", help="frame files (default jpg)"
