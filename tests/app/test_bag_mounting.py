@@ -121,9 +121,7 @@ def test_a_gps_antenna_the_bag_does_not_place_is_to_fill(tmp_path: Path) -> None
 
 
 def test_a_pose_yaw_and_an_imu_turned_from_it_is_one_line(tmp_path: Path) -> None:
-    poses = [
-        ("/pose", "nav_msgs/msg/Odometry", BASE + STEP + 1000, M.odometry(BASE + STEP + 1000))
-    ]
+    poses = [("/pose", "nav_msgs/msg/Odometry", BASE + STEP + 1000, M.odometry(BASE + STEP + 1000))]
     bag = _bag(tmp_path, [IMU], poses + _fixes_and_headings()[4:])
     opts = ImportOptions("/odom", pose_topic="/pose", heading_topic="/imu", track_width=0.5)
     with pytest.raises(InputFileError, match=r"of base_link, --heading-topic /imu of imu, turned "):
