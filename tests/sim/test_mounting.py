@@ -30,7 +30,7 @@ TRACK = 0.5
 
 
 def _grass_sim(antenna: float, offset: float, duration: float = 180.0) -> Simulation:
-    """The mixed tour (three minutes by default) all on grass, with the GPS and IMU mounted so."""
+    """Simulate the mixed tour (3 minutes by default) all on grass, the GPS and IMU mounted so."""
     scenario = dataclasses.replace(
         get_scenario("mixed"),
         table=dict.fromkeys(TERRAIN_TABLE, GRASS),
@@ -50,7 +50,7 @@ def _log(sim: Simulation) -> WheelLog:
 
 @pytest.fixture(scope="module")
 def mounted() -> Simulation:
-    """The run with the mounted GPS and IMU."""
+    """Simulate the run with the mounted GPS and IMU."""
     return _grass_sim(ANTENNA, OFFSET)
 
 
@@ -130,7 +130,7 @@ def test_auto_heading_offset_finds_the_imu_offset(sim_log):
 
 
 def _slip(sim: Simulation, cfg: Config) -> tuple[np.ndarray, float]:
-    """The slip EKF's mean ``y_l, y_r, x_icr`` over the second half, and its mean position error."""
+    """Return the slip EKF's mean ``y_l, y_r, x_icr`` over the second half, its position error."""
     result = run_slip_ekf(_log(sim), cfg)
     error = np.hypot(*(result.states[:, :2] - sim.motion.pose[:, :2]).T)
     return result.states[sim.motion.t.size // 2 :, 3:6].mean(axis=0), float(error.mean())
