@@ -507,13 +507,14 @@ def _pose_noise(
     EKF measures the change between two poses, whose independent errors add:
     its ``dx, dy, dyaw`` are sqrt(2) times the pose's.
     """
-    sigma: dict[str, float] = collect.poses.sigma() if collect.poses else {}
+    found = collect.poses.sigma() if collect.poses else {}
+    sigma = {key: float(f"{value:.6g}") for key, value in found.items()}
     for key in sigma:
         n = len(collect.poses.sigmas) if collect.poses else 0
         sources[f"ekf.sigma_r.{key}"] = f"{options.pose_topic} covariances (median of {n})"
     yaw = collect.headings.sigma() if collect.headings else None
     if yaw is not None and "yaw" not in sigma and collect.headings is not None:
-        sigma["yaw"] = yaw
+        sigma["yaw"] = float(f"{yaw:.6g}")
         sources["ekf.sigma_r.yaw"] = (
             f"{options.heading_topic} orientation covariances (median of "
             f"{len(collect.headings.sigmas)})"
@@ -522,7 +523,7 @@ def _pose_noise(
         return
     ekf = data.setdefault("ekf", {})
     ekf["sigma_r"] = {**ekf.get("sigma_r", {}), **sigma}
-    change = {f"d{key}": math.sqrt(2.0) * value for key, value in sigma.items()}
+    change = {f"d{key}": float(f"{math.sqrt(2.0) * value:.6g}") for key, value in sigma.items()}
     slip = data.setdefault("slip_ekf", {})
     slip["sigma_r"] = {**slip.get("sigma_r", {}), **change}
     for key in sigma:
