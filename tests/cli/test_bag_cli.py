@@ -16,6 +16,7 @@ from tests.conftest import SHARED_DATA
 
 M = MessageFactory()
 BASE = 1_700_000_000 * 10**9
+STEP = 100_000_000
 JACKAL_ODOM = "/jackal_velocity_controller/odom"
 
 
@@ -82,6 +83,34 @@ def test_import_prints_counts_and_files(
     ]
     log = read_wheel_log(out_dir / "log.csv")
     np.testing.assert_allclose([log.v_l[0], log.v_r[0]], [0.46, 0.54])  # 0.5 -+ 0.2 * 0.4 / 2
+
+
+def test_import_names_the_mounting_from_tf_static_and_the_antenna_to_fill(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    odom = [
+        ("/odom", "nav_msgs/msg/Odometry", BASE + k * STEP, M.odometry(BASE + k * STEP))
+        for k in range(10)
+    ]
+    fixes = [
+        ("/fix", "sensor_msgs/msg/NavSatFix", BASE + STEP + 1, M.nav_sat_fix(BASE + STEP + 1, 0, 0))
+    ]
+    mast = ("base_link", "gps", (-0.3, 0.1, 0.8), (0.0, 0.0, 0.0, 1.0))
+    tf = [("/tf_static", "tf2_msgs/msg/TFMessage", BASE, M.tf_static(BASE, [mast]))]
+    argv = ["import", "--wheels-topic", "/odom", "--pose-topic", "/fix", "--track-width", "0.4"]
+    for name, records in (("tf", odom + fixes + tf), ("none", odom + fixes)):
+        bag = write_bag(tmp_path / f"{name}.bag", "ros1", sorted(records, key=lambda r: r[2]))
+        assert main([*argv, str(bag), "--out", str(tmp_path / name)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    config = tmp_path / "tf" / "config.yaml"
+    assert (
+        f"mounting:   pose_sensor.antenna_x, pose_sensor.antenna_y from /tf_static (in {config})"
+        in lines
+    )
+    config = tmp_path / "none" / "config.yaml"
+    assert f"fill in:    pose_sensor.antenna_x, pose_sensor.antenna_y (in {config})" in lines
+    sensor = yaml.safe_load((tmp_path / "tf" / "config.yaml").read_text())["pose_sensor"]
+    assert sensor == {"antenna_x": -0.3, "antenna_y": 0.1}
 
 
 @pytest.mark.parametrize(

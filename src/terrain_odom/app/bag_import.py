@@ -542,27 +542,12 @@ def _pose_sensor(
     or the pose's) in the base frame (:func:`sensor_mounting`).
     """
     base = options.base_frame.lstrip("/")
-    poses, headings = collect.poses, collect.headings
-    sensor: dict[str, float] = {}
-    fill: list[str] = []
-    gps = options.pose_topic is not None and collect.types[options.pose_topic] == NAV_SAT_FIX
-    offsets: dict[str, float | None] = {}
-    if poses is not None and poses.sensor_frame not in (None, base):
-        pose = chain_transform(collect.static, base, str(poses.sensor_frame))
-        where = f"{TF_STATIC} {base} -> {poses.sensor_frame}"
-        if pose is None:
-            fill += list(ANTENNA_KEYS) if gps else []
-            sources.update(dict.fromkeys(ANTENNA_KEYS, f"not set: {where} not in the bag"))
-        else:
-            sensor["antenna_x"], sensor["antenna_y"], yaw = sensor_mounting(pose)
-            sources.update(dict.fromkeys(ANTENNA_KEYS, where))
-            offsets[str(poses.sensor_frame)] = None if gps else yaw
-    elif poses is not None and not gps:
-        offsets[poses.sensor_frame or base] = 0.0
-    if headings is not None:
-        frame = headings.sensor_frame or base
-        pose = chain_transform(collect.static, base, frame)
-        offsets[frame] = None if pose is None else sensor_mounting(pose)[2]
+    sensor, fill, pose_yaw = _antenna(collect, options, base, sources)
+    offsets = dict([pose_yaw]) if pose_yaw is not None else {}
+    if collect.headings is not None:
+        frame = collect.headings.sensor_frame or base
+        mount = chain_transform(collect.static, base, frame)
+        offsets[frame] = None if mount is None else sensor_mounting(mount)[2]
     offset = _heading_offset(offsets, options, base)
     if offset is not None:
         sensor["heading_offset"] = offset[1]
@@ -570,6 +555,34 @@ def _pose_sensor(
     if sensor:
         data["pose_sensor"] = {**data.get("pose_sensor", {}), **sensor}
     return fill
+
+
+def _antenna(
+    collect: _Collect, options: ImportOptions, base: str, sources: dict[str, str]
+) -> tuple[dict[str, float], list[str], tuple[str, float | None] | None]:
+    """Return the antenna keys ``/tf_static`` gives, the keys to fill, the pose's yaw frame.
+
+    The last: the frame whose yaw the pose topic measures and its yaw in the
+    base frame (None if ``/tf_static`` does not tell); None for a GPS (no yaw).
+    """
+    poses = collect.poses
+    if poses is None or options.pose_topic is None:
+        return {}, [], None
+    gps = collect.types[options.pose_topic] == NAV_SAT_FIX
+    frame = poses.sensor_frame
+    if frame is None and gps:
+        sources.update(dict.fromkeys(ANTENNA_KEYS, "not set: the NavSatFix names no frame"))
+        return {}, list(ANTENNA_KEYS), None
+    if frame is None or frame == base:
+        return {}, [], None if gps else (base, 0.0)
+    mount = chain_transform(collect.static, base, frame)
+    where = f"{TF_STATIC} {base} -> {frame}"
+    if mount is None:
+        sources.update(dict.fromkeys(ANTENNA_KEYS, f"not set: {where} not in the bag"))
+        return {}, list(ANTENNA_KEYS) if gps else [], None if gps else (frame, None)
+    antenna_x, antenna_y, yaw = sensor_mounting(mount)
+    sources.update(dict.fromkeys(ANTENNA_KEYS, where))
+    return {"antenna_x": antenna_x, "antenna_y": antenna_y}, [], None if gps else (frame, yaw)
 
 
 def _heading_offset(

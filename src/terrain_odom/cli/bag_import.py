@@ -174,6 +174,9 @@ def _print_import(result: Any) -> None:
     for where, reasons in result.skipped.items():
         for reason, n in reasons.items():
             print(f"skipped:    {n} {reason} ({where})")
+    mounting = [key for key, source in result.sources.items() if source.startswith("/tf_static")]
+    if mounting:
+        print(f"mounting:   {', '.join(mounting)} from /tf_static (in {result.config_yaml})")
     if result.fill_keys:
         print(f"fill in:    {', '.join(result.fill_keys)} (in {result.config_yaml})")
     print_written("log:", [result.log_csv])
