@@ -15,7 +15,9 @@ Layout of ``OUT``:
   ``patches.csv`` (``file,terrain,x,y,yaw,u0,v0``): the robot pose each was
   rendered from and the crop's top-left pixel.
 - ``config.yaml``: the ``robot`` and ``camera`` configuration sections the run
-  was simulated with (``terrain-odom run --config OUT/config.yaml``).
+  was simulated with (``terrain-odom run --config OUT/config.yaml``), and
+  ``pose_sensor`` when the scenario mounts the GPS antenna or the IMU off
+  the robot's reference (its ``antenna``, ``heading_offset``).
 - ``map.png`` (``map.jpg`` with ``frame_format="jpg"``): the ground map,
   downscaled to at most 2000 px, with the true path in red.
 - ``plots/map.png``: the map with metre axes, the true path coloured by terrain,
@@ -41,6 +43,7 @@ from terrain_odom.io import TrajectoryWriter
 from terrain_odom.io.paths import check_outputs
 from terrain_odom.io.report import report_header, write_json
 from terrain_odom.reporting.map import map_figure
+from terrain_odom.sim.scenarios import Scenario
 from terrain_odom.sim.simulation import Simulation, iter_frames, sample_patches
 
 __all__ = ["FRAME_FORMATS", "SimOutput", "write_simulation"]
@@ -129,6 +132,7 @@ class SimOutput:
             },
             "camera": dataclasses.asdict(sc.camera),
             "robot": dataclasses.asdict(sc.robot),
+            "pose_sensor": _pose_sensor(sc),
             "counts": {
                 "rows": self.rows,
                 "pose_rows": self.pose_rows,
@@ -230,8 +234,18 @@ walk: terrain changes are followed by the covariance resets. The defaults
 """
 
 
+def _pose_sensor(scenario: Scenario) -> dict[str, float]:
+    """Return the ``pose_sensor`` section of a scenario's mounting (antenna, heading offset)."""
+    mounting = scenario.mounting
+    return {
+        "antenna_x": mounting.antenna_x,
+        "antenna_y": mounting.antenna_y,
+        "heading_offset": mounting.heading_offset,
+    }
+
+
 def _write_config(sim: Simulation, path: Path) -> None:
-    sections = {
+    sections: dict[str, Any] = {
         "robot": dataclasses.asdict(sim.scenario.robot),
         "camera": dataclasses.asdict(sim.scenario.camera),
         "ekf": {"sigma_q": SIM_ICR_SIGMA_Q},
@@ -240,6 +254,10 @@ def _write_config(sim: Simulation, path: Path) -> None:
         f"# robot, camera and ICR random walk of the simulated run "
         f"({sim.scenario.name}, seed {sim.seed})\n"
     )
+    sensor = _pose_sensor(sim.scenario)
+    if any(sensor.values()):
+        sections["pose_sensor"] = sensor
+        header += "# pose_sensor: the simulated mounting; without it the log checks stop a run\n"
     path.write_text(header + yaml.safe_dump(sections, sort_keys=False), encoding="utf-8")
 
 

@@ -192,8 +192,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--base-frame",
         default="base_link",
-        help="the robot's frame: the camera mounting is read from /tf_static as the image's "
-        "frame in it (default base_link)",
+        help="the robot's frame: the mountings are read from /tf_static as the frames of the "
+        "image, the pose sensor (GPS antenna) and the Imu in it (default base_link)",
     )
     p.add_argument(
         "--image-format", choices=("jpg", "png"), default="jpg", help="frame files (default jpg)"
@@ -219,6 +219,9 @@ def _print_import(result: Any) -> None:
     for where, reasons in result.skipped.items():
         for reason, n in reasons.items():
             print(f"skipped:    {n} {reason} ({where})")
+    mounting = [key for key, source in result.sources.items() if source.startswith("/tf_static")]
+    if mounting:
+        print(f"mounting:   {', '.join(mounting)} from /tf_static (in {result.config_yaml})")
     if result.fill_keys:
         print(f"fill in:    {', '.join(result.fill_keys)} (in {result.config_yaml})")
     print_written("log:", [result.log_csv])
