@@ -2,24 +2,28 @@
 
 from __future__ import annotations
 
+import importlib.util
+from pathlib import Path
+from types import ModuleType
+
 import numpy as np
 import pytest
 
 from terrain_odom.kinematics.integration import _SERIES_LIMIT, _arc_coefficients
 
+BENCH_FIT = Path(__file__).resolve().parents[2] / "bench" / "fit.py"
 
-def _former(phi: np.ndarray) -> tuple[np.ndarray, ...]:
-    """Return the coefficients as computed before issue 15 (every term on every angle)."""
-    small = np.abs(phi) < _SERIES_LIMIT
-    p = np.where(small, 1.0, phi)
-    p2 = phi * phi
-    a = np.where(small, 1.0 - p2 / 6.0 + p2 * p2 / 120.0, np.sin(p) / p)
-    b = np.where(small, phi / 2.0 - phi * p2 / 24.0 + phi * p2 * p2 / 720.0, (1.0 - np.cos(p)) / p)
-    da = np.where(small, -phi / 3.0 + phi * p2 / 30.0, (p * np.cos(p) - np.sin(p)) / (p * p))
-    db = np.where(
-        small, 0.5 - p2 / 8.0 + p2 * p2 / 144.0, (p * np.sin(p) - (1.0 - np.cos(p))) / (p * p)
-    )
-    return a, b, da, db
+
+def _load_bench() -> ModuleType:
+    """Return ``bench/fit.py`` as a module: it keeps the former formulation, its speed baseline."""
+    spec = importlib.util.spec_from_file_location("bench_fit", BENCH_FIT)
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+_former = _load_bench().former_arc_coefficients
 
 
 ANGLES = [
