@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING
 
 import cv2
 
-from terrain_odom.app.frames import FrameRecord
+from terrain_odom.app.frames import FrameRecord, one_thread
 from terrain_odom.app.plots import with_votes
 from terrain_odom.app.run_folder import RECORDING
 from terrain_odom.config import Config
@@ -124,5 +124,6 @@ def write_recording(
         record_run, log=log, result=result, frames=frames, labels=classes,
         arrow=cfg.robot.track_width,
     )  # fmt: skip
-    write_atomic(path, write)
+    with one_thread():  # the votes' features, as in the run (see one_thread)
+        write_atomic(path, write)
     return path
