@@ -3,24 +3,18 @@
 Everything is logged on the timeline ``t`` (the log's time, s) so that the
 Rerun viewer scrubs through the run:
 
-============================  ==============================================
-entity                        what
-============================  ==============================================
-``camera/image``              each classified frame, its file's bytes (JPEG/PNG)
-``camera/roi``                the region of interest box, labelled with the
-                              frame's label and vote share
-``camera/footprint``          the footprint polygon projected into the image
-``camera/tiles``              the tiles that voted, coloured by their vote
-``world/path``                the estimated path coloured by the confirmed
-                              terrain (static, z = 0)
-``world/measured``            the measured positions (static)
-``world/robot``               the robot's pose at each row (a transform),
-                              drawn as an arrow along its heading
-``states/<name>/estimate``    every state column at each row, with
-``states/<name>/minus_2σ``    its ±2σ band (``lower``, ``upper``)
-``terrain``                   the confirmed terrain: the start and each
-                              change (reset, restored, prior)
-============================  ==============================================
+- ``camera/image``: each classified frame, its file's bytes (JPEG/PNG);
+- ``camera/roi``: the region of interest box, labelled with the frame's
+  label and vote share; ``camera/footprint``: the footprint polygon in the
+  image; ``camera/tiles``: the tiles that voted, coloured by their vote;
+- ``world/path``: the estimated path coloured by the confirmed terrain
+  (static, z = 0); ``world/measured``: the measured positions (static);
+  ``world/robot``: the robot's pose at each row (a transform), drawn as an
+  arrow along its heading;
+- ``states/<name>/estimate``: every state column at each row, and
+  ``states/<name>/lower``, ``upper``: its ±2σ band;
+- ``terrain``: the starting terrain and each confirmed change (reset,
+  restored, prior).
 
 The world is x forward, y left, z up (``RIGHT_HAND_Z_UP``). Rows go in as
 columns (:meth:`rerun.RecordingStream.send_columns`): 10⁵ rows take well
