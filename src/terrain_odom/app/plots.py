@@ -12,7 +12,7 @@ import functools
 from collections.abc import Callable, Sequence
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -39,9 +39,10 @@ from terrain_odom.reporting.plots import (
     travelled,
 )
 from terrain_odom.vision.camera import GroundCamera, crop, region_of_interest
-from terrain_odom.vision.classifier import TerrainClassifier
-from terrain_odom.vision.features import image_features, tile_boxes, tiles_within
 from terrain_odom.vision.frame_classifier import FULL_FRAME
+
+if TYPE_CHECKING:  # scikit-learn and the feature code load for camera runs' mosaics only
+    from terrain_odom.vision.classifier import TerrainClassifier
 
 __all__ = [
     "PLOTS_DIR",
@@ -197,6 +198,8 @@ def with_votes(
     classifier: TerrainClassifier,
 ) -> MosaicPanel:
     """Add the footprint polygon and the tiles' votes to a panel (see :func:`mosaic_panels`)."""
+    from terrain_odom.vision.features import image_features, tile_boxes, tiles_within
+
     image = panel.image
     if record.box is None:
         return panel

@@ -13,7 +13,7 @@ import enum
 import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from tqdm import tqdm
@@ -46,16 +46,17 @@ from terrain_odom.evaluation import check_log
 from terrain_odom.evaluation.mounting import MountingLimits, fit_mounting, x_icr_limit
 from terrain_odom.io import TrajectoryWriter, read_wheel_log, write_tum
 from terrain_odom.io.atomic import write_text_atomic
-from terrain_odom.io.classifier_file import default_model, load_classifier
-from terrain_odom.io.frames import FrameList, read_frames
 from terrain_odom.io.groundtruth import read_groundtruth
 from terrain_odom.io.params import read_priors
 from terrain_odom.io.paths import check_outputs
 from terrain_odom.io.report import path_or_none, report_header, to_jsonable, write_json
-from terrain_odom.io.trajectory import trajectory_columns
+from terrain_odom.io.trajectory import TrajectoryBlocks, trajectory_columns
 from terrain_odom.records import GroundTruth, WheelLog
 from terrain_odom.reporting import run_markdown
-from terrain_odom.vision.classifier import TerrainClassifier
+
+if TYPE_CHECKING:  # the classifier and frame readers (scikit-learn, OpenCV) load with --images
+    from terrain_odom.io.frames import FrameList
+    from terrain_odom.vision.classifier import TerrainClassifier
 
 __all__ = [
     "TerrainSource",
@@ -333,6 +334,9 @@ def _read_inputs(
         )
     frame_list = classifier = None
     if use_frames and images is not None:
+        from terrain_odom.io.classifier_file import default_model, load_classifier
+        from terrain_odom.io.frames import read_frames
+
         if model is None:
             model = default_model()
         frame_list = read_frames(images)
@@ -643,11 +647,11 @@ def _stream(
                 names=lambda path: _relative(path, root),
             )
 
+        blocks = TrajectoryBlocks(writer, names)
+        stack.callback(blocks.flush)  # before the writer closes, also when interrupted
+
         def on_row(row: OdometryRow) -> None:
-            values: dict[str, float | str] = {"t": row.t, "terrain": row.terrain}
-            values.update(zip(names, row.state.tolist(), strict=True))
-            values.update((f"std_{n}", s) for n, s in zip(names, row.std.tolist(), strict=True))
-            writer.write(values)
+            blocks.add(row.t, row.state, row.std, row.terrain)
             bar.update(1)
             written[0] += 1
 

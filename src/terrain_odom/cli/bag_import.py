@@ -128,7 +128,6 @@ def logs_from_bags(
     ConfigError
         A bag without ``--wheels-topic``, or ``--wheels-topic`` and no bag.
     """
-    from terrain_odom.app.bag_import import import_bag
     from terrain_odom.errors import ConfigError
     from terrain_odom.io.bag_reader import is_bag
 
@@ -145,6 +144,8 @@ def logs_from_bags(
             f"--wheels-topic reads a ROS bag, but --wheels {' '.join(paths)} is not one "
             "(a .bag or .mcap file or a ROS 2 bag folder)"
         )
+    from terrain_odom.app.bag_import import import_bag  # frame writing (OpenCV): bags only
+
     folders = _bag_folders(bags, Path(out_dir) / "bag")
     logs, configs = [], []
     for path in paths:

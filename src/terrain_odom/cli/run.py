@@ -111,7 +111,6 @@ def _cmd_run(args: argparse.Namespace) -> int:
     from terrain_odom.app.run import TerrainSource, images_config, run
     from terrain_odom.app.run_folder import prepare_folder
     from terrain_odom.errors import ConfigError
-    from terrain_odom.io.classifier_file import default_model
 
     if args.no_terrain:
         source = TerrainSource.NONE
@@ -135,6 +134,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
         if config is not None:
             print(f"config:     {config} (found in the --images folder; --config to change)")
     if args.images is not None and not args.no_terrain and model is None:
+        from terrain_odom.io.classifier_file import default_model  # scikit-learn: with frames only
+
         model = default_model()
         print(f"model:      {model} (default; --classifier to change)")
     cfg = load_config_option(args, config)

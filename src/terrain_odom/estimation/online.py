@@ -31,6 +31,7 @@ the first frame of the new terrain looked; pending changes are applied in order.
 from __future__ import annotations
 
 import bisect
+import math
 from collections import deque
 from dataclasses import replace
 from pathlib import Path
@@ -48,12 +49,12 @@ from terrain_odom.estimation.pose_measurement import (
     robot_pose,
     sensor_pose,
 )
-from terrain_odom.estimation.slip_ekf import OUTPUT_NAMES, SlipEkf
 from terrain_odom.estimation.terrain import TerrainTracker
 from terrain_odom.kinematics import compose, relative_pose, twist_icr, wrap_angle
 from terrain_odom.records import Sighting, TerrainChange
 
 if TYPE_CHECKING:  # the classifier's modules (scikit-learn) load only with a classifier
+    from terrain_odom.estimation.slip_ekf import SlipEkf
     from terrain_odom.vision.classifier import TerrainClassifier
     from terrain_odom.vision.frame_classifier import FrameClassification, FrameClassifier
 
@@ -128,6 +129,8 @@ class OnlineOdometry:
         mounting = _mounting(config)
         steps: _IcrSteps | _SlipSteps
         if estimator == "slip-ekf":
+            from terrain_odom.estimation.slip_ekf import SlipEkf  # filterpy, SciPy: slip EKF only
+
             if priors is not None:
                 raise ConfigError(
                     "priors seed the ICR EKF (estimator icr-ekf); the slip EKF's parameters "
@@ -222,9 +225,9 @@ class OnlineOdometry:
                 )
             dt = t - self._t
             held_l, held_r = self._speeds
-            # odometer over the step about to be predicted
-            v_x, v_y, _ = twist_icr(held_l, held_r, *steps.icr_params(held_l, held_r))
-            self._flow.travel(float(np.hypot(v_x, v_y)) * dt)
+            if self._flow.odometer_on:  # odometer over the step about to be predicted
+                v_x, v_y, _ = twist_icr(held_l, held_r, *steps.icr_params(held_l, held_r))
+                self._flow.travel(float(np.hypot(v_x, v_y)) * dt)
             steps.predict(held_l, held_r, dt)
         self._t, self._speeds = t, speeds
         steps.sample(t, *speeds)
@@ -388,7 +391,7 @@ def _mounting(config: Config) -> Mounting:
 def _finite(value: float, what: str, name: str, t: float | None = None) -> float:
     """Return ``value`` as a float, or raise naming it if it is not finite."""
     number = float(value)
-    if not np.isfinite(number):
+    if not math.isfinite(number):
         at = "" if t is None else f" t={t!r} s:"
         raise ValueError(f"{what} at{at} {name}={value!r} is not finite")
     return number
@@ -603,6 +606,8 @@ class _SlipSteps:
     """
 
     def __init__(self, ekf: SlipEkf, mounting: Mounting) -> None:
+        from terrain_odom.estimation.slip_ekf import OUTPUT_NAMES
+
         self.filter = ekf
         self.names = OUTPUT_NAMES + ekf.names
         self.mounting = mounting
@@ -752,6 +757,10 @@ class _TerrainFlow:
         self.on_arrival = config.terrain.reset_at == "arrival"
         self.tracker = TerrainTracker(config.terrain.confirm)
         self.travelled = 0.0  # m, odometer of the model's predicted motion
+        # The odometer only places ground seen ahead: it runs from the first sighting
+        # with ahead > 0 (arrival mode). Before, every target is the odometer's value at
+        # the sighting, reached at once whether it counted or not.
+        self.odometer_on = False
         self.pending: deque[tuple[float, str, float]] = deque()  # (odometer target, label, t)
         self.changes: list[TerrainChange] = []
 
@@ -773,6 +782,7 @@ class _TerrainFlow:
     def observe(self, sighting: Sighting) -> None:
         """Feed one label; name the first terrain, apply or schedule a confirmed change."""
         where = self.travelled + (sighting.ahead if self.on_arrival else 0.0)
+        self.odometer_on = self.odometer_on or where > self.travelled
         confirmed = self.tracker.observe(sighting.label, at=where)
         if self.ekf.terrain is None:
             self.ekf.set_terrain(self.tracker.current or sighting.label)
