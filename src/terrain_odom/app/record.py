@@ -17,8 +17,6 @@ from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-import cv2
-
 from terrain_odom.app.frames import FrameRecord, one_thread
 from terrain_odom.app.plots import with_votes
 from terrain_odom.app.run_folder import RECORDING
@@ -29,10 +27,10 @@ from terrain_odom.io.atomic import write_atomic
 from terrain_odom.io.images import read_image_rgb
 from terrain_odom.records import WheelLog
 from terrain_odom.reporting.mosaic import MosaicPanel
-from terrain_odom.vision.classifier import TerrainClassifier
 
 if TYPE_CHECKING:
     from terrain_odom.reporting.recording import RecordedFrame
+    from terrain_odom.vision.classifier import TerrainClassifier
 
 __all__ = ["RECORDING", "NEEDS_RERUN", "require_rerun", "write_recording"]
 
@@ -69,6 +67,8 @@ def _recorded(
             continue
         media_type = frame_media_type(path.suffix)
         if media_type is None:
+            import cv2
+
             data = cv2.imencode(".jpg", cv2.cvtColor(image, cv2.COLOR_RGB2BGR))[1].tobytes()
             media_type = "image/jpeg"
         else:

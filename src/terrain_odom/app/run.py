@@ -21,7 +21,7 @@ from tqdm import tqdm
 from terrain_odom.app.frames import FRAME_COLUMNS, FramePipeline, FrameRecord, one_thread
 from terrain_odom.app.groundtruth import GroundTruthReport, groundtruth_section
 from terrain_odom.app.plots import write_run_plots
-from terrain_odom.app.record import require_rerun, write_recording
+from terrain_odom.app.record import require_rerun
 from terrain_odom.app.run_folder import (
     COMPLETE,
     FRAMES_CSV,
@@ -523,6 +523,8 @@ def run(
     )  # fmt: skip
     recording = None
     if record:
+        from terrain_odom.app.record import write_recording  # OpenCV, rerun: with record only
+
         recording = write_recording(out, log, result, inputs.cfg, records=records, images=root,
                                     classifier=inputs.classifier)  # fmt: skip
         report["outputs"]["recording"] = recording.name
