@@ -52,6 +52,7 @@ __all__ = [
     "write_figures",
     "write_run_plots",
     "mosaic_panels",
+    "with_votes",
     "measured_distance",
     "write_evaluation_plots",
 ]
@@ -184,11 +185,11 @@ def mosaic_panels(
         truth = "" if frame_truth is None else str(frame_truth[index])
         panel = MosaicPanel(record.t, image, record.label, record.confidence, truth, title,
                             box=record.box)  # fmt: skip
-        panels.append(_with_votes(panel, record, result, log, cfg, classifier))
+        panels.append(with_votes(panel, record, result, log, cfg, classifier))
     return panels
 
 
-def _with_votes(
+def with_votes(
     panel: MosaicPanel,
     record: FrameRecord,
     result: OdometryResult,

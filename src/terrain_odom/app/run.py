@@ -21,6 +21,7 @@ from tqdm import tqdm
 from terrain_odom.app.frames import FRAME_COLUMNS, FramePipeline, FrameRecord, one_thread
 from terrain_odom.app.groundtruth import GroundTruthReport, groundtruth_section
 from terrain_odom.app.plots import write_run_plots
+from terrain_odom.app.record import require_rerun
 from terrain_odom.app.run_folder import (
     COMPLETE,
     FRAMES_CSV,
@@ -125,6 +126,8 @@ class RunSummary:
         The heading offset estimated (``pose_sensor.heading_offset: auto``).
     warnings : tuple of str
         What the finished run's estimate makes doubtful (one line each).
+    recording : Path or None
+        ``run.rrd``, the Rerun recording (``record``).
     """
 
     trajectory_csv: Path
@@ -144,6 +147,7 @@ class RunSummary:
     pose_use: PoseUse | None = None
     heading: HeadingCalibration | None = None
     warnings: tuple[str, ...] = ()
+    recording: Path | None = None
 
 
 @dataclass(frozen=True)
@@ -406,6 +410,7 @@ def run(
     estimator: Estimator = "icr-ekf",
     priors: str | Path | None = None,
     overwrite: bool = False,
+    record: bool = False,
 ) -> RunSummary:
     """Run the terrain-adaptive ICR EKF (or slip EKF) over a wheel log; write the results.
 
@@ -467,12 +472,19 @@ def run(
         Not for ``slip-ekf``.
     overwrite : bool
         Replace a run already in ``out_dir``: its files are removed first.
+    record : bool
+        Also write ``run.rrd``, the run as a Rerun recording
+        (:func:`~terrain_odom.app.record.write_recording`); ``ConfigError``
+        before anything is read if ``rerun-sdk`` (the ``[viz]`` extra) is
+        not installed.
 
     Returns
     -------
     RunSummary
     """
     started = time.perf_counter()
+    if record:
+        require_rerun()
     inputs = _read_inputs(
         wheels, config, config_path, terrain, images, model, groundtruth, estimator, priors
     )
@@ -509,6 +521,13 @@ def run(
         out, log, result, inputs.cfg, truth=inputs.gt, scored=scored, records=records,
         images=root, classifier=inputs.classifier,
     )  # fmt: skip
+    recording = None
+    if record:
+        from terrain_odom.app.record import write_recording  # OpenCV, rerun: with record only
+
+        recording = write_recording(out, log, result, inputs.cfg, records=records, images=root,
+                                    classifier=inputs.classifier)  # fmt: skip
+        report["outputs"]["recording"] = recording.name
     report_path, md_path = _write_reports(out, report, plots)
     return RunSummary(
         out / TRAJECTORY_CSV,
@@ -528,6 +547,7 @@ def run(
         pose_use=odometry.pose_use,
         heading=inputs.heading,
         warnings=tuple(report["warnings"]),
+        recording=recording,
     )
 
 

@@ -28,6 +28,7 @@ __all__ = [
     "REPORT_JSON",
     "REPORT_MD",
     "RUN_CONFIG",
+    "RECORDING",
     "EVALUATION_JSON",
     "PLOTS",
     "RUN_FILES",
@@ -44,6 +45,8 @@ REPORT_JSON = "report.json"
 REPORT_MD = "report.md"
 RUN_CONFIG = "config.yaml"
 """The configuration a run used, written into its folder."""
+RECORDING = "run.rrd"
+"""The Rerun recording of ``run --record``."""
 EVALUATION_JSON = "evaluation.json"
 """Written into a run's folder by ``evaluate --run`` (the default ``--out``)."""
 PLOTS = (*PLOT_FILES, *EVALUATION_PLOTS)
@@ -55,6 +58,7 @@ RUN_FILES = (
     REPORT_JSON,
     REPORT_MD,
     RUN_CONFIG,
+    RECORDING,
     EVALUATION_JSON,
     *(f"{PLOTS_DIR}/{name}" for name in PLOTS),
 )

@@ -37,6 +37,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         action="store_true",
         help="replace the run already in --out (its files are removed first; other files kept)",
     )
+    p.add_argument(
+        "--record",
+        action="store_true",
+        help="also write OUT/run.rrd, the run as a Rerun recording to scrub through: frames "
+        "with their region and votes, path, states, terrain (needs terrain-odom[viz])",
+    )
     add_config_option(
         p,
         "project configuration (default: IMAGES/config.yaml if --images has one, "
@@ -101,6 +107,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 def _cmd_run(args: argparse.Namespace) -> int:
     import dataclasses
 
+    from terrain_odom.app.record import require_rerun
     from terrain_odom.app.run import TerrainSource, images_config, run
     from terrain_odom.app.run_folder import prepare_folder
     from terrain_odom.errors import ConfigError
@@ -113,6 +120,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
         source = TerrainSource.AUTO
     if args.images is not None and args.terrain_from_log:
         raise ConfigError("--images and --terrain-from-log exclude each other")
+    if args.record:
+        require_rerun()  # before a bag is imported
     if (
         args.wheels_topic is not None
     ):  # a bag is imported into OUT/bag/: refuse a run's folder first
@@ -147,6 +156,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
         estimator=args.estimator,
         priors=find_input(args.priors, "params_*.yaml", "parameter file"),
         overwrite=args.overwrite,
+        record=args.record,
     )
     print_pose_delay(summary.time_calibration)
     if summary.heading is not None:
@@ -170,6 +180,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     print_written("report:", [summary.report_json, summary.report_md])
     print_written("run config:", [summary.config_yaml])
     print_written("plots:", list(summary.plots))
+    print_written("recording:", [summary.recording])
     return 0
 
 
