@@ -1,72 +1,293 @@
-"""Speed of the ICR EKF over a wheel log, against baselines measured in the same run.
+"""Speed of the ICR EKF and of the whole ``terrain-odom run``, as ratios to baselines of the same run.
 
-Prints the time per wheel sample of ``run_icr_ekf`` (predict at every row,
-update at every pose) and, as ratios, against (a) reading the same log from
-CSV and (b) dead-reckoning it with the vectorised exact integration.
+Builds a long real log by concatenating the Warthog drive logs of
+``../shared/data/drive`` ``--copies`` times (each piece its own segment; by
+default 3 x 54 414 = 163 242 rows, 2.3 h at 20 Hz) into ``--work`` (never into
+the repository), then prints, each figure with the baseline it is divided by:
+
+1. **filter per wheel sample**: ``IcrEkf.predict`` at every row and
+   ``update`` at every pose, over ``--rows`` rows of the long log, for the
+   compiled kernels, the filterpy reference (``FilterpyIcrEkf``, the
+   formulation before the kernels) and the same maths in numpy without
+   filterpy; the speed-up and the largest state difference to the reference;
+2. **whole run**: ``terrain-odom run`` on the long log (a fresh process, so
+   start-up included) against pandas reading and writing the same CSV
+   (``read_csv`` + ``to_csv``, pandas already imported), alternately, best of
+   ``--repeat`` each; and where the time goes (in-process: reading, checks
+   and pose delay, filter loop, writing);
+3. **start-up**: ``terrain-odom run`` on the first 200 rows against
+   ``python -c "import numpy"`` (alternately, best of ``--repeat`` fresh
+   processes each), and whether scikit-learn, ``scipy.stats`` or filterpy
+   were imported;
+4. **memory**: peak resident memory of ``terrain-odom run`` on one copy and
+   on ``--copies`` copies, and the growth per row.
 
 Usage::
 
-    python bench/ekf_speed.py [LOG.csv] [--config config/warthog.yaml] [--repeat 3]
+    python bench/ekf_speed.py [--data ../shared/data/drive] [--copies 3] [--rows 20000]
+                              [--repeat 3] [--work /tmp/bench_ekf_speed]
 
-Without a log it uses examples/demo_log.csv with examples/demo.yaml.
+About 2 minutes on the 2-core machine (the filterpy reference takes most).
 """
 
 from __future__ import annotations
 
 import argparse
+import json
+import os
+import subprocess
+import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 
-from terrain_odom.config import load_config
-from terrain_odom.estimation.odometry import run_icr_ekf
-from terrain_odom.evaluation import dead_reckon
-from terrain_odom.io import read_wheel_log
-from terrain_odom.kinematics import twist_idd
+from terrain_odom.config import Config, load_config
+from terrain_odom.estimation import IcrEkf, icr_step_with_jacobian
+from terrain_odom.estimation.icr_ekf_reference import FilterpyIcrEkf
+from terrain_odom.io import read_wheel_log, write_wheel_log
+from terrain_odom.records import WheelLog
 
 REPO = Path(__file__).resolve().parents[1]
+CONFIG = REPO / "config" / "warthog.yaml"
+EXE = [sys.executable, "-m", "terrain_odom"]
 
 
-def best_of(repeat, fn):
-    times = []
+def best_of(repeat: int, *fns: Callable[[], object]) -> list[float]:
+    """Smallest wall time of each of ``fns`` over ``repeat`` rounds, s.
+
+    The calls alternate (one of each per round), so a change of the
+    machine's load affects the figure and its baseline alike.
+    """
+    times: list[list[float]] = [[] for _ in fns]
     for _ in range(repeat):
-        start = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - start)
-    return min(times)
+        for fn, spent in zip(fns, times, strict=True):
+            started = time.perf_counter()
+            fn()
+            spent.append(time.perf_counter() - started)
+    return [min(spent) for spent in times]
 
 
-def main():
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("log", nargs="?", default=str(REPO / "examples" / "demo_log.csv"))
-    parser.add_argument("--config", default=None)
+def long_log(data: Path, copies: int, path: Path) -> int:
+    """Write the drive logs of ``data``, ``copies`` times over, as one log; return its rows."""
+    logs = [read_wheel_log(p, wheel_radius=0.30) for p in sorted(data.glob("*.csv"))] * copies
+    segments, offset = [], 0
+    for log in logs:
+        segments.append(log.segment - log.segment.min() + offset)
+        offset = int(segments[-1].max()) + 1
+
+    def cat(field: Callable[[WheelLog], np.ndarray]) -> np.ndarray:
+        return np.concatenate([field(log) for log in logs])
+
+    joined = WheelLog(
+        cat(lambda g: g.t),
+        cat(lambda g: g.v_l),
+        cat(lambda g: g.v_r),
+        cat(lambda g: g.pose),
+        cat(lambda g: g.terrain),
+        np.concatenate(segments),
+        source=str(path),
+    )
+    write_wheel_log(path, joined)
+    return len(joined)
+
+
+# ----------------------------------------------------------- 1. per sample
+class NumpyIcrEkf(IcrEkf):
+    """The predict in plain numpy without filterpy (an alternative; update compiled)."""
+
+    def predict(self, v_l: float, v_r: float, dt: float) -> None:
+        """Propagate over one wheel sample: the ICR step, ``F P F^T + Q dt``."""
+        x, jac = icr_step_with_jacobian(self._x, v_l, v_r, dt)
+        p = jac @ self._P @ jac.T + np.diag(self._q_density * dt)
+        self._x[:], self._P[:] = x, 0.5 * (p + p.T)
+        self.t += dt
+
+
+def filter_loop(ekf: IcrEkf, log: WheelLog, rows: int) -> float:
+    """Predict at every row and update at every pose of the first ``rows`` rows; return s."""
+    t, v_l, v_r = log.t[:rows].tolist(), log.v_l[:rows].tolist(), log.v_r[:rows].tolist()
+    poses = log.pose[:rows]
+    has = np.isfinite(poses).any(axis=1).tolist()
+    new = np.zeros(rows, dtype=bool)
+    new[log.run_starts()[log.run_starts() < rows]] = True
+    new_segment = new.tolist()
+    started = time.perf_counter()
+    for k in range(1, rows):
+        if not new_segment[k]:
+            ekf.predict(v_l[k - 1], v_r[k - 1], t[k] - t[k - 1])
+        if has[k]:
+            ekf.update(poses[k])
+    return time.perf_counter() - started
+
+
+def per_sample(log: WheelLog, cfg: Config, rows: int) -> None:
+    """Section 1: the filter alone, per wheel sample."""
+    rows = min(rows, len(log))
+    n_poses = int(np.isfinite(log.pose[:rows]).any(axis=1).sum())
+    fast = IcrEkf(cfg.ekf)
+    filter_loop(fast, log, 200)  # load the compiled kernels (cache) before timing
+    fast = IcrEkf(cfg.ekf)
+    ref = FilterpyIcrEkf(cfg.ekf)
+    t_fast = filter_loop(fast, log, rows)
+    t_ref = filter_loop(ref, log, rows)
+    t_numpy = filter_loop(NumpyIcrEkf(cfg.ekf), log, rows)
+    diff = float(np.max(np.abs(fast.x - ref.x)))
+    us = 1e6 / rows
+    print(
+        f"1. filter per wheel sample ({rows} rows, {n_poses} pose updates, first rows of the log)"
+    )
+    print(f"   filterpy reference (baseline)   {t_ref * us:8.2f} us")
+    print(
+        f"   predict in numpy, no filterpy   {t_numpy * us:8.2f} us = {t_ref / t_numpy:5.1f}x faster"
+    )
+    print(
+        f"   compiled kernels (IcrEkf)       {t_fast * us:8.2f} us = {t_ref / t_fast:5.1f}x faster"
+        f" (goal <= 5 us); final state differs from the reference by {diff:.1e}"
+    )
+
+
+# ------------------------------------------------------------ 2. whole run
+def run_cli(log: Path, out: Path, *, stats: bool = False) -> tuple[float, int]:
+    """Run ``terrain-odom run`` in a fresh process; return (wall s, peak RSS KiB).
+
+    The peak is the process's ``VmHWM`` (``ru_maxrss`` would carry over the
+    bench's own peak through fork and exec).
+    """
+    code = (
+        "import re, sys, runpy\n"
+        f"sys.argv = ['terrain-odom', 'run', '--wheels', {str(log)!r}, '--out', {str(out)!r}, "
+        f"'--config', {str(CONFIG)!r}, '--overwrite']\n"
+        "try:\n    runpy.run_module('terrain_odom', run_name='__main__')\n"
+        "except SystemExit as exc:\n    assert not exc.code, exc.code\n"
+        "heavy = [m for m in ('sklearn', 'scipy.stats', 'filterpy') if m in sys.modules]\n"
+        "status = open('/proc/self/status').read()  # VmHWM: this process's own peak\n"
+        "print('@@', re.search(r'VmHWM:\\s+(\\d+)', status)[1], ','.join(heavy))\n"
+    )
+    started = time.perf_counter()
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    seconds = time.perf_counter() - started
+    marker = [line for line in done.stdout.splitlines() if line.startswith("@@")][0].split()
+    if stats:
+        print(
+            f"   modules imported by the run: {marker[2] if len(marker) > 2 else 'none of'} "
+            "(scikit-learn, scipy.stats, filterpy)"
+        )
+    return seconds, int(marker[1])
+
+
+def whole_run(path: Path, rows: int, work: Path, repeat: int) -> None:
+    """Section 2: the whole run against pandas reading and writing the same CSV."""
+    import pandas as pd
+
+    from terrain_odom.app.run import run
+
+    def pandas_io() -> None:
+        pd.read_csv(path).to_csv(work / "pandas.csv", index=False)
+
+    t_pandas, t_run = best_of(repeat, pandas_io, lambda: run_cli(path, work / "run"))
+    print(f"2. whole run on the long log ({rows} rows), best of {repeat}")
+    print(f"   pandas read_csv + to_csv (baseline)  {t_pandas:6.2f} s")
+    print(
+        f"   terrain-odom run (fresh process)     {t_run:6.2f} s = {t_run / t_pandas:4.1f}x pandas"
+        f" (goal <= 4x) = {1e6 * t_run / rows:.1f} us/row"
+    )
+    cfg = load_config(CONFIG)
+    run(path, work / "warm", config=cfg, progress=False, overwrite=True)
+    started = time.perf_counter()
+    summary = run(path, work / "inproc", config=cfg, progress=False, overwrite=True)
+    total = time.perf_counter() - started
+    report = json.loads(summary.report_json.read_text())
+    print(f"   in-process run {total:.2f} s ({report['counts']['updates']} updates); its parts:")
+    breakdown(path, cfg, rows, work)
+
+
+def breakdown(path: Path, cfg: Config, rows: int, work: Path) -> None:
+    """Time the parts of a run separately: read, check + pose delay, filter, write."""
+    from terrain_odom.app.run import calibrate_log
+    from terrain_odom.estimation.odometry import run_icr_ekf
+    from terrain_odom.io import TrajectoryWriter, write_tum
+    from terrain_odom.io.trajectory import TrajectoryBlocks, trajectory_columns
+
+    parts: dict[str, float] = {}
+    started = time.perf_counter()
+    log = read_wheel_log(path, wheel_radius=cfg.robot.wheel_radius)
+    parts["read the log"] = time.perf_counter() - started
+    started = time.perf_counter()
+    log, _ = calibrate_log(log, cfg)
+    parts["plausibility checks + pose delay"] = time.perf_counter() - started
+    started = time.perf_counter()
+    result = run_icr_ekf(log, cfg, labels=log.terrain)
+    parts["filter loop (OnlineOdometry per row)"] = time.perf_counter() - started
+    started = time.perf_counter()
+    with TrajectoryWriter(work / "t.csv", trajectory_columns(result.names)) as writer:
+        blocks = TrajectoryBlocks(writer, result.names)
+        for k in range(len(log)):
+            blocks.add(log.t[k], result.states[k], result.stds[k], result.terrain[k])
+        blocks.flush()
+    parts["write trajectory.csv (blocks)"] = time.perf_counter() - started
+    started = time.perf_counter()
+    for column in (log.t, *result.states.T, *result.stds.T):
+        list(map(float.__repr__, column.tolist()))
+    parts["  of which repr() of its floats alone"] = time.perf_counter() - started
+    started = time.perf_counter()
+    write_tum(work / "t.tum", log.t, *result.states[:, :3].T)
+    parts["write trajectory.tum"] = time.perf_counter() - started
+    for name, seconds in parts.items():
+        print(f"     {name:40s} {seconds:6.2f} s = {1e6 * seconds / rows:5.1f} us/row")
+
+
+# ------------------------------------------------------ 3. start-up, 4. memory
+def startup(path: Path, work: Path, repeat: int) -> None:
+    """Section 3: a 200-row run against importing numpy, fresh processes."""
+    short = work / "short200.csv"
+    short.write_text("".join(path.read_text().splitlines(keepends=True)[:201]))
+    run_cli(short, work / "short")  # compile or load the kernels' cache once
+
+    def numpy_only() -> None:
+        subprocess.run([sys.executable, "-c", "import numpy"], check=True)
+
+    t_numpy, t_run = best_of(repeat, numpy_only, lambda: run_cli(short, work / "short"))
+    print(f"3. start-up, best of {repeat} fresh processes")
+    print(f"   python -c 'import numpy' (baseline)  {t_numpy:6.3f} s")
+    print(
+        f"   terrain-odom run, 200 rows           {t_run:6.3f} s = {t_run / t_numpy:4.1f}x numpy"
+        " (goal <= 4x)"
+    )
+    run_cli(short, work / "short", stats=True)
+
+
+def memory(data: Path, copies: int, path: Path, rows: int, work: Path) -> None:
+    """Section 4: peak memory on one copy and on ``copies`` copies of the drive logs."""
+    one = work / "one_copy.csv"
+    rows_one = long_log(data, 1, one)
+    _, rss_one = run_cli(one, work / "mem1")
+    _, rss_all = run_cli(path, work / "mem")
+    growth = 1024 * (rss_all - rss_one) / (rows - rows_one)
+    print("4. peak resident memory of terrain-odom run")
+    print(f"   {rows_one:7d} rows  {rss_one / 1024:6.1f} MiB")
+    print(f"   {rows:7d} rows  {rss_all / 1024:6.1f} MiB: {growth:.0f} B more per row")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--data", type=Path, default=REPO.parent / "shared" / "data" / "drive")
+    parser.add_argument("--copies", type=int, default=3)
+    parser.add_argument("--rows", type=int, default=20000, help="rows for the per-sample figure")
     parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--work", type=Path, default=Path("/tmp/bench_ekf_speed"))
     args = parser.parse_args()
-    config = args.config or (
-        str(REPO / "examples" / "demo.yaml") if args.log.endswith("demo_log.csv") else None
-    )
-    cfg = load_config(config)
-    log = read_wheel_log(args.log, wheel_radius=cfg.robot.wheel_radius)
-    n = len(log)
-    t_read = best_of(
-        args.repeat, lambda: read_wheel_log(args.log, wheel_radius=cfg.robot.wheel_radius)
-    )
-    t_dr = best_of(
-        args.repeat, lambda: dead_reckon(log, *twist_idd(log.v_l, log.v_r, cfg.robot.track_width))
-    )
-    t_ekf = best_of(args.repeat, lambda: run_icr_ekf(log, cfg, labels=log.terrain))
-    span = float(log.t[-1] - log.t[0])
-    print(
-        f"log: {args.log} ({n} rows, {int(np.isfinite(log.pose).any(axis=1).sum())} poses, {span:.0f} s)"
-    )
-    print(f"  read CSV            {1e6 * t_read / n:8.2f} us/row")
-    print(f"  dead-reckon (numpy) {1e6 * t_dr / n:8.2f} us/row")
-    print(
-        f"  ICR EKF             {1e6 * t_ekf / n:8.2f} us/row  = {t_ekf / t_read:.1f}x reading, "
-        f"{t_ekf / t_dr:.0f}x dead-reckoning; {span / t_ekf:.0f}x real time; "
-        f"max wheel rate {n / t_ekf:.0f} Hz on one core"
-    )
+    args.work.mkdir(parents=True, exist_ok=True)
+    path = args.work / "long.csv"
+    rows = long_log(args.data, args.copies, path)
+    print(f"long log: {path} ({rows} rows); load average {os.getloadavg()}")
+    cfg = load_config(CONFIG)
+    per_sample(read_wheel_log(path, wheel_radius=0.30), cfg, args.rows)
+    whole_run(path, rows, args.work, args.repeat)
+    startup(path, args.work, args.repeat)
+    memory(args.data, args.copies, path, rows, args.work)
+    print(f"load average after: {os.getloadavg()}")
 
 
 if __name__ == "__main__":

@@ -18,7 +18,11 @@ Usage::
 
     taskset -c 0 python bench/fit.py [--data ../shared/data/drive] [--out /tmp/fit-bench]
 
-Takes about two minutes on one core.
+Takes about two minutes on one core. With ``--speed`` it prints only the
+speed-up of the fit (issue 15): figure 1's fit, timed with the pose
+integration as it was (arc coefficients with every term of both branches on
+every angle, increments stacked then sliced: the baseline) and as it is,
+alternately, best of ``--repeat``; the fitted parameters must be bit-identical.
 """
 
 from __future__ import annotations
@@ -33,8 +37,9 @@ import numpy as np
 from terrain_odom.app.fit import compare, fit
 from terrain_odom.config import load_config
 from terrain_odom.evaluation import model_twist, spatial_windows, summarize, window_errors
+from terrain_odom.fitting import loss
 from terrain_odom.io import read_wheel_log
-from terrain_odom.kinematics import MODELS, get_model
+from terrain_odom.kinematics import MODELS, get_model, integration
 from terrain_odom.records import WheelLog
 
 REPO = Path(__file__).resolve().parents[1]
@@ -122,11 +127,69 @@ def fit_time(grass, cfg):
     )
 
 
+def former_arc_coefficients(phi, derivatives=True):
+    """Return the arc coefficients as computed before issue 15 (the baseline of ``--speed``)."""
+    small = np.abs(phi) < integration._SERIES_LIMIT
+    p = np.where(small, 1.0, phi)
+    p2 = phi * phi
+    a = np.where(small, 1.0 - p2 / 6.0 + p2 * p2 / 120.0, np.sin(p) / p)
+    b = np.where(small, phi / 2.0 - phi * p2 / 24.0 + phi * p2 * p2 / 720.0, (1.0 - np.cos(p)) / p)
+    da = np.where(small, -phi / 3.0 + phi * p2 / 30.0, (p * np.cos(p) - np.sin(p)) / (p * p))
+    db = np.where(
+        small, 0.5 - p2 / 8.0 + p2 * p2 / 144.0, (p * np.sin(p) - (1.0 - np.cos(p))) / (p * p)
+    )
+    return (a, b, da, db) if derivatives else (a, b)
+
+
+def former_integrate(v_x, v_y, omega, dt, *, start=None):
+    """Return ``integrate`` as computed before issue 15 (through the stacked increments)."""
+    inc = integration.arc_increment(v_x, v_y, omega, dt)
+    lead = inc.shape[:-2]
+    start_pose = np.zeros(lead + (3,)) if start is None else np.broadcast_to(start, lead + (3,))
+    yaw = start_pose[..., None, 2] + np.concatenate(
+        [np.zeros(lead + (1,)), np.cumsum(inc[..., 2], axis=-1)], axis=-1
+    )
+    c, s = np.cos(yaw[..., :-1]), np.sin(yaw[..., :-1])
+    dx = c * inc[..., 0] - s * inc[..., 1]
+    dy = s * inc[..., 0] + c * inc[..., 1]
+    zero = np.zeros(lead + (1,))
+    x = start_pose[..., None, 0] + np.concatenate([zero, np.cumsum(dx, axis=-1)], axis=-1)
+    y = start_pose[..., None, 1] + np.concatenate([zero, np.cumsum(dy, axis=-1)], axis=-1)
+    return np.stack([x, y, integration.wrap_angle(yaw)], axis=-1)
+
+
+def fit_speed(grass, cfg, repeat):
+    """Figure 1's fit with the former and the current pose integration, same process."""
+    runs = sorted(grass, key=lambda g: -g.t[-1])[:2]
+    current = (integration._arc_coefficients, loss.integrate)
+    versions = {"former": (former_arc_coefficients, former_integrate), "current": current}
+    times = {name: [] for name in versions}
+    params = {}
+    for _ in range(repeat):
+        for name, (coefficients, integrate) in versions.items():
+            integration._arc_coefficients, loss.integrate = coefficients, integrate
+            started = time.perf_counter()
+            report = fit(runs, "edd-asym", config=cfg)
+            times[name].append(time.perf_counter() - started)
+            params[name] = report.params.vector()
+    integration._arc_coefficients, loss.integrate = current
+    same = params["former"].tobytes() == params["current"].tobytes()
+    former, now = min(times["former"]), min(times["current"])
+    print(f"fit edd-asym on the two longest grass runs, best of {repeat}:")
+    print(f"  former pose integration (baseline) {former:6.2f} s")
+    print(
+        f"  current                            {now:6.2f} s = {100 * (1 - now / former):.0f} % "
+        f"less time ({former / now:.2f}x faster); parameters bit-identical: {same}"
+    )
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--data", default=str(REPO.parent / "shared" / "data" / "drive"))
     parser.add_argument("--config", default=str(REPO / "config" / "warthog.yaml"))
     parser.add_argument("--out", default="/tmp/terrain-odom-fit-bench")
+    parser.add_argument("--speed", action="store_true", help="only the fit's speed-up")
+    parser.add_argument("--repeat", type=int, default=3)
     args = parser.parse_args()
     data = Path(args.data)
     cfg = load_config(args.config)
@@ -139,6 +202,9 @@ def main():
         t: read_wheel_log(data / f"windows_warthog_{t}.csv", wheel_radius=r)
         for t in ("asphalt", "gravel")
     }
+    if args.speed:
+        fit_speed(grass, cfg, args.repeat)
+        return
     fit_time(grass, cfg)
     loro(grass, cfg)
     windows_split(window_logs, cfg)

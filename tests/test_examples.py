@@ -99,6 +99,10 @@ def test_readme_quick_start_runs_as_written_and_prints_what_it_shows(tmp_path, m
         ["terrain-odom", "run"],
         ["terrain-odom", "run"],
         ["terrain-odom", "evaluate"],
+        ["terrain-odom", "simulate"],
+        ["terrain-odom", "patches"],
+        ["terrain-odom", "train"],
+        ["terrain-odom", "run"],
     ]
     printed = []
     for words in commands:

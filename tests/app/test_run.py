@@ -69,6 +69,7 @@ def test_run_returns_summary_with_existing_paths(log_path: Path, tmp_path: Path)
     assert summary.config_yaml == out_dir / "config.yaml"
     assert sorted(p.name for p in out_dir.iterdir()) == [
         "config.yaml",
+        "plots",  # every run draws its trajectory and states
         "report.json",
         "report.md",
         "trajectory.csv",
@@ -164,11 +165,13 @@ def test_a_folder_holding_a_run_is_refused_unless_overwrite(
     out_dir = tmp_path / "out"
     first = run(log_path, out_dir, progress=False)
     (out_dir / "notes.txt").write_text("mine", encoding="utf-8")
-    before = {p.name: p.read_bytes() for p in out_dir.iterdir()}
+    before = {p.relative_to(out_dir): p.read_bytes() for p in out_dir.rglob("*") if p.is_file()}
 
     with pytest.raises(InputFileError, match="already holds a run .*--overwrite"):
         run(log_path, out_dir, progress=False)
-    assert {p.name: p.read_bytes() for p in out_dir.iterdir()} == before
+    assert {
+        p.relative_to(out_dir): p.read_bytes() for p in out_dir.rglob("*") if p.is_file()
+    } == before
 
     real = workflows.run_odometry
 

@@ -140,7 +140,7 @@ def _check_groundtruth_report(section, out):
     headings = ("Frame classification", "Feature extraction time", "Feature extraction + KNN")
     for heading in (*headings, "Model-odometry error"):
         assert f"## {heading}" in markdown
-    for name in ("trajectory", "icr", "frames"):
+    for name in ("trajectory", "states", "frames", "mosaic"):
         image = cv2.imread(str(out / "plots" / f"{name}.png"))
         assert image is not None and min(image.shape[:2]) > 200
         assert f"(plots/{name}.png)" in markdown

@@ -1,18 +1,23 @@
-"""``terrain-odom inspect`` and ``terrain-odom import``: what they print, exit codes, bad input."""
+"""``terrain-odom inspect`` and ``import``: what they print, exit codes, bad input; the real bag."""
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 
 from terrain_odom.cli.main import main
 from terrain_odom.io.bag_writer import MessageFactory, write_bag
 from terrain_odom.io.wheel_log import read_wheel_log
+from tests.conftest import SHARED_DATA
 
 M = MessageFactory()
 BASE = 1_700_000_000 * 10**9
+STEP = 100_000_000
+JACKAL_ODOM = "/jackal_velocity_controller/odom"
 
 
 @pytest.fixture
@@ -78,6 +83,34 @@ def test_import_prints_counts_and_files(
     ]
     log = read_wheel_log(out_dir / "log.csv")
     np.testing.assert_allclose([log.v_l[0], log.v_r[0]], [0.46, 0.54])  # 0.5 -+ 0.2 * 0.4 / 2
+
+
+def test_import_names_the_mounting_from_tf_static_and_the_antenna_to_fill(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    odom = [
+        ("/odom", "nav_msgs/msg/Odometry", BASE + k * STEP, M.odometry(BASE + k * STEP))
+        for k in range(10)
+    ]
+    fixes = [
+        ("/fix", "sensor_msgs/msg/NavSatFix", BASE + STEP + 1, M.nav_sat_fix(BASE + STEP + 1, 0, 0))
+    ]
+    mast = ("base_link", "gps", (-0.3, 0.1, 0.8), (0.0, 0.0, 0.0, 1.0))
+    tf = [("/tf_static", "tf2_msgs/msg/TFMessage", BASE, M.tf_static(BASE, [mast]))]
+    argv = ["import", "--wheels-topic", "/odom", "--pose-topic", "/fix", "--track-width", "0.4"]
+    for name, records in (("tf", odom + fixes + tf), ("none", odom + fixes)):
+        bag = write_bag(tmp_path / f"{name}.bag", "ros1", sorted(records, key=lambda r: r[2]))
+        assert main([*argv, str(bag), "--out", str(tmp_path / name)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    config = tmp_path / "tf" / "config.yaml"
+    assert (
+        f"mounting:   pose_sensor.antenna_x, pose_sensor.antenna_y from /tf_static (in {config})"
+        in lines
+    )
+    config = tmp_path / "none" / "config.yaml"
+    assert f"fill in:    pose_sensor.antenna_x, pose_sensor.antenna_y (in {config})" in lines
+    sensor = yaml.safe_load((tmp_path / "tf" / "config.yaml").read_text())["pose_sensor"]
+    assert sensor == {"antenna_x": -0.3, "antenna_y": 0.1}
 
 
 @pytest.mark.parametrize(
@@ -190,3 +223,53 @@ def test_run_on_a_bag_refuses_a_run_folder_before_importing(
     assert (tmp_path / "bag" / "log.csv").read_bytes() == b"kept"  # nothing imported
     assert main([*argv, "--overwrite"]) == 0
     assert (tmp_path / "bag" / "log.csv").read_bytes() == log
+
+
+@pytest.fixture(scope="module")
+def jackal(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Import the real Jackal bag as docs/bags.md does (skipped without ../shared)."""
+    bag = SHARED_DATA / "bags" / "jackal_odom_imu.bag"
+    if not bag.is_file():
+        pytest.skip(f"real data not present: {bag} (../shared beside the repository)")
+    out = tmp_path_factory.mktemp("jackal")
+    argv = ["import", str(bag), "--out", str(out), "--wheels-topic", JACKAL_ODOM]
+    assert main([*argv, "--heading-topic", "/imu/data", "--track-width", "0.563"]) == 0
+    return out
+
+
+def test_real_bag_import_writes_the_documented_config(jackal: Path) -> None:
+    assert yaml.safe_load((jackal / "config.yaml").read_text()) == {
+        "robot": {"track_width": 0.563},
+        "ekf": {"sigma_r": {"yaw": 0.005}},
+        "slip_ekf": {"sigma_r": {"dyaw": 0.00707107}},
+    }
+    sources = json.loads((jackal / "import.json").read_text())["config_sources"]
+    assert sources["ekf.sigma_r.yaw"] == "/imu/data orientation covariances (median of 3061)"
+
+
+@pytest.mark.parametrize(
+    ("estimator", "path_m", "alpha"), [("icr-ekf", 36.7, 0.32), ("slip-ekf", 84.2, 1.0)]
+)
+def test_real_bag_both_estimators_update_on_every_heading(
+    jackal: Path,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    estimator: str,
+    path_m: float,
+    alpha: float,
+) -> None:
+    """The figures of docs/bags.md: 3058 updates, the IMU's heading; the distance the ICR EKF's."""
+    out = tmp_path / "run"
+    argv = ["run", "--wheels", str(jackal / "log.csv"), "--config", str(jackal / "config.yaml")]
+    assert main([*argv, "--out", str(out), "--estimator", estimator]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[1] == "pose:       position 0 of 0 used, heading 3059 of 3059"
+    report = json.loads((out / "report.json").read_text())
+    assert report["counts"]["updates"] == 3058 and report["warnings"] == []
+    assert "| heading | 3059 | 3059 | 0 |" in (out / "report.md").read_text()
+    run = np.genfromtxt(out / "trajectory.csv", delimiter=",", names=True)
+    log = read_wheel_log(jackal / "log.csv")
+    off = np.angle(np.exp(1j * (run["yaw"] - log.pose[:, 2])))[log.has_yaw]
+    assert np.abs(off).max() < 0.025  # 0.023 rad (ICR EKF), 0 (slip EKF: reset to each heading)
+    path = np.hypot(np.diff(run["x"]), np.diff(run["y"])).sum()
+    assert (path, run["alpha"][-1]) == pytest.approx((path_m, alpha), abs=0.05)

@@ -501,7 +501,8 @@ def test_evaluate_horizon_and_out(
         capsys, "evaluate", "--wheels", log_path, "--horizon", "1", "--out", out_dir
     )
     assert code == 0, err
-    assert out.splitlines()[-1].split() == ["written:", str(out_dir / "evaluation.json")]
+    words = out.split()  # written: the JSON, then its plots
+    assert words[words.index("written:") + 1] == str(out_dir / "evaluation.json")
     result = json.loads((out_dir / "evaluation.json").read_text(encoding="utf-8"))
     assert result["horizon_m"] == 1.0
     assert result["run"] is None

@@ -214,7 +214,8 @@ def test_evaluate_out_is_a_folder_and_a_json_name_the_old_form(log, tmp_path, ca
     folder = tmp_path / "eval"
     code, text, err = _main(capsys, "evaluate", "--wheels", log, "--out", folder)
     assert code == 0 and err == []
-    assert text.splitlines()[-1].split() == ["written:", str(folder / "evaluation.json")]
+    words = text.split()  # written: the JSON, then its plots
+    assert words[words.index("written:") + 1] == str(folder / "evaluation.json")
     old = tmp_path / "e.json"
     code, _, err = _main(capsys, "evaluate", "--wheels", log, "--out", old)
     assert code == 0 and err == [_deprecation("--out e.json", "--out DIR (a folder)")]

@@ -12,6 +12,7 @@ from terrain_odom.config import (
     SIGNED,
     Config,
     IcrSigmas,
+    PoseSensorConfig,
     build_section,
     load_config,
     with_pose_delay,
@@ -74,6 +75,10 @@ def test_per_terrain_pb_falls_back_to_sigma_pb(tmp_path):
         ("time: {pose_delay: soon}\n", r"time\.pose_delay: must be a finite number or 'auto'"),
         ("time: {pose_delay: .inf}\n", r"time\.pose_delay: must be a finite number or 'auto'"),
         ("time: {pose_delay: 200}\n", r"time\.pose_delay: 200 s is not a stamp delay"),
+        ("pose_sensor: {heading_offset: 10}\n", r"heading_offset: 10 is not an angle in radians"),
+        ("pose_sensor: {heading_offset: maybe}\n", r"heading_offset: must be a finite number"),
+        ("pose_sensor: {antenna_x: 50}\n", r"pose_sensor\.antenna_x: 50 m is not an antenna"),
+        ("pose_sensor: {lever: 0.5}\n", r"pose_sensor: unknown key\(s\) \['lever'\]"),
         ("robot: 3\n", r"robot: expected a mapping"),
         ("robot: [\n", r"line \d+: not valid YAML"),
     ],
@@ -83,6 +88,14 @@ def test_invalid_config_names_file_and_key(tmp_path, text, message):
         load_config(_write(tmp_path, text))
     assert "cfg.yaml" in str(info.value)
     assert "\n" not in str(info.value)
+
+
+def test_pose_sensor_from_file(tmp_path):
+    assert Config().pose_sensor == PoseSensorConfig(0.0, 0.0, 0.0)
+    text = "pose_sensor: {antenna_x: -0.4, antenna_y: 0.1, heading_offset: auto}\n"
+    assert load_config(_write(tmp_path, text)).pose_sensor == PoseSensorConfig(-0.4, 0.1, "auto")
+    text = "pose_sensor: {heading_offset: -0.17}\n"
+    assert load_config(_write(tmp_path, text)).pose_sensor.heading_offset == -0.17
 
 
 @pytest.mark.parametrize(("text", "value"), [("auto", "auto"), ("0.15", 0.15), ("-0.2", -0.2)])

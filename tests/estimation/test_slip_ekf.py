@@ -17,7 +17,7 @@ from terrain_odom.config import (
     SlipSigmas,
     load_config,
 )
-from terrain_odom.errors import ConfigError, EstimationError
+from terrain_odom.errors import ConfigError
 from terrain_odom.estimation.odometry import run_slip_ekf
 from terrain_odom.estimation.slip_ekf import SlipEkf
 from terrain_odom.evaluation import settling_time
@@ -245,11 +245,17 @@ def test_terrain_reset_speeds_up_reconvergence_after_an_abrupt_icr_change():
     assert fast < slow and fast <= 1.0
 
 
-def test_slip_ekf_needs_yaw():
-    scenario = feature_slip_scenario(np.zeros(6), duration=5.0)
-    log = dataclasses.replace(scenario.log, pose=np.full_like(scenario.log.pose, np.nan))
-    with pytest.raises(EstimationError, match="needs yaw"):
-        run_slip_ekf(log, Config())
+def test_gps_alone_recovers_the_slip_parameters():
+    """Positions without any heading: chord lengths and turns (Sec. 4.2, 1-Hz pose)."""
+    truth = np.array([1.0, 0.5, 1.2, 0.3, 0.4, 0.2])
+    scenario = feature_slip_scenario(truth, seed=0)
+    cfg = Config(robot=RobotConfig(track_width=TRACK_WIDTH))
+    cfg = dataclasses.replace(cfg, slip_ekf=dataclasses.replace(cfg.slip_ekf, estimate_alpha=False))
+    pose = scenario.log.pose.copy()
+    pose[:, 2] = np.nan
+    result = run_slip_ekf(dataclasses.replace(scenario.log, pose=pose), cfg)
+    assert result.n_updates == int(scenario.log.has_pose.sum()) - 2  # two fixes start the chords
+    np.testing.assert_allclose(result.states[-1, 6:12], truth, atol=0.1)
 
 
 def test_heading_only_log_recovers_the_icr_spacing():

@@ -15,6 +15,7 @@ from terrain_odom.io.bag_messages import (
     joint_speeds,
     match_joints,
     pose_sigmas,
+    sensor_mounting,
     track_speeds,
     yaw_from_quaternion,
 )
@@ -95,3 +96,22 @@ def test_intrinsics_of_ros1_upper_case_camera_info() -> None:
         roi=roi,
     )
     assert intrinsics(info) == Intrinsics(32, 24, 40.0, 41.0, 15.5, 11.5, (0.1, 0.0, 0.0, 0.0, 0.0))
+
+
+def test_sensor_mounting_yaw_is_what_a_mounted_imu_adds_to_the_base_yaw() -> None:
+    # REP 145: an Imu reports its own frame's orientation; on a level base at yaw psi with the
+    # IMU mounted at M, that is R_z(psi) @ M, whose yaw is psi plus the mounting's
+    rng = np.random.default_rng(3)
+    for mount, psi in zip(
+        Rotation.random(100, random_state=rng), rng.uniform(-3, 3, 100), strict=True
+    ):
+        matrix = np.eye(4)
+        matrix[:3, :3] = mount.as_matrix()
+        matrix[:3, 3] = rng.normal(size=3)
+        if abs(matrix[2, 0]) > 0.99:  # the IMU's x axis vertical: no yaw
+            continue
+        world = (Rotation.from_euler("z", psi) * mount).as_quat()
+        antenna_x, antenna_y, offset = sensor_mounting(matrix)
+        assert (antenna_x, antenna_y) == (matrix[0, 3], matrix[1, 3])
+        turn = yaw_from_quaternion(*world) - psi - offset
+        assert math.remainder(turn, 2 * math.pi) == pytest.approx(0.0, abs=1e-9)

@@ -36,7 +36,10 @@ def test_run_report_lists_the_counts_and_every_confirmed_change(report):
     assert f"rows: {counts['rows']}, pose measurements fused: {counts['updates']}" in text
     changes = report["terrain_changes"]
     assert changes, "the demo log changes terrain"
-    rows = [line for line in text.splitlines() if line.startswith("| ") and "applied" not in line]
+    section = text.split("## Terrain changes", 1)[1].split("\n## ", 1)[0]
+    rows = [
+        line for line in section.splitlines() if line.startswith("| ") and "applied" not in line
+    ]
     assert len(rows) == len(changes)
     for change, row in zip(changes, rows, strict=True):
         cells = [cell.strip() for cell in row.strip("|").split("|")]
@@ -55,3 +58,39 @@ def test_plots_and_priors_are_shown_when_present(report):
 def test_no_change_is_said_in_words(report):
     text = run_markdown({**report, "terrain_changes": []})
     assert "No terrain change was confirmed." in text
+
+
+def _rows(text: str, header: str) -> list[list[str]]:
+    """Return the cells of the first table after ``header`` (the rows below its rule)."""
+    lines = text.split(header, 1)[1].split("\n\n")
+    table_lines = next(block for block in lines if block.startswith("| ")).splitlines()
+    return [[c.strip() for c in line.strip("|").split("|")] for line in table_lines[2:]]
+
+
+def test_pose_components_measured_used_and_dropped_by_reason(report):
+    use = report["counts"]["pose_components"]
+    text = run_markdown(report)
+    rows = _rows(text, "## Pose measurements")
+    assert rows == [
+        ["position", str(use["position"]), str(use["used_position"]), "0"],
+        ["heading", str(use["heading"]), str(use["used_heading"]), "0"],
+    ]
+    dropped = {"position: before a heading": 7, "heading: in a gap": 2, "position: x alone": 1}
+    use = {"position": 450, "heading": 20, "used_position": 442, "used_heading": 18}
+    counts = {**report["counts"], "pose_components": {**use, "dropped": dropped}}
+    text = run_markdown({**report, "counts": counts})
+    assert _rows(text, "## Pose measurements") == [
+        ["position", "450", "442", "8"],
+        ["heading", "20", "18", "2"],
+    ]
+    assert _rows(text, "| component | measured") == [
+        ["position", "before a heading", "7"],
+        ["heading", "in a gap", "2"],
+        ["position", "x alone", "1"],
+    ]
+
+
+def test_warnings_are_listed_or_said_to_be_none(report):
+    assert "## Warnings\n\nNone." in run_markdown({**report, "warnings": []})
+    text = run_markdown({**report, "warnings": ["x_icr 0.52 m: an antenna ahead?", "second"]})
+    assert "## Warnings\n\n- x_icr 0.52 m: an antenna ahead?\n- second\n" in text

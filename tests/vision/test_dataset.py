@@ -133,3 +133,22 @@ def test_parallel_extraction_equals_serial_and_shares_equal_feature_settings(tmp
     np.testing.assert_array_equal(serial[1].features, serial[0].features)
     with pytest.raises(ConfigError, match="jobs"):
         extract_features(images, paper, read=read_image_rgb, jobs=0)
+
+
+def test_relative_paths_reach_reused_workers_whatever_their_working_directory(
+    tmp_path, monkeypatch
+):
+    """Worker processes are reused: a relative path must not be resolved in their cwd."""
+    first, second = tmp_path / "a", tmp_path / "b"
+    make_folder(first / "set1")
+    make_folder(second / "set2")
+    paper = paper_config()
+    counts = []
+    for folder, name in ((first, "set1"), (second, "set2")):
+        monkeypatch.chdir(folder)  # the workers started in the first folder serve the second
+        images = scan_image_folder(Path(name))
+        (features,) = extract_feature_sets(
+            images, [paper], read=read_image_rgb, jobs=2, progress=False
+        )
+        counts.append(features.counts())
+    assert counts[0] == counts[1] == {"brick": 2, "grass": 3, "gravel": 2}

@@ -7,10 +7,12 @@ Layout of ``OUT`` written by :func:`import_bag`:
 - ``frames/NNNNNN.jpg`` (or ``.png``) and ``frames.csv`` (``t,file``) with
   ``--image-topic``;
 - ``config.yaml``: the robot geometry used, the pose noise of the message
-  covariances, the camera intrinsics; the keys the bag could not tell are
-  listed in a comment at its top (and in ``import.json``);
+  covariances (``ekf.sigma_r``, ``slip_ekf.sigma_r``), the pose sensors'
+  and the camera's mounting from ``/tf_static``, the camera intrinsics; the
+  keys the bag could not tell are listed in a comment at its top (and in
+  ``import.json``);
 - ``import.json``: bag, topics, counts, time span, time origin, what was
-  skipped and why.
+  skipped and why, where each configuration value came from.
 
 One pass over the bag's selected topics, message by message: memory grows
 with the wheel log's rows, not with the bag (images go to disk one by one).
@@ -36,12 +38,14 @@ from terrain_odom.io.bag_log import MergedLog, merge_streams
 from terrain_odom.io.bag_messages import (
     CAMERA_INFO,
     JOINT_STATE,
+    NAV_SAT_FIX,
     ROLE_TYPES,
     TF_MESSAGE,
     Intrinsics,
     camera_mount,
     chain_transform,
     intrinsics,
+    sensor_mounting,
     transform_matrix,
 )
 from terrain_odom.io.bag_reader import (
@@ -57,12 +61,14 @@ from terrain_odom.io.bag_streams import HeadingStream, PoseStream, StampRule, Wh
 from terrain_odom.io.paths import check_outputs
 from terrain_odom.io.report import report_header, write_json
 from terrain_odom.io.wheel_log import write_wheel_log
+from terrain_odom.kinematics import wrap_angle
 from terrain_odom.records import WheelLog
 
 __all__ = ["ImportOptions", "ImportResult", "import_bag", "inspect_bag", "read_bag_log"]
 
 STAMP_CHOICES = ("header", "receive")
 TF_STATIC = "/tf_static"
+ANTENNA_KEYS = ("pose_sensor.antenna_x", "pose_sensor.antenna_y")
 CAMERA_MOUNT_KEYS = (
     "camera.mount_x",
     "camera.mount_y",
@@ -93,8 +99,10 @@ class ImportOptions:
     pose_frames : (str, str), optional
         Parent and child frame of the ``/tf`` pose.
     base_frame : str
-        The robot's frame, for the camera mounting from ``/tf_static``
-        (the image's ``frame_id`` in it).
+        The robot's frame, for the mountings from ``/tf_static``: the
+        image's ``frame_id``, the pose sensor's frame (a NavSatFix's
+        ``frame_id``, an Odometry's ``child_frame_id``, the ``/tf`` pose's
+        child) and the Imu's ``frame_id``, each in it.
     gps_origin : (float, float, float), optional
         ENU origin: latitude, longitude (deg), altitude (m).
     stamps : {'header', 'receive'}
@@ -143,6 +151,9 @@ class ImportResult:
         Configuration keys the bag could not tell (to fill by hand).
     seconds : float
         Wall time of the import.
+    sources : dict of str to str
+        Where each configuration value the import set came from (an
+        option, a topic's messages, ``/tf_static``), by key.
     """
 
     log_csv: Path
@@ -158,6 +169,7 @@ class ImportResult:
     skipped: dict[str, dict[str, int]] = field(default_factory=dict)
     fill_keys: tuple[str, ...] = ()
     seconds: float = 0.0
+    sources: dict[str, str] = field(default_factory=dict)
 
 
 def inspect_bag(bag: str | Path, progress: bool | None = None) -> BagSummary:
@@ -179,6 +191,7 @@ class _Collect:
     static: dict[tuple[str, str], np.ndarray] = field(default_factory=dict)
     image_frame: str | None = None
     images_unstamped: int = 0
+    camera_topic: str | None = None
 
 
 def import_bag(
@@ -209,8 +222,9 @@ def import_bag(
     collect, merged = _read(bag, options, robot, out, progress)
     write_wheel_log(paths["log"], merged.log)
     frames_csv = _write_frames(collect, merged, paths["frames"]) if options.image_topic else None
-    fill = _write_config(paths["config"], collect, options, robot, bag)
-    result = _result(paths, frames_csv, collect, merged, fill, time.perf_counter() - start)
+    fill, sources = _write_config(paths["config"], collect, options, robot, bag)
+    seconds = time.perf_counter() - start
+    result = _result(paths, frames_csv, collect, merged, (fill, sources), seconds)
     write_json(paths["import"], _report(bag, options, collect, merged, result))
     return result
 
@@ -305,10 +319,7 @@ def _plan(
             conns = topic_connections(reader, bag, topic, option, accepted)
             connections += [c for c in conns if c not in connections]
             types[topic] = conns[0].msgtype
-    if options.image_topic is not None:
-        connections += [
-            c for c in reader.connections if c.topic == TF_STATIC and c not in connections
-        ]
+    connections += [c for c in reader.connections if c.topic == TF_STATIC and c not in connections]
     stamps = StampRule(options.stamps)
     wheels = WheelStream(f"{bag}: --wheels-topic {options.wheels_topic}", stamps)
     _wheel_geometry(wheels, types[options.wheels_topic], options, robot)
@@ -398,6 +409,7 @@ def _dispatch(
         _frame(collect, message, options, out)
     if message.msgtype == CAMERA_INFO and collect.camera is None:
         collect.camera = intrinsics(message.msg)
+        collect.camera_topic = topic
     if topic == TF_STATIC and message.msgtype == TF_MESSAGE:
         for tr in message.msg.transforms:
             pair = (tr.header.frame_id.lstrip("/"), tr.child_frame_id.lstrip("/"))
@@ -450,16 +462,27 @@ def _write_config(
     options: ImportOptions,
     robot: dict[str, float | None],
     bag: str | Path,
-) -> tuple[str, ...]:
-    """Write ``config.yaml``; return the keys the user must fill."""
+) -> tuple[tuple[str, ...], dict[str, str]]:
+    """Write ``config.yaml``; return the keys the user must fill and where each value came from."""
     data: dict[str, Any] = dict(read_yaml(Path(options.config)) or {}) if options.config else {}
     fill = ["robot.track_width"] if robot["track_width"] is None else []
     data["robot"] = {**data.get("robot", {}), **{k: v for k, v in robot.items() if v is not None}}
-    _pose_noise(data, collect)
+    sources = {
+        f"robot.{k}": f"--{k.replace('_', '-')}" if getattr(options, k) else "--config"
+        for k, v in robot.items()
+        if v is not None
+    }
+    _pose_noise(data, collect, options, sources)
     header = [f"# terrain-odom import of {bag}"]
+    fill += _pose_sensor(data, collect, options, sources)
+    if any(key.startswith("pose_sensor.") and "/tf_static" in v for key, v in sources.items()):
+        header.append(
+            f"# pose_sensor.* from {TF_STATIC} (the sensors' frames in {options.base_frame}); "
+            "a heading's magnetic declination is not in it (heading_offset: auto estimates both)"
+        )
     if options.image_topic is not None:
         mount = _mount(collect, options.base_frame)
-        fill += _camera(data, collect.camera, mount)
+        fill += _camera(data, collect, mount, options.base_frame, sources)
         if mount is not None:
             header.append(
                 f"# camera.mount_* from {TF_STATIC} ({options.base_frame} -> "
@@ -471,18 +494,121 @@ def _write_config(
     text = "\n".join(header) + "\n" + yaml.safe_dump(data, sort_keys=False)
     write_text_atomic(path, text)
     load_config(path)  # what was written must load
-    return tuple(fill)
+    return tuple(fill), sources
 
 
-def _pose_noise(data: dict[str, Any], collect: _Collect) -> None:
-    """Set ``ekf.sigma_r`` from the message covariances that give one."""
-    sigma: dict[str, float] = collect.poses.sigma() if collect.poses else {}
+def _pose_noise(
+    data: dict[str, Any], collect: _Collect, options: ImportOptions, sources: dict[str, str]
+) -> None:
+    """Set ``ekf.sigma_r`` and ``slip_ekf.sigma_r`` from the message covariances that give one.
+
+    Per component: ``x, y`` from the position covariance, ``yaw`` from the
+    yaw variance (of the pose topic, else of the Imu's orientation). The slip
+    EKF measures the change between two poses, whose independent errors add:
+    its ``dx, dy, dyaw`` are sqrt(2) times the pose's.
+    """
+    found = collect.poses.sigma() if collect.poses else {}
+    sigma = {key: float(f"{value:.6g}") for key, value in found.items()}
+    for key in sigma:
+        n = len(collect.poses.sigmas) if collect.poses else 0
+        sources[f"ekf.sigma_r.{key}"] = f"{options.pose_topic} covariances (median of {n})"
     yaw = collect.headings.sigma() if collect.headings else None
-    if yaw is not None and "yaw" not in sigma:
-        sigma["yaw"] = yaw
-    if sigma:
-        ekf = data.setdefault("ekf", {})
-        ekf["sigma_r"] = {**ekf.get("sigma_r", {}), **sigma}
+    if yaw is not None and "yaw" not in sigma and collect.headings is not None:
+        sigma["yaw"] = float(f"{yaw:.6g}")
+        sources["ekf.sigma_r.yaw"] = (
+            f"{options.heading_topic} orientation covariances (median of "
+            f"{len(collect.headings.sigmas)})"
+        )
+    if not sigma:
+        return
+    ekf = data.setdefault("ekf", {})
+    ekf["sigma_r"] = {**ekf.get("sigma_r", {}), **sigma}
+    change = {f"d{key}": float(f"{math.sqrt(2.0) * value:.6g}") for key, value in sigma.items()}
+    slip = data.setdefault("slip_ekf", {})
+    slip["sigma_r"] = {**slip.get("sigma_r", {}), **change}
+    for key in sigma:
+        sources[f"slip_ekf.sigma_r.d{key}"] = (
+            f"sqrt(2) ekf.sigma_r.{key} (the change between two independent measurements)"
+        )
+
+
+def _pose_sensor(
+    data: dict[str, Any], collect: _Collect, options: ImportOptions, sources: dict[str, str]
+) -> list[str]:
+    """Set ``pose_sensor`` from ``/tf_static``; return the keys to fill (a GPS antenna not in it).
+
+    The antenna is the pose sensor's frame origin in the base frame; the
+    heading offset is the yaw of the frame whose yaw is measured (the Imu's,
+    or the pose's) in the base frame (:func:`sensor_mounting`).
+    """
+    base = options.base_frame.lstrip("/")
+    sensor, fill, pose_yaw = _antenna(collect, options, base, sources)
+    offsets = dict([pose_yaw]) if pose_yaw is not None else {}
+    if collect.headings is not None:
+        frame = collect.headings.sensor_frame or base
+        mount = chain_transform(collect.static, base, frame)
+        offsets[frame] = None if mount is None else sensor_mounting(mount)[2]
+    offset = _heading_offset(offsets, options, base)
+    if offset is not None:
+        sensor["heading_offset"] = offset[1]
+        sources["pose_sensor.heading_offset"] = f"{TF_STATIC} {base} -> {offset[0]} (yaw)"
+    if sensor:
+        data["pose_sensor"] = {**data.get("pose_sensor", {}), **sensor}
+    return fill
+
+
+def _antenna(
+    collect: _Collect, options: ImportOptions, base: str, sources: dict[str, str]
+) -> tuple[dict[str, float], list[str], tuple[str, float | None] | None]:
+    """Return the antenna keys ``/tf_static`` gives, the keys to fill, the pose's yaw frame.
+
+    The last: the frame whose yaw the pose topic measures and its yaw in the
+    base frame (None if ``/tf_static`` does not tell); None for a GPS (no yaw).
+    """
+    poses = collect.poses
+    if poses is None or options.pose_topic is None:
+        return {}, [], None
+    gps = collect.types[options.pose_topic] == NAV_SAT_FIX
+    frame = poses.sensor_frame
+    if frame is None and gps:
+        sources.update(dict.fromkeys(ANTENNA_KEYS, "not set: the NavSatFix names no frame"))
+        return {}, list(ANTENNA_KEYS), None
+    if frame is None or frame == base:
+        return {}, [], None if gps else (base, 0.0)
+    mount = chain_transform(collect.static, base, frame)
+    where = f"{TF_STATIC} {base} -> {frame}"
+    if mount is None:
+        sources.update(dict.fromkeys(ANTENNA_KEYS, f"not set: {where} not in the bag"))
+        return {}, list(ANTENNA_KEYS) if gps else [], None if gps else (frame, None)
+    antenna_x, antenna_y, yaw = sensor_mounting(mount)
+    sources.update(dict.fromkeys(ANTENNA_KEYS, where))
+    return {"antenna_x": antenna_x, "antenna_y": antenna_y}, [], None if gps else (frame, yaw)
+
+
+def _heading_offset(
+    offsets: dict[str, float | None], options: ImportOptions, base: str
+) -> tuple[str, float] | None:
+    """Return the frame and yaw (rad) measured headings are offset by, if ``/tf_static`` tells.
+
+    Raises
+    ------
+    InputFileError
+        If the pose's yaw and the Imu's are of frames turned from each other
+        (one ``heading_offset`` cannot serve both).
+    """
+    known = {frame: yaw for frame, yaw in offsets.items() if yaw is not None}
+    if len(known) == 2:
+        (pose_frame, pose_yaw), (imu_frame, imu_yaw) = known.items()
+        turn = float(wrap_angle(imu_yaw - pose_yaw))
+        if abs(turn) > 1e-6:
+            raise InputFileError(
+                f"--pose-topic {options.pose_topic} measures the yaw of {pose_frame}, "
+                f"--heading-topic {options.heading_topic} of {imu_frame}, turned "
+                f"{math.degrees(turn):+.1f} deg from it ({TF_STATIC}): one "
+                "pose_sensor.heading_offset cannot serve both; import one of them"
+            )
+    turned = [(frame, yaw) for frame, yaw in known.items() if frame != base]
+    return turned[-1] if turned else None
 
 
 def _mount(collect: _Collect, base_frame: str) -> dict[str, float] | None:
@@ -495,11 +621,16 @@ def _mount(collect: _Collect, base_frame: str) -> dict[str, float] | None:
 
 
 def _camera(
-    data: dict[str, Any], camera: Intrinsics | None, mount: dict[str, float] | None
+    data: dict[str, Any],
+    collect: _Collect,
+    mount: dict[str, float] | None,
+    base_frame: str,
+    sources: dict[str, str],
 ) -> list[str]:
     """Set the camera intrinsics and mounting that are known; return the camera keys to fill."""
     fill: list[str] = []
     known: dict[str, Any] = {}
+    camera = collect.camera
     if camera is None:
         fill += [f"camera.{k}" for k in ("width", "height", "fx", "fy", "cx", "cy")]
     else:
@@ -510,6 +641,12 @@ def _camera(
         known.update(mount)
     if known:
         data["camera"] = {**data.get("camera", {}), **known}
+    for key in known:
+        sources[f"camera.{key}"] = (
+            f"{TF_STATIC} {base_frame} -> {collect.image_frame}"
+            if key.startswith("mount_")
+            else f"{collect.camera_topic} (CameraInfo)"
+        )
     return fill
 
 
@@ -518,7 +655,7 @@ def _result(
     frames_csv: Path | None,
     collect: _Collect,
     merged: MergedLog,
-    fill: tuple[str, ...],
+    config: tuple[tuple[str, ...], dict[str, str]],
     seconds: float,
 ) -> ImportResult:
     log = merged.log
@@ -540,8 +677,9 @@ def _result(
         segments=log.n_runs,
         duration=float(log.t[-1] - log.t[0]),
         skipped={k: v for k, v in skipped.items() if v},
-        fill_keys=fill,
+        fill_keys=config[0],
         seconds=seconds,
+        sources=config[1],
     )
 
 
@@ -579,5 +717,6 @@ def _report(
         else None,
         "camera_distortion": list(collect.camera.distortion) if collect.camera else None,
         "fill_in_config": list(result.fill_keys),
+        "config_sources": result.sources,
         "seconds": round(result.seconds, 3),
     }

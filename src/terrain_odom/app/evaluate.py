@@ -5,7 +5,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -14,6 +14,7 @@ import numpy as np
 from terrain_odom.app.cluster import dask_cluster, run_jobs
 from terrain_odom.app.fit import format_error_stats
 from terrain_odom.app.locate import check_out, create_folder, output_file
+from terrain_odom.app.plots import EVALUATION_PLOTS, PLOTS_DIR, write_evaluation_plots
 from terrain_odom.app.run import read_calibrated_log, run_config
 from terrain_odom.app.run_folder import TRAJECTORY_CSV, check_complete
 from terrain_odom.config import Config, RobotConfig, load_config
@@ -80,14 +81,13 @@ class ModelErrors:
         Translational (m/m) and angular (deg/m) error per metre over the windows.
     ate : AteResult
         ATE of the model dead-reckoned over every segment, m.
-    window_errors : WindowErrors or None
-        The errors of each window (pooled over logs by :func:`evaluate_logs`;
-        not in the JSON).
+    windows : WindowErrors or None
+        The errors window by window (what the plots draw).
     """
 
     errors: ErrorSummary
     ate: AteResult
-    window_errors: WindowErrors | None = field(default=None, repr=False, compare=False)
+    windows: WindowErrors | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """Return the model's entry of ``evaluation.json``."""
@@ -119,6 +119,8 @@ class EvaluationResult:
         2-s prediction errors of the nominal model and of the run.
     output : Path or None
         The JSON file written (``None``: nothing written).
+    plots : tuple of Path
+        PNG plots written beside it, in ``plots/`` (:func:`write_evaluation_plots`).
     """
 
     log: Path
@@ -130,6 +132,7 @@ class EvaluationResult:
     prediction_windows: int
     prediction: dict[str, PredictionSummary]
     output: Path | None = None
+    plots: tuple[Path, ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
         """Return the content of ``evaluation.json``."""
@@ -171,7 +174,9 @@ def _model_errors(
     reckoned = dead_reckon(log, *rows)
     errors = window_errors(log, windows, twist_fn)
     return ModelErrors(
-        summarize(errors), absolute_trajectory_error(reckoned[:, :2], log.pose[:, :2]), errors
+        summarize(errors),
+        absolute_trajectory_error(reckoned[:, :2], log.pose[:, :2]),
+        errors,
     )
 
 
@@ -313,26 +318,45 @@ def evaluate(
         check_out(out, JSON_SUFFIXES)
     if target is not None:
         trajectory = None if run_dir is None else Path(run_dir) / TRAJECTORY_CSV
-        check_outputs([wheels, config_path, trajectory, *(params or [])], [target])
+        plots = [target.parent / PLOTS_DIR / name for name in EVALUATION_PLOTS]
+        check_outputs([wheels, config_path, trajectory, *(params or [])], [target, *plots])
     cfg = _evaluation_config(run_dir, config, config_path)
-    result = _evaluate_log(wheels, cfg=cfg, run_dir=run_dir, params=params, horizon=horizon)
-    if target is not None:
-        if out is not None:
-            create_folder(out, JSON_SUFFIXES)
-        write_json(target, result.to_dict())
-    return dataclasses.replace(result, output=target)
+    log, timing = read_calibrated_log(wheels, cfg)
+    result = _evaluation(log, timing, wheels, cfg, run_dir=run_dir, params=params, horizon=horizon)
+    result = dataclasses.replace(result, output=target)
+    if target is None:
+        return result
+    if out is not None:
+        create_folder(out, JSON_SUFFIXES)
+    write_json(target, result.to_dict())
+    errors = {name: m.windows for name, m in result.models.items() if m.windows is not None}
+    plots = write_evaluation_plots(target.parent / PLOTS_DIR, log, errors, result.horizon)
+    return dataclasses.replace(result, plots=tuple(plots))
 
 
 def _evaluate_log(
     wheels: str | Path,
     *,
     cfg: Config,
+    params: Sequence[str | Path] | None = None,
+    horizon: float | None = None,
+) -> EvaluationResult:
+    """Read one log and evaluate it as :func:`evaluate` does, writing nothing (a batch task)."""
+    log, timing = read_calibrated_log(wheels, cfg)
+    return _evaluation(log, timing, wheels, cfg, params=params, horizon=horizon)
+
+
+def _evaluation(
+    log: WheelLog,
+    timing: TimeCalibration,
+    wheels: str | Path,
+    cfg: Config,
+    *,
     run_dir: str | Path | None = None,
     params: Sequence[str | Path] | None = None,
     horizon: float | None = None,
 ) -> EvaluationResult:
-    """Compute what :func:`evaluate` does on one log, writing nothing (a joblib task of a batch)."""
-    log, timing = read_calibrated_log(wheels, cfg)
+    """Errors of the nominal model, the run and the parameter files on ``log`` (read from ``wheels``)."""
     h_e = cfg.evaluation.horizon if horizon is None else float(horizon)
     windows = _evaluation_windows(log, h_e)
     b = cfg.robot.track_width
@@ -383,7 +407,7 @@ class PooledErrors:
         count = sum(e.ate.count for e in entries)
         square = sum(e.ate.count * e.ate.rmse**2 for e in entries)
         return cls(
-            summarize([e.window_errors for e in entries if e.window_errors is not None]),
+            summarize([e.windows for e in entries if e.windows is not None]),
             math.sqrt(square / count) if count else math.nan,
             count,
         )

@@ -13,7 +13,7 @@ import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, BinaryIO
+from typing import Any
 
 import numpy as np
 
@@ -56,7 +56,9 @@ from terrain_odom.io.paths import check_outputs
 from terrain_odom.io.report import write_json
 from terrain_odom.kinematics import MODELS, get_model
 from terrain_odom.records import WheelLog
+from terrain_odom.reporting.figure import save_png
 from terrain_odom.reporting.markdown import table
+from terrain_odom.reporting.model_errors import error_boxes_figure, error_values
 
 __all__ = [
     "LogSource",
@@ -601,7 +603,9 @@ def compare(
         md, js, png = (target / name for name in COMPARE_FILES)
         write_text_atomic(md, report.markdown)
         write_json(js, report.to_dict())
-        write_atomic(png, lambda handle: _box_plot(handle, names, raw_errors, h_e))
+        values = {n: {g: error_values(e) for g, e in raw_errors[n].items()} for n in names}
+        fig = error_boxes_figure(values, h_e, "Held-out model error")
+        write_atomic(png, lambda handle: save_png(fig, handle))
         params = tuple(target / params_file_name(name) for name in names)
         report = dataclasses.replace(report, outputs=(md, js, png, *params))
     return report
@@ -659,47 +663,3 @@ def _markdown(
         table(["model", "terrain", "windows", "m/m", "deg/m", "fit (s)"], error_rows),
     ]
     return "\n".join(lines) + "\n"
-
-
-def _box_plot(
-    handle: BinaryIO,
-    names: Sequence[str],
-    raw_errors: dict[str, dict[str, list[WindowErrors]]],
-    h_e: float,
-) -> None:
-    """Box plots of the per-metre errors per model and terrain (Baril Fig. 5-6 style)."""
-    from terrain_odom.reporting.plots import new_figure
-
-    groups = sorted({g for e in raw_errors.values() for g in e})
-    width = 0.8 / max(1, len(groups))
-    fig = new_figure(min(14.0, max(6.5, 2.0 + 0.5 * len(names) * len(groups))), 7)  # title fits
-    axes = fig.subplots(2, 1)
-    for ax, attr, unit in (
-        (axes[0], "translation_per_m", "translational error (m/m)"),
-        (axes[1], "rotation_per_m", "angular error (deg/m)"),
-    ):
-        for j, g in enumerate(groups):
-            data = [
-                np.concatenate([getattr(e, attr) for e in raw_errors[n].get(g, [])] or [[]])
-                for n in names
-            ]
-            pos = np.arange(len(names)) + (j - (len(groups) - 1) / 2) * width
-            keep = [i for i, d in enumerate(data) if d.size]
-            box = ax.boxplot(
-                [data[i] for i in keep],
-                positions=pos[keep],
-                widths=0.9 * width,
-                showfliers=False,
-                patch_artist=True,
-            )
-            for patch in box["boxes"]:
-                patch.set_facecolor(f"C{j}")
-                patch.set_alpha(0.6)
-            ax.plot([], [], color=f"C{j}", lw=6, alpha=0.6, label=g)
-        ax.set_xticks(np.arange(len(names)), names)
-        ax.set_ylabel(unit)
-        ax.set_yscale("log")
-        ax.grid(True, axis="y", alpha=0.3)
-    axes[0].legend(title="terrain")
-    axes[0].set_title(f"Held-out model error over h_e = {h_e:g} m windows")
-    fig.savefig(handle, format="png", dpi=110)

@@ -27,7 +27,14 @@ from terrain_odom.io.frames import FrameList
 from terrain_odom.io.images import read_image_rgb
 from terrain_odom.vision.frame_classifier import FrameClassification
 
-__all__ = ["FRAME_COLUMNS", "FrameRecord", "FramePipeline", "ReplayedFrames", "one_thread"]
+__all__ = [
+    "FRAME_COLUMNS",
+    "FrameRecord",
+    "FramePipeline",
+    "ReplayedFrames",
+    "one_thread",
+    "read_frame",
+]
 
 FRAME_COLUMNS = (
     "t",
@@ -67,6 +74,14 @@ def one_thread() -> Iterator[None]:
             yield
     finally:
         cv2.setNumThreads(threads)
+
+
+def read_frame(path: Path) -> tuple[np.ndarray | None, str]:
+    """Decode a frame file to RGB; ``(None, problem)`` if it is missing or unreadable."""
+    image = read_image_rgb(path)
+    if image is not None:
+        return image, ""
+    return None, "missing" if not path.is_file() else "unreadable (not a decodable image)"
 
 
 @dataclass
@@ -151,9 +166,8 @@ class FramePipeline:
         """
         started = time.perf_counter()
         t, path = float(self.frames.t[index]), self.frames.files[index]
-        image = read_image_rgb(path)
+        image, problem = read_frame(path)
         if image is None:
-            problem = "missing" if not path.is_file() else "unreadable (not a decodable image)"
             self.problems.append({"t": t, "file": self.names(path), "problem": problem})
             return
         decoding = 1e3 * (time.perf_counter() - started)

@@ -13,13 +13,15 @@ import enum
 import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from tqdm import tqdm
 
 from terrain_odom.app.frames import FRAME_COLUMNS, FramePipeline, FrameRecord, one_thread
 from terrain_odom.app.groundtruth import GroundTruthReport, groundtruth_section
+from terrain_odom.app.plots import write_run_plots
+from terrain_odom.app.record import require_rerun
 from terrain_odom.app.run_folder import (
     COMPLETE,
     FRAMES_CSV,
@@ -38,20 +40,23 @@ from terrain_odom.errors import ConfigError, InputFileError
 from terrain_odom.estimation.icr_ekf import IcrPriors
 from terrain_odom.estimation.odometry import OdometryResult, OdometryRow, run_odometry
 from terrain_odom.estimation.online import ESTIMATORS, Estimator, OnlineOdometry
+from terrain_odom.estimation.pose_measurement import PoseUse
 from terrain_odom.estimation.time_offset import TimeCalibration, calibrate_pose_delay
 from terrain_odom.evaluation import check_log
+from terrain_odom.evaluation.mounting import MountingLimits, fit_mounting, x_icr_limit
 from terrain_odom.io import TrajectoryWriter, read_wheel_log, write_tum
-from terrain_odom.io.atomic import write_atomic, write_text_atomic
-from terrain_odom.io.classifier_file import default_model, load_classifier
-from terrain_odom.io.frames import FrameList, read_frames
+from terrain_odom.io.atomic import write_text_atomic
 from terrain_odom.io.groundtruth import read_groundtruth
 from terrain_odom.io.params import read_priors
 from terrain_odom.io.paths import check_outputs
 from terrain_odom.io.report import path_or_none, report_header, to_jsonable, write_json
-from terrain_odom.io.trajectory import trajectory_columns
+from terrain_odom.io.trajectory import TrajectoryBlocks, trajectory_columns
 from terrain_odom.records import GroundTruth, WheelLog
 from terrain_odom.reporting import run_markdown
-from terrain_odom.vision.classifier import TerrainClassifier
+
+if TYPE_CHECKING:  # the classifier and frame readers (scikit-learn, OpenCV) load with --images
+    from terrain_odom.io.frames import FrameList
+    from terrain_odom.vision.classifier import TerrainClassifier
 
 __all__ = [
     "TerrainSource",
@@ -61,6 +66,8 @@ __all__ = [
     "images_config",
     "read_calibrated_log",
     "calibrate_log",
+    "HeadingCalibration",
+    "resolve_heading_offset",
     "run_config",
     "check_plausible",
 ]
@@ -99,7 +106,8 @@ class RunSummary:
     frames_csv : Path or None
         ``frames.csv``, when frames were classified.
     plots : tuple of Path
-        PNG plots written (with ground truth).
+        PNG plots written (``out/plots``: trajectory and states of every run,
+        the frames' mosaic with ``images``, frame labels with ground truth).
     updates : int
         Pose measurements fused.
     terrain_changes : int
@@ -112,6 +120,14 @@ class RunSummary:
     unused_priors : tuple of str
         Terrains of a per-terrain prior file that the run can never meet (not
         in the log's labels, or not a class of the terrain classifier).
+    pose_use : PoseUse or None
+        Measured pose components used and dropped (by reason).
+    heading : HeadingCalibration or None
+        The heading offset estimated (``pose_sensor.heading_offset: auto``).
+    warnings : tuple of str
+        What the finished run's estimate makes doubtful (one line each).
+    recording : Path or None
+        ``run.rrd``, the Rerun recording (``record``).
     """
 
     trajectory_csv: Path
@@ -128,6 +144,59 @@ class RunSummary:
     config_yaml: Path | None = None
     frames: FrameCounts | None = None
     unused_priors: tuple[str, ...] = ()
+    pose_use: PoseUse | None = None
+    heading: HeadingCalibration | None = None
+    warnings: tuple[str, ...] = ()
+    recording: Path | None = None
+
+
+@dataclass(frozen=True)
+class HeadingCalibration:
+    """A heading offset estimated from a log (``pose_sensor.heading_offset: auto``).
+
+    Attributes
+    ----------
+    offset : float
+        Measured heading minus the robot's, rad: the median over straight stretches.
+    spread : float
+        Robust standard deviation of single stretches, rad.
+    stretches : int
+        Straight stretches used.
+    """
+
+    offset: float
+    spread: float
+    stretches: int
+
+
+def resolve_heading_offset(log: WheelLog, cfg: Config) -> tuple[Config, HeadingCalibration | None]:
+    """Return ``cfg`` with ``pose_sensor.heading_offset: auto`` estimated from ``log``.
+
+    The estimate is the median of measured heading minus the positions'
+    course over the log's straight stretches
+    (:func:`~terrain_odom.evaluation.mounting.fit_mounting`), the antenna
+    lever arm of ``cfg`` applied. A numeric offset is returned as it is.
+
+    Raises
+    ------
+    InputFileError
+        ``auto`` on a log with too few straight stretches.
+    """
+    sensor = cfg.pose_sensor
+    if sensor.heading_offset != "auto":
+        return cfg, None
+    antenna = (sensor.antenna_x, sensor.antenna_y)
+    fit = fit_mounting(log, cfg.robot.track_width, antenna=antenna)
+    if not np.isfinite(fit.heading_offset):
+        lim = MountingLimits()
+        raise InputFileError(
+            f"{log.source}: pose_sensor.heading_offset auto needs {lim.min_straight} straight "
+            f"stretches of {lim.chord:g} m with positions and headings, the log has "
+            f"{fit.straight}; give the offset in radians"
+        )
+    resolved = dataclasses.replace(sensor, heading_offset=fit.heading_offset)
+    calibration = HeadingCalibration(fit.heading_offset, fit.heading_spread, fit.straight)
+    return dataclasses.replace(cfg, pose_sensor=resolved), calibration
 
 
 def _write_run_config(out: Path, cfg: Config, timing: TimeCalibration) -> Path:
@@ -183,7 +252,14 @@ def check_plausible(log: WheelLog, cfg: Config) -> None:
     """
     if not cfg.checks.enabled:
         return
-    found = check_log(log, cfg.robot.track_width).findings
+    cfg, _ = resolve_heading_offset(log, cfg)
+    sensor = cfg.pose_sensor
+    found = check_log(
+        log,
+        cfg.robot.track_width,
+        antenna=(sensor.antenna_x, sensor.antenna_y),
+        heading_offset=float(sensor.heading_offset),
+    ).findings
     if found:
         raise InputFileError(
             f"{log.source}: {found[0].message} (wheel radius {cfg.robot.wheel_radius:g} m, "
@@ -217,6 +293,7 @@ class _Inputs:
     frames: FrameList | None
     classifier: TerrainClassifier | None
     model: str | Path | None
+    heading: HeadingCalibration | None = None
 
 
 def _read_inputs(
@@ -243,7 +320,9 @@ def _read_inputs(
         config_path = images_config(images)
     cfg = config if config is not None else load_config(config_path)
     icr_priors = None if priors is None else read_priors(priors, cfg.robot)
-    log, timing = read_calibrated_log(wheels, cfg)
+    log = read_wheel_log(wheels, wheel_radius=cfg.robot.wheel_radius)
+    cfg, heading = resolve_heading_offset(log, cfg)
+    log, timing = calibrate_log(log, cfg)
     gt = _read_groundtruth(groundtruth, log) if groundtruth is not None else None
     use_frames = images is not None and terrain is not TerrainSource.NONE
     labels = None if use_frames else _labels(log, terrain)
@@ -255,15 +334,26 @@ def _read_inputs(
         )
     frame_list = classifier = None
     if use_frames and images is not None:
+        from terrain_odom.io.classifier_file import default_model, load_classifier
+        from terrain_odom.io.frames import read_frames
+
         if model is None:
             model = default_model()
         frame_list = read_frames(images)
         _check_frame_times(frame_list, log, images)
         classifier = load_classifier(model)
-    if slip and not np.any(log.has_yaw):
-        raise InputFileError(f"{log.source}: --estimator slip-ekf needs a 'yaw' column with values")
     return _Inputs(
-        cfg, config_path, log, timing, gt, labels, icr_priors, frame_list, classifier, model
+        cfg,
+        config_path,
+        log,
+        timing,
+        gt,
+        labels,
+        icr_priors,
+        frame_list,
+        classifier,
+        model,
+        heading,
     )
 
 
@@ -320,6 +410,7 @@ def run(
     estimator: Estimator = "icr-ekf",
     priors: str | Path | None = None,
     overwrite: bool = False,
+    record: bool = False,
 ) -> RunSummary:
     """Run the terrain-adaptive ICR EKF (or slip EKF) over a wheel log; write the results.
 
@@ -364,8 +455,9 @@ def run(
     groundtruth : str or Path, optional
         Ground truth of the run (``groundtruth.csv`` of a simulated run):
         scores the run and its filter variants against it in ``report.json``
-        (section ``groundtruth``), ``report.md`` and PNG plots in
-        ``out/plots/``; also times classification on whole frames.
+        (section ``groundtruth``), ``report.md`` and the plots (drawn
+        against it, with the frame labels); also times classification on
+        whole frames.
     estimator : {"icr-ekf", "slip-ekf"}
         The ICR EKF over pose and ICRs, or the slip-parameter EKF
         (:mod:`terrain_odom.estimation.slip_ekf`), whose ``x, y, yaw`` columns
@@ -380,12 +472,19 @@ def run(
         Not for ``slip-ekf``.
     overwrite : bool
         Replace a run already in ``out_dir``: its files are removed first.
+    record : bool
+        Also write ``run.rrd``, the run as a Rerun recording
+        (:func:`~terrain_odom.app.record.write_recording`); ``ConfigError``
+        before anything is read if ``rerun-sdk`` (the ``[viz]`` extra) is
+        not installed.
 
     Returns
     -------
     RunSummary
     """
     started = time.perf_counter()
+    if record:
+        require_rerun()
     inputs = _read_inputs(
         wheels, config, config_path, terrain, images, model, groundtruth, estimator, priors
     )
@@ -407,13 +506,28 @@ def run(
     write_tum(tum_path, log.t, *states[:, :3].T)
     seconds = time.perf_counter() - started
     report = _report(inputs, result, wheels, estimator, terrain, priors, seconds)
+    report["counts"]["pose_components"] = asdict(odometry.pose_use)
+    report["warnings"] = _lever_arm_warning(result, inputs.cfg)
+    if inputs.heading is not None:
+        report["heading_calibration"] = asdict(inputs.heading)
     if root is not None:
         _add_frames_report(report, root, inputs, result, pipeline, use_roi)
-    plots: list[str] = []
+    scored = None
     if inputs.gt is not None and groundtruth is not None:
         frames = records if pipeline is not None else None
-        plots = _score(out, inputs, inputs.gt, report, frames, use_roi)
+        scored = _score(inputs, inputs.gt, report, frames, use_roi)
         report["inputs"]["groundtruth"] = str(Path(groundtruth).resolve())
+    plots = write_run_plots(
+        out, log, result, inputs.cfg, truth=inputs.gt, scored=scored, records=records,
+        images=root, classifier=inputs.classifier,
+    )  # fmt: skip
+    recording = None
+    if record:
+        from terrain_odom.app.record import write_recording  # OpenCV, rerun: with record only
+
+        recording = write_recording(out, log, result, inputs.cfg, records=records, images=root,
+                                    classifier=inputs.classifier)  # fmt: skip
+        report["outputs"]["recording"] = recording.name
     report_path, md_path = _write_reports(out, report, plots)
     return RunSummary(
         out / TRAJECTORY_CSV,
@@ -430,6 +544,10 @@ def run(
         unused_priors=_unused_priors(inputs),
         updates=result.n_updates,
         terrain_changes=len(result.changes),
+        pose_use=odometry.pose_use,
+        heading=inputs.heading,
+        warnings=tuple(report["warnings"]),
+        recording=recording,
     )
 
 
@@ -472,14 +590,13 @@ def _check_run_outputs(
 
 
 def _score(
-    out: Path,
     inputs: _Inputs,
     gt: GroundTruth,
     report: dict[str, Any],
     records: list[FrameRecord] | None,
     use_roi: bool,
-) -> list[str]:
-    """Score the run against ground truth into ``report``; write the plots, return their paths."""
+) -> GroundTruthReport:
+    """Score the run against ground truth into ``report``; return the scores."""
     scored = groundtruth_section(
         inputs.log,
         inputs.cfg,
@@ -490,7 +607,7 @@ def _score(
         priors=inputs.priors,
     )
     report["groundtruth"] = scored.section
-    return _write_plots(out, gt, inputs.log, scored, records or [])
+    return scored
 
 
 def _stream(
@@ -532,11 +649,11 @@ def _stream(
                 names=lambda path: _relative(path, root),
             )
 
+        blocks = TrajectoryBlocks(writer, names)
+        stack.callback(blocks.flush)  # before the writer closes, also when interrupted
+
         def on_row(row: OdometryRow) -> None:
-            values: dict[str, float | str] = {"t": row.t, "terrain": row.terrain}
-            values.update(zip(names, row.state.tolist(), strict=True))
-            values.update((f"std_{n}", s) for n, s in zip(names, row.std.tolist(), strict=True))
-            writer.write(values)
+            blocks.add(row.t, row.state, row.std, row.terrain)
             bar.update(1)
             written[0] += 1
 
@@ -601,6 +718,28 @@ def _report_inputs(
     }
 
 
+def _lever_arm_warning(result: OdometryResult, cfg: Config) -> list[str]:
+    """Warn when ``x_icr`` lies beyond :func:`~terrain_odom.evaluation.mounting.x_icr_limit`.
+
+    The estimate judged is the mean over the second half of the run.
+
+    A position antenna ``a`` m ahead of the reference point, left out of
+    ``pose_sensor``, moves sideways in turns as ICRs ``a`` m further back do;
+    without a heading the log cannot tell the two apart before the run.
+    """
+    column = result.states[len(result.states) // 2 :, result.names.index("x_icr")]
+    x_icr = float(np.mean(column)) if column.size else 0.0
+    limit = x_icr_limit(cfg.robot.track_width)
+    if not abs(x_icr) > limit:
+        return []
+    sensor = cfg.pose_sensor
+    return [
+        f"the estimated x_icr, {x_icr:+.2f} m over the second half, lies beyond {limit:g} m: "
+        f"a position antenna {abs(x_icr):.2f} m {'ahead of' if x_icr < 0 else 'behind'} the "
+        f"reference point? (pose_sensor.antenna_x is {sensor.antenna_x:g} m)"
+    ]
+
+
 def _read_groundtruth(path: str | Path, log: WheelLog) -> GroundTruth:
     """Read ground truth and check it covers the log's time span."""
     gt = read_groundtruth(path)
@@ -627,34 +766,6 @@ def _add_frames_report(
     if pipeline is not None:
         report["frame_problems"] = pipeline.problems
         report["outputs"]["frames_csv"] = FRAMES_CSV
-
-
-def _write_plots(
-    out: Path,
-    gt: GroundTruth,
-    log: WheelLog,
-    scored: GroundTruthReport,
-    records: list[FrameRecord],
-) -> list[str]:
-    """Write the PNG plots of a scored run into ``out/plots``; return their relative paths."""
-    from terrain_odom.reporting import plots
-
-    folder = out / "plots"
-    folder.mkdir(exist_ok=True)
-    jobs: dict[str, Any] = {
-        "trajectory.png": lambda h: plots.plot_trajectory(h, gt, log.t, scored.results),
-        "icr.png": lambda h: plots.plot_icr(
-            h, gt, log.t, scored.results, scored.section["true_changes"]
-        ),
-    }
-    if scored.frame_truth is not None:
-        t = np.array([r.t for r in records], dtype=float)
-        labels = [r.label for r in records]
-        truth = scored.frame_truth.tolist()
-        jobs["frames.png"] = lambda h: plots.plot_frames(h, t, labels, truth)
-    for name, draw in jobs.items():
-        write_atomic(folder / name, draw)
-    return [f"plots/{name}" for name in jobs]
 
 
 def _relative(path: Path, root: Path) -> str:

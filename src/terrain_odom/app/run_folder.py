@@ -16,6 +16,7 @@ import json
 from pathlib import Path
 from typing import Any
 
+from terrain_odom.app.plots import EVALUATION_PLOTS, PLOT_FILES, PLOTS_DIR
 from terrain_odom.errors import InputFileError
 from terrain_odom.io.frames import FRAMES_CSV
 from terrain_odom.io.report import report_header, write_json
@@ -27,6 +28,7 @@ __all__ = [
     "REPORT_JSON",
     "REPORT_MD",
     "RUN_CONFIG",
+    "RECORDING",
     "EVALUATION_JSON",
     "PLOTS",
     "RUN_FILES",
@@ -43,9 +45,12 @@ REPORT_JSON = "report.json"
 REPORT_MD = "report.md"
 RUN_CONFIG = "config.yaml"
 """The configuration a run used, written into its folder."""
+RECORDING = "run.rrd"
+"""The Rerun recording of ``run --record``."""
 EVALUATION_JSON = "evaluation.json"
 """Written into a run's folder by ``evaluate --run`` (the default ``--out``)."""
-PLOTS = ("trajectory.png", "icr.png", "frames.png")  # in out/plots
+PLOTS = (*PLOT_FILES, *EVALUATION_PLOTS)
+"""Plots a run (and ``evaluate`` into its folder) may draw into ``plots/``."""
 RUN_FILES = (
     TRAJECTORY_CSV,
     TRAJECTORY_TUM,
@@ -53,8 +58,9 @@ RUN_FILES = (
     REPORT_JSON,
     REPORT_MD,
     RUN_CONFIG,
+    RECORDING,
     EVALUATION_JSON,
-    *(f"plots/{name}" for name in PLOTS),
+    *(f"{PLOTS_DIR}/{name}" for name in PLOTS),
 )
 """Every file a run (and ``evaluate`` into its folder) may write, relative to the folder."""
 _MARKS = (REPORT_JSON, TRAJECTORY_CSV, TRAJECTORY_TUM)
@@ -96,6 +102,8 @@ def prepare_folder(out_dir: str | Path, *, overwrite: bool = False) -> Path:
         )
     for name in RUN_FILES if found else ():
         (out / name).unlink(missing_ok=True)
+    if found and (out / PLOTS_DIR).is_dir() and not any((out / PLOTS_DIR).iterdir()):
+        (out / PLOTS_DIR).rmdir()  # emptied of the previous run's plots
     out.mkdir(parents=True, exist_ok=True)
     return out
 

@@ -15,15 +15,20 @@ Layout of ``OUT``:
   ``patches.csv`` (``file,terrain,x,y,yaw,u0,v0``): the robot pose each was
   rendered from and the crop's top-left pixel.
 - ``config.yaml``: the ``robot`` and ``camera`` configuration sections the run
-  was simulated with (``terrain-odom run --config OUT/config.yaml``).
+  was simulated with (``terrain-odom run --config OUT/config.yaml``), and
+  ``pose_sensor`` when the scenario mounts the GPS antenna or the IMU off
+  the robot's reference (its ``antenna``, ``heading_offset``).
 - ``map.png`` (``map.jpg`` with ``frame_format="jpg"``): the ground map,
   downscaled to at most 2000 px, with the true path in red.
+- ``plots/map.png``: the map with metre axes, the true path coloured by terrain,
+  start and end marked.
 - ``simulation.json``: scenario, seed, terrain table, camera, robot, counts.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import functools
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -33,14 +38,19 @@ import cv2
 import numpy as np
 import yaml
 
+from terrain_odom.app.plots import write_figures
 from terrain_odom.io import TrajectoryWriter
 from terrain_odom.io.paths import check_outputs
 from terrain_odom.io.report import report_header, write_json
+from terrain_odom.reporting.map import map_figure
+from terrain_odom.sim.scenarios import Scenario
 from terrain_odom.sim.simulation import Simulation, iter_frames, sample_patches
 
 __all__ = ["FRAME_FORMATS", "SimOutput", "write_simulation"]
 
 FRAME_FORMATS = ("png", "jpg")
+MAP_PLOT = "plots/map.png"
+"""The map figure, in the output folder."""
 JPEG_QUALITY = 90
 
 LOG_COLUMNS = ("t", "v_l", "v_r", "x", "y", "yaw", "terrain")
@@ -72,6 +82,8 @@ class SimOutput:
         Training patches per terrain.
     config_yaml : Path or None
         ``config.yaml``, the robot and camera of the run.
+    map_plot : Path or None
+        ``plots/map.png``: the map with metre axes and the path by terrain.
     """
 
     simulation: Simulation = field(repr=False, compare=False)
@@ -88,6 +100,7 @@ class SimOutput:
     frames: int
     patches: dict[str, int] = field(default_factory=dict)
     config_yaml: Path | None = None
+    map_plot: Path | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """Return the content of ``simulation.json``."""
@@ -115,9 +128,11 @@ class SimOutput:
                     "file": self.map_preview.name,
                     "resolution_m": self.map_preview_resolution,
                 },
+                "plot": None if self.map_plot is None else MAP_PLOT,
             },
             "camera": dataclasses.asdict(sc.camera),
             "robot": dataclasses.asdict(sc.robot),
+            "pose_sensor": _pose_sensor(sc),
             "counts": {
                 "rows": self.rows,
                 "pose_rows": self.pose_rows,
@@ -219,8 +234,18 @@ walk: terrain changes are followed by the covariance resets. The defaults
 """
 
 
+def _pose_sensor(scenario: Scenario) -> dict[str, float]:
+    """Return the ``pose_sensor`` section of a scenario's mounting (antenna, heading offset)."""
+    mounting = scenario.mounting
+    return {
+        "antenna_x": mounting.antenna_x,
+        "antenna_y": mounting.antenna_y,
+        "heading_offset": mounting.heading_offset,
+    }
+
+
 def _write_config(sim: Simulation, path: Path) -> None:
-    sections = {
+    sections: dict[str, Any] = {
         "robot": dataclasses.asdict(sim.scenario.robot),
         "camera": dataclasses.asdict(sim.scenario.camera),
         "ekf": {"sigma_q": SIM_ICR_SIGMA_Q},
@@ -229,15 +254,34 @@ def _write_config(sim: Simulation, path: Path) -> None:
         f"# robot, camera and ICR random walk of the simulated run "
         f"({sim.scenario.name}, seed {sim.seed})\n"
     )
+    sensor = _pose_sensor(sim.scenario)
+    if any(sensor.values()):
+        sections["pose_sensor"] = sensor
+        header += "# pose_sensor: the simulated mounting; without it the log checks stop a run\n"
     path.write_text(header + yaml.safe_dump(sections, sort_keys=False), encoding="utf-8")
+
+
+def _downscaled(image: np.ndarray, max_side: int) -> tuple[np.ndarray, float]:
+    """Return ``image`` shrunk to at most ``max_side`` px a side, and the scale applied."""
+    scale = min(1.0, max_side / max(image.shape[:2]))
+    size = (round(image.shape[1] * scale), round(image.shape[0] * scale))
+    return cv2.resize(image, size, interpolation=cv2.INTER_AREA), scale
+
+
+def _write_map_plot(sim: Simulation, path: Path) -> Path:
+    """Write the map with metre axes and the true path by terrain (a figure); return its path."""
+    image, _ = _downscaled(sim.ground.image, 1200)
+    motion = sim.motion
+    draw = functools.partial(
+        map_figure, image, sim.ground.extent, motion.pose[:, :2], motion.terrain
+    )
+    return write_figures(path.parent, {path.name: draw})[0]
 
 
 def _write_map_preview(sim: Simulation, path: Path, max_side: int = 2000) -> float:
     """Write the downscaled map with the true path; return its resolution, m/px."""
     ground = sim.ground
-    scale = min(1.0, max_side / max(ground.image.shape[:2]))
-    size = (round(ground.image.shape[1] * scale), round(ground.image.shape[0] * scale))
-    preview = cv2.resize(ground.image, size, interpolation=cv2.INTER_AREA)
+    preview, scale = _downscaled(ground.image, max_side)
     uv = (ground.world_to_pixel(sim.motion.pose[:, :2]) + 0.5) * scale - 0.5
     pts = np.rint(uv * 16).astype(np.int32)
     cv2.polylines(preview, [pts], False, (255, 0, 0), 2, lineType=cv2.LINE_AA, shift=4)
@@ -284,7 +328,7 @@ def write_simulation(
         raise ValueError(f"frame_format must be one of {FRAME_FORMATS}, got {frame_format!r}")
     out = Path(out)
     files = ("log.csv", "groundtruth.csv", "frames.csv", "config.yaml", "simulation.json")
-    check_outputs(inputs, [out / name for name in (*files, f"map.{frame_format}")])
+    check_outputs(inputs, [out / name for name in (*files, f"map.{frame_format}", MAP_PLOT)])
     out.mkdir(parents=True, exist_ok=True)
     _write_log(sim, out / "log.csv")
     _write_truth(sim, out / "groundtruth.csv")
@@ -308,6 +352,7 @@ def write_simulation(
         frames=frame_count,
         patches=patch_counts,
         config_yaml=out / "config.yaml",
+        map_plot=_write_map_plot(sim, out / MAP_PLOT),
     )
     write_json(output.metadata_json, output.to_dict())
     return output

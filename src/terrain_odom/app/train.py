@@ -31,6 +31,8 @@ from terrain_odom.io.classifier_file import save_classifier
 from terrain_odom.io.images import scan_image_folder
 from terrain_odom.io.paths import check_outputs
 from terrain_odom.io.report import report_header, write_json
+from terrain_odom.reporting.confusion import confusion_figure
+from terrain_odom.reporting.figure import save_png
 from terrain_odom.vision.classifier import TerrainClassifier
 from terrain_odom.vision.dataset import LabelledFeatures, SkippedImage
 from terrain_odom.vision.tuning import grid_configs
@@ -463,35 +465,10 @@ def accuracy_csv(report: AccuracyReport) -> str:
 
 
 def plot_confusion(report: AccuracyReport, handle: BinaryIO) -> None:
-    """Draw both confusion matrices side by side as a PNG into ``handle``.
-
-    matplotlib is imported here, with the Agg canvas (no display needed).
-    """
-    from terrain_odom.reporting.plots import new_figure
-
-    classes = report.chosen.classes
+    """Draw the confusion matrices (chosen, paper, tuned) side by side as a PNG into ``handle``."""
     titles = {"chosen": "chosen", "paper": "paper (Chen et al.)", "tuned": "tuned (nested)"}
-    panels = report.configurations()
-    fig = new_figure(4.2 * len(panels), 3.8)
-    for ax, (title, cv) in zip(
-        fig.subplots(1, len(panels)),
-        ((titles[name], cv) for name, cv in panels),
-        strict=True,
-    ):
-        image = ax.imshow(cv.percent, vmin=0.0, vmax=100.0, cmap="Blues")
-        for (i, j), value in np.ndenumerate(cv.percent):
-            ax.text(
-                j,
-                i,
-                f"{value:.1f}",
-                ha="center",
-                va="center",
-                color="white" if value > 60 else "black",
-            )
-        ax.set_xticks(range(len(classes)), classes, rotation=30, ha="right")
-        ax.set_yticks(range(len(classes)), classes)
-        ax.set_xlabel("predicted")
-        ax.set_ylabel("true")
-        ax.set_title(f"{title}: mean {cv.mean_accuracy:.1f} %")
-    fig.colorbar(image, ax=fig.axes, label="% of true class")
-    fig.savefig(handle, format="png", dpi=120)
+    panels = [
+        (f"{titles[name]}: mean {cv.mean_accuracy:.1f} %", cv.percent)
+        for name, cv in report.configurations()
+    ]
+    save_png(confusion_figure(report.chosen.classes, panels), handle, dpi=120)

@@ -1,13 +1,14 @@
 """``terrain-odom import``: convert a ROS bag into a wheel log, frames and a configuration.
 
 Also the bag options other subcommands share to read a bag where they read
-a wheel log (``run --wheels BAG --wheels-topic ...``): the same import code,
-into ``OUT/bag/``.
+a wheel log (``run``, ``fit`` and ``evaluate`` with ``--wheels BAG
+--wheels-topic ...``): the same import code, into ``OUT/bag/``.
 """
 
 from __future__ import annotations
 
 import argparse
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -108,26 +109,70 @@ def wheels_from_bag(args: argparse.Namespace, out_dir: str) -> tuple[str, str | 
     ConfigError
         A bag without ``--wheels-topic``, or ``--wheels-topic`` with a wheel log.
     """
-    from terrain_odom.app.bag_import import import_bag
+    logs, config = logs_from_bags([args.wheels], args, out_dir)
+    return logs[0], config
+
+
+def logs_from_bags(
+    paths: Sequence[str], args: argparse.Namespace, out_dir: str | Path
+) -> tuple[list[str], str | None]:
+    """Return the wheel logs to use for ``paths``: each itself, or its import if it is a bag.
+
+    The bags are imported with the bag options (``--wheels-topic`` ...) into
+    ``OUT/bag/``, or ``OUT/bag/<bag name>/`` when there are several; the
+    first import's ``config.yaml`` is the configuration when ``--config`` is
+    not given (None is returned otherwise, and without a bag).
+
+    Raises
+    ------
+    ConfigError
+        A bag without ``--wheels-topic``, or ``--wheels-topic`` and no bag.
+    """
     from terrain_odom.errors import ConfigError
     from terrain_odom.io.bag_reader import is_bag
 
-    bag = is_bag(args.wheels)
+    bags = [path for path in paths if is_bag(path)]
     if args.wheels_topic is None:
-        if bag:
+        if bags:
             raise ConfigError(
-                f"--wheels {args.wheels} is a ROS bag: give --wheels-topic (and the other topic "
-                f"options; 'terrain-odom inspect {args.wheels}' lists its topics)"
+                f"--wheels {bags[0]} is a ROS bag: give --wheels-topic (and the other topic "
+                f"options; 'terrain-odom inspect {bags[0]}' lists its topics)"
             )
-        return args.wheels, None
-    if not bag:
+        return list(paths), None
+    if not bags:
         raise ConfigError(
-            f"--wheels-topic reads a ROS bag, but --wheels {args.wheels} is not one "
+            f"--wheels-topic reads a ROS bag, but --wheels {' '.join(paths)} is not one "
             "(a .bag or .mcap file or a ROS 2 bag folder)"
         )
-    result = import_bag(args.wheels, Path(out_dir) / "bag", _options(args, args.wheels_topic))
-    _print_import(result)
-    return str(result.log_csv), None if args.config else str(result.config_yaml)
+    from terrain_odom.app.bag_import import import_bag  # frame writing (OpenCV): bags only
+
+    folders = _bag_folders(bags, Path(out_dir) / "bag")
+    logs, configs = [], []
+    for path in paths:
+        if path not in folders:
+            logs.append(path)
+            continue
+        result = import_bag(path, folders[path], _options(args, args.wheels_topic))
+        _print_import(result)
+        logs.append(str(result.log_csv))
+        configs.append(str(result.config_yaml))
+    return logs, None if args.config else configs[0]
+
+
+def _bag_folders(bags: Sequence[str], root: Path) -> dict[str, Path]:
+    """Return the import folder of each bag: ``root`` for one, ``root/<name>`` for several."""
+    unique = list(dict.fromkeys(bags))
+    if len(unique) == 1:
+        return {unique[0]: root}
+    folders: dict[str, Path] = {}
+    for bag in unique:
+        name = Path(bag).stem or "bag"
+        folder, n = root / name, 1
+        while folder in folders.values():
+            n += 1
+            folder = root / f"{name}-{n}"
+        folders[bag] = folder
+    return folders
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -147,8 +192,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--base-frame",
         default="base_link",
-        help="the robot's frame: the camera mounting is read from /tf_static as the image's "
-        "frame in it (default base_link)",
+        help="the robot's frame: the mountings are read from /tf_static as the frames of the "
+        "image, the pose sensor (GPS antenna) and the Imu in it (default base_link)",
     )
     p.add_argument(
         "--image-format", choices=("jpg", "png"), default="jpg", help="frame files (default jpg)"
@@ -174,6 +219,9 @@ def _print_import(result: Any) -> None:
     for where, reasons in result.skipped.items():
         for reason, n in reasons.items():
             print(f"skipped:    {n} {reason} ({where})")
+    mounting = [key for key, source in result.sources.items() if source.startswith("/tf_static")]
+    if mounting:
+        print(f"mounting:   {', '.join(mounting)} from /tf_static (in {result.config_yaml})")
     if result.fill_keys:
         print(f"fill in:    {', '.join(result.fill_keys)} (in {result.config_yaml})")
     print_written("log:", [result.log_csv])

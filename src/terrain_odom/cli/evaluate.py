@@ -7,6 +7,7 @@ import math
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from terrain_odom.cli.bag_import import add_bag_topic_options, logs_from_bags
 from terrain_odom.cli.options import (
     add_config_option,
     add_dask_option,
@@ -31,8 +32,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("evaluate", help="model-odometry error per metre and ATE")
     add_wheels_option(
         p,
-        "wheel log CSV with pose measurements; several: one report, per log and pooled "
-        "(evaluation.json, evaluation.md in --out)",
+        "wheel log CSV with pose measurements, or a ROS bag with --wheels-topic; several: one "
+        "report, per log and pooled (evaluation.json, evaluation.md in --out)",
         many=True,
     )
     p.add_argument("--run", metavar="DIR", help="output folder of 'terrain-odom run' on this log")
@@ -52,6 +53,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     add_out_option(p, "folder for evaluation.json (created; default: the --run folder)")
     add_log_options(p)
+    add_bag_topic_options(p)
     add_dask_option(p, "the logs of a batch (two or more --wheels)")
     p.set_defaults(func=_cmd_evaluate)
 
@@ -91,6 +93,26 @@ def _run_config(args: argparse.Namespace) -> Path | None:
     return run_config(args.run) if args.run is not None and args.config is None else None
 
 
+def _wheels(args: argparse.Namespace) -> tuple[list[str], str | None]:
+    """Return ``--wheels``, or their imports (into OUT/bag/) and configuration if they are bags.
+
+    Raises
+    ------
+    ConfigError
+        A bag with neither ``--out`` nor ``--run`` to import it into.
+    """
+    from terrain_odom.app.evaluate import JSON_SUFFIXES
+    from terrain_odom.app.locate import names_a_file
+    from terrain_odom.errors import ConfigError
+
+    folder = args.out if args.out is not None else args.run
+    if folder is None and args.wheels_topic is not None:
+        raise ConfigError("--wheels-topic imports the bag into OUT/bag/: give --out (or --run)")
+    if folder is not None and names_a_file(folder, JSON_SUFFIXES):
+        folder = str(Path(folder).parent)
+    return logs_from_bags(args.wheels, args, folder or ".")
+
+
 def _cmd_evaluate(args: argparse.Namespace) -> int:
     from terrain_odom.app.evaluate import JSON_SUFFIXES, evaluate
 
@@ -98,10 +120,11 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
     if len(args.wheels) > 1 or args.dask is not None:
         return _cmd_batch(args, None if horizon is None else horizon.value)
     warn_out_file(args.out, JSON_SUFFIXES)
+    wheels, bag_config = _wheels(args)
     result = evaluate(
         args.run,
-        args.wheels[0],
-        config=load_config_option(args, _run_config(args)),
+        wheels[0],
+        config=load_config_option(args, _run_config(args) or bag_config),
         config_path=args.config,
         params=[find_input(p, "params_*.yaml", "parameter file") for p in args.params],
         horizon=None if horizon is None else horizon.value,
@@ -113,7 +136,7 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
     for name, entry in result.models.items():
         print(f"{name:<32} {_format_stats(entry)}")
     _print_prediction(result)
-    print_written("written:", [result.output])
+    print_written("written:", [result.output, *result.plots])
     return 0
 
 
@@ -126,9 +149,10 @@ def _cmd_batch(args: argparse.Namespace, horizon: float | None) -> int:
         raise ConfigError("--run evaluates one run on its own log: give one --wheels log")
     if len(args.wheels) < 2:
         raise ConfigError("--dask sends whole logs to the workers: give two or more --wheels logs")
+    wheels, bag_config = _wheels(args)
     batch = evaluate_logs(
-        args.wheels,
-        config=load_config_option(args),
+        wheels,
+        config=load_config_option(args, bag_config),
         config_path=args.config,
         params=[find_input(p, "params_*.yaml", "parameter file") for p in args.params],
         horizon=horizon,

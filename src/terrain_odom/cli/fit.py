@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 from typing import TYPE_CHECKING
 
+from terrain_odom.cli.bag_import import add_bag_topic_options, logs_from_bags
 from terrain_odom.cli.options import (
     MODEL_CHOICES,
     add_fit_options,
@@ -31,6 +32,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help="held-out logs to evaluate the fit on",
     )
     add_out_option(p, "folder (created) for the parameter file params_MODEL.yaml", required=True)
+    add_bag_topic_options(p)
     p.set_defaults(func=_cmd_fit)
 
 
@@ -68,10 +70,27 @@ def _print_evaluation(ev: FitEvaluation) -> None:
             )
 
 
+def _logs_from_bags(args: argparse.Namespace) -> None:
+    """Replace the bags among ``--wheels`` and ``--eval`` by their imports (into OUT/bag/).
+
+    The import's configuration becomes ``--config`` when that is not given.
+    """
+    from pathlib import Path
+
+    from terrain_odom.app.fit import YAML_SUFFIXES
+    from terrain_odom.app.locate import names_a_file
+
+    folder = Path(args.out).parent if names_a_file(args.out, YAML_SUFFIXES) else args.out
+    logs, config = logs_from_bags([*args.wheels, *args.eval], args, folder)
+    args.wheels, args.eval = logs[: len(args.wheels)], logs[len(args.wheels) :]
+    args.config = args.config or config
+
+
 def _cmd_fit(args: argparse.Namespace) -> int:
     from terrain_odom.app.fit import YAML_SUFFIXES, fit
 
     warn_out_file(args.out, YAML_SUFFIXES)
+    _logs_from_bags(args)
     report = fit(args.wheels, args.model, out=args.out, eval_logs=args.eval, **fit_arguments(args))
     print_pose_delays(report.time_calibration)
     _print_sets(report)

@@ -21,6 +21,7 @@ from terrain_odom.cli import (
     evaluate,
     fit,
     inspect,
+    patches,
     report,
     run,
     simulate,
@@ -30,7 +31,18 @@ from terrain_odom.cli.options import warn_deprecated_spellings
 from terrain_odom.errors import TerrainOdomError
 
 # One module per subcommand, each with ``add_parser(subparsers)``.
-SUBCOMMANDS = (run, evaluate, train, report, simulate, fit, compare, inspect, bag_import)
+SUBCOMMANDS = (
+    run,
+    evaluate,
+    train,
+    report,
+    simulate,
+    fit,
+    compare,
+    inspect,
+    bag_import,
+    patches,
+)
 
 EXIT_USAGE = 2
 EXIT_INTERRUPTED = 130

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 from typing import TYPE_CHECKING
 
 from terrain_odom.cli.bag_import import add_bag_topic_options, wheels_from_bag
@@ -35,6 +36,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "--overwrite",
         action="store_true",
         help="replace the run already in --out (its files are removed first; other files kept)",
+    )
+    p.add_argument(
+        "--record",
+        action="store_true",
+        help="also write OUT/run.rrd, the run as a Rerun recording to scrub through: frames "
+        "with their region and votes, path, states, terrain (needs terrain-odom[viz])",
     )
     add_config_option(
         p,
@@ -100,10 +107,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 def _cmd_run(args: argparse.Namespace) -> int:
     import dataclasses
 
+    from terrain_odom.app.record import require_rerun
     from terrain_odom.app.run import TerrainSource, images_config, run
     from terrain_odom.app.run_folder import prepare_folder
     from terrain_odom.errors import ConfigError
-    from terrain_odom.io.classifier_file import default_model
 
     if args.no_terrain:
         source = TerrainSource.NONE
@@ -113,6 +120,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
         source = TerrainSource.AUTO
     if args.images is not None and args.terrain_from_log:
         raise ConfigError("--images and --terrain-from-log exclude each other")
+    if args.record:
+        require_rerun()  # before a bag is imported
     if (
         args.wheels_topic is not None
     ):  # a bag is imported into OUT/bag/: refuse a run's folder first
@@ -125,6 +134,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
         if config is not None:
             print(f"config:     {config} (found in the --images folder; --config to change)")
     if args.images is not None and not args.no_terrain and model is None:
+        from terrain_odom.io.classifier_file import default_model  # scikit-learn: with frames only
+
         model = default_model()
         print(f"model:      {model} (default; --classifier to change)")
     cfg = load_config_option(args, config)
@@ -145,9 +156,20 @@ def _cmd_run(args: argparse.Namespace) -> int:
         estimator=args.estimator,
         priors=find_input(args.priors, "params_*.yaml", "parameter file"),
         overwrite=args.overwrite,
+        record=args.record,
     )
     print_pose_delay(summary.time_calibration)
+    if summary.heading is not None:
+        h = summary.heading
+        print(
+            f"heading offset: {math.degrees(h.offset):+.2f} deg (auto: median of {h.stretches} "
+            f"straight stretches, spread {math.degrees(h.spread):.2f} deg)"
+        )
     print(f"{summary.rows} rows in {summary.seconds:.2f} s")
+    if summary.pose_use is not None:
+        print(f"pose:       {summary.pose_use.summary()}")
+    for warning in summary.warnings:
+        print(f"warning:    {warning}")
     if summary.frames is not None:
         _print_frames(summary.frames)
     if summary.unused_priors:
@@ -158,6 +180,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     print_written("report:", [summary.report_json, summary.report_md])
     print_written("run config:", [summary.config_yaml])
     print_written("plots:", list(summary.plots))
+    print_written("recording:", [summary.recording])
     return 0
 
 

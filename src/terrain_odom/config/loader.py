@@ -12,7 +12,14 @@ import yaml
 
 from terrain_odom.config.classifier import ClassifierConfig, is_flat_classifier
 from terrain_odom.config.fields import _build, build_section
-from terrain_odom.config.sections import FORMAT_VERSION, MAX_POSE_DELAY, Config, TimeConfig
+from terrain_odom.config.sections import (
+    FORMAT_VERSION,
+    MAX_ANTENNA_OFFSET,
+    MAX_POSE_DELAY,
+    Config,
+    PoseSensorConfig,
+    TimeConfig,
+)
 from terrain_odom.errors import ConfigError, TerrainOdomError
 
 __all__ = [
@@ -67,6 +74,22 @@ def with_pose_delay(cfg: Config, text: str | None, where: str = "--pose-delay") 
     return dataclasses.replace(cfg, time=TimeConfig(pose_delay=value))
 
 
+def _check_pose_sensor(sensor: PoseSensorConfig) -> None:
+    for name in ("antenna_x", "antenna_y"):
+        value = getattr(sensor, name)
+        if not abs(value) <= MAX_ANTENNA_OFFSET:
+            raise ConfigError(
+                f"pose_sensor.{name}: {value:g} m is not an antenna offset on a robot "
+                f"(|offset| <= {MAX_ANTENNA_OFFSET:g} m); give metres"
+            )
+    offset = sensor.heading_offset
+    if offset != "auto" and not abs(offset) <= math.pi:
+        raise ConfigError(
+            f"pose_sensor.heading_offset: {offset:g} is not an angle in radians "
+            "(|offset| <= pi); degrees? give radians, or auto"
+        )
+
+
 def _check_consistency(cfg: Config) -> None:
     ini, lim = cfg.ekf.initial, cfg.ekf.limits
     if not ini.y_l > 0.0 > ini.y_r:
@@ -89,6 +112,7 @@ def _check_consistency(cfg: Config) -> None:
     if not slip.limits.alpha_min <= slip.initial.alpha <= slip.limits.alpha_max:
         raise ConfigError("slip_ekf.initial.alpha must lie in [limits.alpha_min, alpha_max]")
     _check_pose_delay(cfg.time.pose_delay, "time.pose_delay")
+    _check_pose_sensor(cfg.pose_sensor)
     if cfg.format_version != FORMAT_VERSION:
         raise ConfigError(
             f"format_version {cfg.format_version} is not supported "

@@ -34,13 +34,17 @@ __all__ = [
     "SlipEkfConfig",
     "TimeConfig",
     "ChecksConfig",
+    "PoseSensorConfig",
     "MAX_POSE_DELAY",
+    "MAX_ANTENNA_OFFSET",
     "Config",
 ]
 
 FORMAT_VERSION = 1
 MAX_POSE_DELAY = 5.0
 """Largest ``time.pose_delay`` accepted, s (beyond it a value is a unit mistake, not a latency)."""
+MAX_ANTENNA_OFFSET = 10.0
+"""Largest ``pose_sensor.antenna_x`` / ``antenna_y`` accepted, m (beyond: centimetres?)."""
 
 
 @dataclass(frozen=True)
@@ -356,6 +360,29 @@ class ChecksConfig:
 
 
 @dataclass(frozen=True)
+class PoseSensorConfig:
+    """Where the pose sensors sit on the robot (see :mod:`terrain_odom.estimation.pose_measurement`).
+
+    Attributes
+    ----------
+    antenna_x, antenna_y : float
+        Position of the position sensor (GPS antenna) in the robot frame, m
+        (x forward, y left, from the reference point whose pose is
+        estimated); the measured ``x, y`` are the antenna's.
+    heading_offset : float or "auto"
+        Measured ``yaw`` minus the robot's yaw, rad (an IMU's mounting, the
+        magnetic declination). ``auto``: estimated from the whole log before
+        the run, as the median of measured heading minus position course on
+        straight stretches
+        (:func:`~terrain_odom.evaluation.plausibility.heading_offset`).
+    """
+
+    antenna_x: float = field(default=0.0, metadata=SIGNED)
+    antenna_y: float = field(default=0.0, metadata=SIGNED)
+    heading_offset: float | Literal["auto"] = field(default=0.0, metadata=SIGNED)
+
+
+@dataclass(frozen=True)
 class Config:
     """The whole configuration of a run."""
 
@@ -367,6 +394,7 @@ class Config:
     slip_ekf: SlipEkfConfig = field(default_factory=SlipEkfConfig)
     time: TimeConfig = field(default_factory=TimeConfig)
     checks: ChecksConfig = field(default_factory=ChecksConfig)
+    pose_sensor: PoseSensorConfig = field(default_factory=PoseSensorConfig)
     camera: CameraConfig = field(default_factory=CameraConfig)
     roi: RoiConfig = field(default_factory=RoiConfig)
     classifier: ClassifierConfig = field(default_factory=ClassifierConfig)

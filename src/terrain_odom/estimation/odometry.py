@@ -17,7 +17,6 @@ from typing import Protocol
 import numpy as np
 
 from terrain_odom.config import Config
-from terrain_odom.errors import EstimationError
 from terrain_odom.estimation.icr_ekf import IcrPriors
 from terrain_odom.estimation.online import OnlineOdometry
 from terrain_odom.records import TerrainChange, WheelLog
@@ -160,8 +159,10 @@ def run_slip_ekf(
     Parameters
     ----------
     log : WheelLog
-        Wheel speeds and pose measurements; rows with a yaw are used (with or
-        without a position).
+        Wheel speeds and pose measurements: heading changes between rows
+        with a yaw, position changes between rows with ``x, y`` (oriented by
+        a heading measured within 1 s; without one, the length and turn of
+        consecutive chords between the fixes).
     config : Config
         ``config.slip_ekf``, ``config.robot.track_width`` and ``config.terrain``.
     labels, on_row, frames
@@ -174,16 +175,7 @@ def run_slip_ekf(
         segment start, reset to every measured component), ``y_l, y_r,
         x_icr`` (at the row's track speeds), then the parameters; ``stds``
         hold NaN for the pose.
-
-    Raises
-    ------
-    EstimationError
-        If the log has no yaw measurement at all.
     """
-    if len(log) and not np.any(log.has_yaw):
-        raise EstimationError(
-            f"{log.source}: the slip EKF needs yaw measurements (column 'yaw'), the log has none"
-        )
     odometry = OnlineOdometry(config, estimator="slip-ekf")
     return run_odometry(log, odometry, labels=labels, on_row=on_row, frames=frames)
 

@@ -10,9 +10,14 @@
     odo.state()                    # t, x, y, yaw, y_l, y_r, x_icr(, alpha), terrain, std_*
 
 Wheel speeds given at ``t`` are held until the next :meth:`~OnlineOdometry.wheels`
-call (zero-order hold), which predicts over the interval. The pose is anchored
-at the first full pose measurement of every segment and never propagated across
-a segment break (``wheels(..., new_segment=True)``). Terrain labels pass through
+call (zero-order hold), which predicts over the interval. A pose measurement
+may hold any subset of ``x, y, yaw`` (a GPS fix, a heading, both), as the
+sensors of ``config.pose_sensor`` measure them (antenna lever arm, heading
+offset: :mod:`~terrain_odom.estimation.pose_measurement`); what became of each
+component is counted in :attr:`OnlineOdometry.pose_use`. The ICR EKF anchors
+the heading and the position of every segment at their first measurements
+(the heading from the course of the fixes when none is measured) and never
+propagates the pose across a segment break (``wheels(..., new_segment=True)``). Terrain labels pass through
 a :class:`~terrain_odom.estimation.terrain.TerrainTracker`; a confirmed change
 resets the ICR covariance to ``P_B`` (and restores a remembered estimate). With
 ``terrain.reset_at: arrival`` a change confirmed from frames is applied once the
@@ -26,22 +31,30 @@ the first frame of the new terrain looked; pending changes are applied in order.
 from __future__ import annotations
 
 import bisect
+import math
 from collections import deque
 from dataclasses import replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Literal, Protocol
+from typing import TYPE_CHECKING, Any, Literal, NamedTuple, Protocol
 
 import numpy as np
 
 from terrain_odom.config import Config, load_config
 from terrain_odom.errors import ConfigError, EstimationError
 from terrain_odom.estimation.icr_ekf import IcrEkf, IcrPriors
-from terrain_odom.estimation.slip_ekf import OUTPUT_NAMES, SlipEkf
+from terrain_odom.estimation.pose_measurement import (
+    Mounting,
+    PoseUse,
+    measured_rows,
+    robot_pose,
+    sensor_pose,
+)
 from terrain_odom.estimation.terrain import TerrainTracker
-from terrain_odom.kinematics import compose, relative_pose, twist_icr
+from terrain_odom.kinematics import compose, relative_pose, twist_icr, wrap_angle
 from terrain_odom.records import Sighting, TerrainChange
 
 if TYPE_CHECKING:  # the classifier's modules (scikit-learn) load only with a classifier
+    from terrain_odom.estimation.slip_ekf import SlipEkf
     from terrain_odom.vision.classifier import TerrainClassifier
     from terrain_odom.vision.frame_classifier import FrameClassification, FrameClassifier
 
@@ -75,10 +88,18 @@ class OnlineOdometry:
         Also time the whole frame's classification (see
         :class:`~terrain_odom.vision.frame_classifier.FrameClassifier`).
 
+    Attributes
+    ----------
+    n_updates : int
+        Pose measurements that updated the filter.
+    pose_use : PoseUse
+        Position and heading components measured, used, and dropped by reason.
+
     Raises
     ------
     ConfigError
-        Unknown estimator, or priors with the slip EKF.
+        Unknown estimator, priors with the slip EKF, or
+        ``pose_sensor.heading_offset: auto`` (resolved from a whole log only).
 
     Examples
     --------
@@ -105,16 +126,20 @@ class OnlineOdometry:
     ) -> None:
         if estimator not in ESTIMATORS:
             raise ConfigError(f"unknown estimator {estimator!r}; choose one of {list(ESTIMATORS)}")
+        mounting = _mounting(config)
         steps: _IcrSteps | _SlipSteps
         if estimator == "slip-ekf":
+            from terrain_odom.estimation.slip_ekf import SlipEkf  # filterpy, SciPy: slip EKF only
+
             if priors is not None:
                 raise ConfigError(
                     "priors seed the ICR EKF (estimator icr-ekf); the slip EKF's parameters "
                     "l1 .. l6 are not ICRs"
                 )
-            steps = _SlipSteps(SlipEkf(config.slip_ekf, config.robot.track_width, config.terrain))
+            ekf = SlipEkf(config.slip_ekf, config.robot.track_width, config.terrain)
+            steps = _SlipSteps(ekf, mounting)
         else:
-            steps = _IcrSteps(IcrEkf(config.ekf, config.terrain, priors=priors))
+            steps = _IcrSteps(IcrEkf(config.ekf, config.terrain, priors=priors, mounting=mounting))
         self.config = config
         self.estimator = estimator
         self._steps = steps
@@ -137,6 +162,7 @@ class OnlineOdometry:
         self._label: str | None = None  # the label source's current label
         self.n_updates = 0
         self.n_frames = 0
+        self.pose_use = PoseUse()
 
     @classmethod
     def from_config(
@@ -199,9 +225,9 @@ class OnlineOdometry:
                 )
             dt = t - self._t
             held_l, held_r = self._speeds
-            # odometer over the step about to be predicted
-            v_x, v_y, _ = twist_icr(held_l, held_r, *steps.icr_params(held_l, held_r))
-            self._flow.travel(float(np.hypot(v_x, v_y)) * dt)
+            if self._flow.odometer_on:  # odometer over the step about to be predicted
+                v_x, v_y, _ = twist_icr(held_l, held_r, *steps.icr_params(held_l, held_r))
+                self._flow.travel(float(np.hypot(v_x, v_y)) * dt)
             steps.predict(held_l, held_r, dt)
         self._t, self._speeds = t, speeds
         steps.sample(t, *speeds)
@@ -229,7 +255,8 @@ class OnlineOdometry:
         -------
         bool
             Whether the filter was updated (False when the measurement only
-            anchored the pose, or the slip EKF had no earlier heading).
+            anchored the pose, was the first of its kind in the slip EKF, or
+            was dropped: see :attr:`pose_use`).
 
         Raises
         ------
@@ -246,7 +273,9 @@ class OnlineOdometry:
                 f"pose at t={t!r} s: the filter is at t={self._t!r} s (the latest wheel "
                 "sample); call wheels(t, v_l, v_r) at the pose's time first"
             )
-        updated = self._steps.measure(z)
+        rows = measured_rows(z)
+        self.pose_use.measured(rows, z)
+        updated = self._steps.measure(z, rows, self.pose_use)
         self.n_updates += updated
         return updated
 
@@ -348,10 +377,21 @@ class OnlineOdometry:
         return out
 
 
+def _mounting(config: Config) -> Mounting:
+    """Return the pose sensors' mounting of ``config`` (``pose_sensor``) as numbers."""
+    sensor = config.pose_sensor
+    if sensor.heading_offset == "auto":
+        raise ConfigError(
+            "pose_sensor.heading_offset: auto is estimated from a whole log (terrain-odom run, "
+            "evaluation.plausibility.heading_offset); give OnlineOdometry radians"
+        )
+    return Mounting(sensor.antenna_x, sensor.antenna_y, sensor.heading_offset)
+
+
 def _finite(value: float, what: str, name: str, t: float | None = None) -> float:
     """Return ``value`` as a float, or raise naming it if it is not finite."""
     number = float(value)
-    if not np.isfinite(number):
+    if not math.isfinite(number):
         at = "" if t is None else f" t={t!r} s:"
         raise ValueError(f"{what} at{at} {name}={value!r} is not finite")
     return number
@@ -372,16 +412,38 @@ class _RowFilter(Protocol):
         ...  # pragma: no cover
 
 
+_YAW = 2
+_POSITION, _HEADING = "position", "heading"
+_BEFORE_HEADING = (
+    "before a heading (the robot has not yet moved far enough to take it from the course)"
+)
+_HEADING_AGE = 1.0  # s: the slip EKF's dead-reckoned heading older than this orients no position
+_CLOSE_FIX = "no heading, and within a quarter chord of the previous fix (standing)"
+
+
 class _IcrSteps:
-    """The ICR EKF: predict every wheel sample, anchor then update at poses."""
+    """The ICR EKF: predict every wheel sample, anchor then update at poses.
+
+    Each segment anchors the heading at its first measured heading and the
+    position at its first position once the heading is known. Without a
+    measured heading (a GPS alone), the heading is taken from the course:
+    the first fix anchors the position in a provisional frame, and once a
+    fix lies ``min_course`` m from it the frame is turned so that the
+    filter's predicted antenna displacement points along the measured one.
+    Components measured before that are dropped (and counted).
+    """
 
     def __init__(self, ekf: IcrEkf) -> None:
         self.filter = ekf
         self.names = ekf.names
-        self._anchored = False
+        sig = ekf.config.sigma_r
+        self._r = np.array([sig.x, sig.y, sig.yaw])
+        self._min_course = max(1.0, 10.0 * max(sig.x, sig.y))
+        self.restart(0.0)
 
     def restart(self, t: float) -> None:
-        self._anchored = False  # a break: nothing is integrated across it
+        self._heading = self._position = False  # a break: nothing is integrated across it
+        self._course: tuple[np.ndarray, np.ndarray] | None = None  # first fix, its prediction
         self.filter.t = t
 
     def predict(self, v_l: float, v_r: float, dt: float) -> None:
@@ -390,14 +452,70 @@ class _IcrSteps:
     def sample(self, t: float, v_l: float, v_r: float) -> None:
         """Nothing to keep: the ICR EKF predicts sample by sample."""
 
-    def measure(self, z: np.ndarray) -> bool:
-        if np.all(np.isfinite(z)) and not self._anchored:
-            self.filter.reset_pose(z)
-            self._anchored = True
-        elif self._anchored:
-            self.filter.update(z)
+    def measure(self, z: np.ndarray, rows: np.ndarray, use: PoseUse) -> bool:
+        fuse = np.zeros(3, dtype=bool)
+        fuse[rows] = True
+        if fuse[_YAW] and not self._heading:
+            self._anchor(z, heading=True)
+            fuse[_YAW] = False
+            use.used(_HEADING)
+        if fuse[0] and not self._position:
+            fuse[:2] = False
+            if self._heading:
+                self._anchor(z, heading=False)
+                use.used(_POSITION)
+            elif self._course_heading(z):
+                use.used(_POSITION)
+            else:
+                use.drop(_POSITION, _BEFORE_HEADING)
+        if not fuse.any():
+            return False
+        self.filter.update(np.where(fuse, z, np.nan))
+        for what, measured in ((_POSITION, fuse[0]), (_HEADING, fuse[_YAW])):
+            if measured:
+                use.used(what)
+        return True
+
+    def _anchor(self, z: np.ndarray, *, heading: bool) -> None:
+        """Reset the heading (``heading``) or the position to the measured one."""
+        ekf = self.filter
+        pose, sigma = ekf.pose, ekf.std[:3]
+        if heading:
+            pose[_YAW] = wrap_angle(z[_YAW] - ekf.mounting.heading_offset)
+            sigma[_YAW] = self._r[_YAW]
+            self._heading = True
+            self._course = None  # a provisional frame of the course is no longer needed
+        else:
+            pose[:2] = robot_pose(z, ekf.mounting, yaw=pose[_YAW])[:2]
+            sigma[:2] = self._r[:2]
+            self._position = True
+        ekf.reset_pose(pose, sigma)
+
+    def _course_heading(self, z: np.ndarray) -> bool:
+        """Take the heading from the course between fixes (no heading measured yet).
+
+        Returns whether the fix was used (as the provisional anchor, or to
+        turn the frame).
+        """
+        ekf = self.filter
+        predicted = sensor_pose(ekf.pose, ekf.mounting)[:2]
+        if self._course is None:
+            ekf.reset_pose(robot_pose(z, ekf.mounting, yaw=ekf.pose[_YAW]), ekf.std[:3])
+            self._course = (z[:2].copy(), sensor_pose(ekf.pose, ekf.mounting)[:2])
             return True
-        return False
+        measured = z[:2] - self._course[0]
+        moved = predicted - self._course[1]
+        distance = float(np.hypot(*measured))
+        if distance < self._min_course or not np.hypot(*moved) > 0.5 * distance:
+            return False
+        turn = np.arctan2(measured[1], measured[0]) - np.arctan2(moved[1], moved[0])
+        yaw = float(wrap_angle(ekf.pose[_YAW] + turn))
+        sigma = ekf.std[:3]
+        sigma[:2] = self._r[:2]
+        sigma[_YAW] = np.hypot(2.0 * max(self._r[:2]) / distance, 0.1)  # fix noise, path shape
+        ekf.reset_pose(robot_pose(z, ekf.mounting, yaw=yaw), sigma)
+        self._heading = self._position = True
+        return True
 
     def icr_params(self, v_l: float, v_r: float) -> np.ndarray:
         return self.filter.params
@@ -406,33 +524,108 @@ class _IcrSteps:
         return self.filter.x, self.filter.std
 
 
-class _SlipSteps:
-    """The slip EKF: a windowed pose change at every measured heading.
+class _Anchor(NamedTuple):
+    """A measured pose a later pose change is measured from."""
 
-    Updates at every pose with a yaw, with the pose change since the anchor:
-    the latest earlier such pose of the same segment at least
-    ``slip_ekf.window`` seconds before (0: the previous one), or the
-    segment's first one while the segment is shorter. The wheel samples
-    since the oldest anchor still needed are kept (a bounded buffer: the
-    window plus the gap between headings). The reported pose (``x, y,
-    yaw``) is dead reckoning with the current parameters from the origin at
-    each segment start, reset to every measured pose component.
+    t: float
+    pose: np.ndarray  # robot pose, unmeasured components dead-reckoned
+    sample: int  # number of its wheel sample in the segment
+
+
+class _CourseFixes:
+    """Fixes without a heading, for the slip EKF: two chords of at least ``length`` m.
+
+    A GPS alone fixes the path up to a rotation: from the fixes ``b, a, k``
+    it measures the length of the chord ``a -> k`` and its turn from the
+    chord ``b -> a`` (:func:`~terrain_odom.estimation.pose_measurement.chord_turn`),
+    ``a`` the latest fix at least ``length`` m from ``k``, ``b`` the latest
+    at least ``length`` m from ``a``. A fix within a quarter chord of the
+    previous one kept is not kept (a standing robot keeps the buffer short).
     """
 
-    def __init__(self, ekf: SlipEkf) -> None:
+    def __init__(self, length: float, sigma: float) -> None:
+        self.length = length
+        self.sigma = sigma  # noise of a position change, m
+        self.fixes: deque[tuple[np.ndarray, int]] = deque()  # (antenna x, y; wheel sample)
+
+    def clear(self) -> None:
+        self.fixes.clear()
+
+    def add(
+        self, xy: np.ndarray, sample: int
+    ) -> tuple[bool, tuple[tuple[np.ndarray, int], tuple[np.ndarray, int]] | None]:
+        """Keep a fix (unless too close); return whether kept, and the fixes ``b, a`` if any."""
+        fixes = self.fixes
+        if fixes and np.hypot(*(xy - fixes[-1][0])) < 0.25 * self.length:
+            return False, None
+        a = self._latest_away(xy, len(fixes))
+        b = None if a is None else self._latest_away(fixes[a][0], a)
+        pair = None if a is None or b is None else (fixes[b], fixes[a])
+        for _ in range(b or 0):
+            fixes.popleft()  # never an anchor again (unless the robot comes back)
+        fixes.append((xy.copy(), sample))
+        return True, pair
+
+    def _latest_away(self, xy: np.ndarray, before: int) -> int | None:
+        """Return the index of the latest fix before ``before`` at least a chord from ``xy``."""
+        for k in range(before - 1, -1, -1):
+            if np.hypot(*(xy - self.fixes[k][0])) >= self.length:
+                return k
+        return None
+
+    def measured(
+        self, xy_b: np.ndarray, xy_a: np.ndarray, xy_k: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Return the measured ``(length of a -> k, turn from b -> a)`` and their variances."""
+        first, second = xy_a - xy_b, xy_k - xy_a
+        l1, l2 = np.hypot(*first), np.hypot(*second)
+        turn = wrap_angle(np.arctan2(second[1], second[0]) - np.arctan2(first[1], first[0]))
+        return np.array([l2, turn]), self.sigma**2 * np.array([1.0, 1.0 / l1**2 + 1.0 / l2**2])
+
+
+class _SlipSteps:
+    """The slip EKF: a windowed pose change at every measured pose component.
+
+    The measured components are turned into the robot's (heading offset,
+    antenna lever arm at the measured or else dead-reckoned heading). A
+    heading updates with the heading change since its anchor: the latest
+    earlier heading of the same segment at least ``slip_ekf.window``
+    seconds before (0: the previous one), or the segment's first one while
+    the segment is shorter; a position likewise with the position change
+    since its anchor among the positions, in the frame of the robot there
+    (its heading measured, or dead-reckoned from one measured at most 1 s
+    before). Where both anchors are one row, the whole pose change is one
+    update. A position with no heading that recent (a GPS alone; the
+    heading is no state of the slip EKF, and dead reckoning drifts) updates
+    with what positions alone measure: a chord's length and its turn from
+    the chord before (:class:`_CourseFixes`). The wheel
+    samples since the oldest anchor still needed are kept (a bounded
+    buffer: the window plus the gap between measurements). The reported
+    pose (``x, y, yaw``) is dead reckoning with the current parameters from
+    the origin at each segment start, reset to every measured pose component.
+    """
+
+    def __init__(self, ekf: SlipEkf, mounting: Mounting) -> None:
+        from terrain_odom.estimation.slip_ekf import OUTPUT_NAMES
+
         self.filter = ekf
         self.names = OUTPUT_NAMES + ekf.names
+        self.mounting = mounting
         self._window = ekf.config.window
-        self._anchors: deque[tuple[float, np.ndarray, int]] = deque()  # (t, pose, sample)
+        self._anchors: dict[str, deque[_Anchor]] = {_POSITION: deque(), _HEADING: deque()}
         self._samples: deque[tuple[float, float, float]] = deque()  # (t, v_l, v_r)
-        self._first = 0  # number of self._samples[0] in the segment
-        self._pose = np.zeros(3)
+        sigma = ekf.config.sigma_r.dx
+        self._course = _CourseFixes(max(0.5, 10.0 * sigma), sigma)
+        self.restart(0.0)
 
     def restart(self, t: float) -> None:
-        self._anchors.clear()
+        for chain in self._anchors.values():
+            chain.clear()
+        self._course.clear()
         self._samples.clear()
-        self._first = 0
+        self._first = 0  # number of self._samples[0] in the segment
         self._pose = np.zeros(3)
+        self._headed = -np.inf  # time of the segment's latest measured heading, s
         self.filter.t = t
 
     def predict(self, v_l: float, v_r: float, dt: float) -> None:
@@ -442,8 +635,14 @@ class _SlipSteps:
 
     def sample(self, t: float, v_l: float, v_r: float) -> None:
         self._samples.append((t, v_l, v_r))
-        if not self._anchors:  # only the newest sample can become an anchor
-            self._drop_samples(self._first + len(self._samples) - 1)
+        self._drop_samples(self._oldest_needed())
+
+    def _oldest_needed(self) -> int:
+        """Return the number of the oldest wheel sample an anchor still needs (else the newest)."""
+        firsts = [chain[0].sample for chain in self._anchors.values() if chain]
+        if self._course.fixes:
+            firsts.append(self._course.fixes[0][1])
+        return min(firsts, default=self._first + len(self._samples) - 1)
 
     def _drop_samples(self, first: int) -> None:
         """Forget the wheel samples before sample number ``first``."""
@@ -451,23 +650,87 @@ class _SlipSteps:
             self._samples.popleft()
             self._first += 1
 
-    def measure(self, z: np.ndarray) -> bool:
-        self._pose = np.where(np.isfinite(z), z, self._pose)
-        if not np.isfinite(z[2]):
+    def measure(self, z: np.ndarray, rows: np.ndarray, use: PoseUse) -> bool:
+        has_position, has_heading = 0 in rows, _YAW in rows
+        t = self._samples[-1][0]
+        if has_heading:
+            self._pose[_YAW] = wrap_angle(z[_YAW] - self.mounting.heading_offset)
+            self._headed = t
+        if has_position:
+            self._pose[:2] = robot_pose(z, self.mounting, yaw=self._pose[_YAW])[:2]
+        sample = self._first + len(self._samples) - 1
+        course = has_position and t - self._headed > _HEADING_AGE
+        updated = course and self._course_update(z[:2], sample, use)
+        here = _Anchor(t, self._pose.copy(), sample)
+        froms = {
+            what: self._anchor(what, here)
+            for what, measured in (
+                (_POSITION, has_position and not course),
+                (_HEADING, has_heading),
+            )
+            if measured
+        }
+        for what in froms:
+            use.used(what)
+        self._drop_samples(self._oldest_needed())
+        changes = self._changes(froms)
+        for anchor, mask in changes:
+            self._update(anchor, here, mask)
+        return bool(changes) or updated
+
+    def _course_update(self, xy: np.ndarray, sample: int, use: PoseUse) -> bool:
+        """Fuse a fix without a heading as the end of two chords (see :class:`_CourseFixes`)."""
+        kept, pair = self._course.add(xy, sample)
+        if not kept:
+            use.drop(_POSITION, _CLOSE_FIX)
             return False
-        t_k = self._samples[-1][0]
-        anchors = self._anchors
-        while len(anchors) > 1 and anchors[1][0] <= t_k - self._window:
-            anchors.popleft()  # never needed again
-        anchor = anchors[0] if anchors else None
-        anchors.append((t_k, z, self._first + len(self._samples) - 1))
-        if anchor is None:
+        use.used(_POSITION)
+        if pair is None:
             return False
-        self._drop_samples(anchors[0][2])
+        (xy_b, b), (xy_a, a) = pair
+        z, variances = self._course.measured(xy_b, xy_a, xy)
         samples = np.array(self._samples)
-        t, v_l, v_r = samples[anchor[2] - self._first :].T
-        self.filter.update(relative_pose(anchor[1], z), v_l[:-1], v_r[:-1], np.diff(t))
+        first, second = (
+            samples[start - self._first : end - self._first + 1].T
+            for start, end in ((b, a), (a, sample))
+        )
+        self.filter.update_course(
+            z,
+            (first[1][:-1], first[2][:-1], np.diff(first[0])),
+            (second[1][:-1], second[2][:-1], np.diff(second[0])),
+            self.mounting.antenna,
+            variances,
+        )
         return True
+
+    def _anchor(self, what: str, here: _Anchor) -> _Anchor | None:
+        """Return the anchor of a ``what`` measured ``here`` (None: the first); chain ``here``."""
+        chain = self._anchors[what]
+        while len(chain) > 1 and chain[1].t <= here.t - self._window:
+            chain.popleft()  # never needed again
+        anchor = chain[0] if chain else None
+        chain.append(here)
+        return anchor
+
+    @staticmethod
+    def _changes(froms: dict[str, _Anchor | None]) -> list[tuple[_Anchor, np.ndarray]]:
+        """Return the pose changes to fuse, ``(anchor, components)``: one where anchors agree."""
+        position, heading = froms.get(_POSITION), froms.get(_HEADING)
+        if position is not None and heading is not None and position.sample == heading.sample:
+            return [(position, np.ones(3, dtype=bool))]
+        out = []
+        if position is not None:
+            out.append((position, np.array([True, True, False])))
+        if heading is not None:
+            out.append((heading, np.array([False, False, True])))
+        return out
+
+    def _update(self, anchor: _Anchor, here: _Anchor, mask: np.ndarray) -> None:
+        """Fuse the change of the ``mask`` components from ``anchor`` to ``here``."""
+        samples = np.array(self._samples)
+        t, v_l, v_r = samples[anchor.sample - self._first : here.sample - self._first + 1].T
+        change = np.where(mask, relative_pose(anchor.pose, here.pose), np.nan)
+        self.filter.update(change, v_l[:-1], v_r[:-1], np.diff(t))
 
     def icr_params(self, v_l: float, v_r: float) -> np.ndarray:
         icr = self.filter.icrs(v_l, v_r)
@@ -494,6 +757,10 @@ class _TerrainFlow:
         self.on_arrival = config.terrain.reset_at == "arrival"
         self.tracker = TerrainTracker(config.terrain.confirm)
         self.travelled = 0.0  # m, odometer of the model's predicted motion
+        # The odometer only places ground seen ahead: it runs from the first sighting
+        # with ahead > 0 (arrival mode). Before, every target is the odometer's value at
+        # the sighting, reached at once whether it counted or not.
+        self.odometer_on = False
         self.pending: deque[tuple[float, str, float]] = deque()  # (odometer target, label, t)
         self.changes: list[TerrainChange] = []
 
@@ -515,6 +782,7 @@ class _TerrainFlow:
     def observe(self, sighting: Sighting) -> None:
         """Feed one label; name the first terrain, apply or schedule a confirmed change."""
         where = self.travelled + (sighting.ahead if self.on_arrival else 0.0)
+        self.odometer_on = self.odometer_on or where > self.travelled
         confirmed = self.tracker.observe(sighting.label, at=where)
         if self.ekf.terrain is None:
             self.ekf.set_terrain(self.tracker.current or sighting.label)

@@ -18,9 +18,13 @@ arcs and composition; tested against finite differences). The pose noise of
 overlapping windows is independent unless they share an end, and a longer
 change is measured with the same noise, so a window of a few tenths of a
 second makes each update informative enough to linearise well at 10 Hz.
-When either pose lacks a position (a GPS outage), only the heading change is
-fused, and it leaves ``alpha`` alone (a heading change cannot tell a slip
-factor from a wider ICR spacing).
+Any subset of ``dx, dy, dyaw`` may be measured (:meth:`SlipEkf.update`
+leaves NaN components out; the streaming API fuses position changes between
+fixes and heading changes between headings); a heading change alone leaves
+``alpha`` alone (it cannot tell a slip factor from a wider ICR spacing).
+Positions without any heading (a GPS alone) are fused by
+:meth:`SlipEkf.update_course`: the length of a chord between fixes and its
+turn from the chord before, all that positions measure up to a rotation.
 
 References
 ----------
@@ -31,6 +35,7 @@ References
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable
 
 import numpy as np
 from filterpy.kalman import ExtendedKalmanFilter
@@ -38,6 +43,7 @@ from numpy.typing import ArrayLike
 
 from terrain_odom.config import SlipEkfConfig, SlipSigmas, TerrainConfig
 from terrain_odom.errors import EstimationError
+from terrain_odom.estimation.pose_measurement import chord_turn
 from terrain_odom.kinematics import wrap_angle
 from terrain_odom.kinematics.slip import SlipModel, param_names
 from terrain_odom.records import TerrainChange
@@ -165,28 +171,81 @@ class SlipEkf:
         rows = np.flatnonzero(np.isfinite(z))
         if rows.size == 0:
             return float("nan")
-        x0, p0 = self.x, self._filter.P
         r = np.diag((self._r_diag if R is None else np.asarray(R, dtype=float))[rows])
-        yaw_row = np.flatnonzero(rows == 2)
+        freeze = np.arange(len(self.names)) < 6  # heading only: alpha not observable, kept
+
+        def predict(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            change, jac = self.model.pose_change_with_jacobian(x, v_l, v_r, dt)
+            return change[rows], jac[rows] * freeze if rows.size == 1 else jac[rows]
+
+        return self._iterated_update(z[rows], r, predict, np.flatnonzero(rows == 2))
+
+    def update_course(
+        self,
+        z: ArrayLike,
+        first: tuple[ArrayLike, ArrayLike, ArrayLike],
+        second: tuple[ArrayLike, ArrayLike, ArrayLike],
+        antenna: ArrayLike,
+        R: ArrayLike,  # noqa: N803
+    ) -> float:
+        """Fuse two consecutive position chords without a heading (a GPS alone).
+
+        Parameters
+        ----------
+        z : array_like, shape (2,)
+            Measured length of the second chord (m) and turn from the first
+            chord's direction to the second's (rad):
+            :func:`~terrain_odom.estimation.pose_measurement.chord_turn`.
+        first, second : tuple of 3 array_like
+            ``(v_l, v_r, dt)`` of the wheel samples over each chord.
+        antenna : array_like, shape (2,)
+            Position sensor in the robot frame, m.
+        R : array_like, shape (2,)
+            Measurement variances (m^2, rad^2).
+
+        Returns
+        -------
+        float
+            Normalised innovation squared.
+        """
+
+        def predict(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            c1, j1 = self.model.pose_change_with_jacobian(x, *first)
+            c2, j2 = self.model.pose_change_with_jacobian(x, *second)
+            return chord_turn(c1, j1, c2, j2, antenna)
+
+        r = np.diag(np.asarray(R, dtype=float))
+        return self._iterated_update(np.asarray(z, dtype=float), r, predict, np.array([1]))
+
+    def _iterated_update(
+        self,
+        z: np.ndarray,
+        r: np.ndarray,
+        predict: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]],
+        angle_rows: np.ndarray,
+    ) -> float:
+        """Fuse measurement ``z`` (noise ``r``) predicted by ``predict``: an iterated EKF update.
+
+        ``predict(x)`` returns ``h(x)`` and ``dh/dx``; ``angle_rows`` are the
+        rows whose residual is wrapped. Returns the normalised innovation squared.
+        """
+        x0, p0 = self.x, self._filter.P
 
         def residual(a: np.ndarray, b: np.ndarray) -> np.ndarray:
             res = a - b
-            res[yaw_row] = wrap_angle(res[yaw_row])
+            res[angle_rows] = wrap_angle(res[angle_rows])
             return res
 
         x_i = x0
         for i in range(self.config.iterations):  # Gauss-Newton on the measurement (IEKF)
-            change, jac = self.model.pose_change_with_jacobian(x_i, v_l, v_r, dt)
-            h, H = change[rows], jac[rows]  # noqa: N806
-            if rows.size == 1:  # heading only: alpha is not observable from it, keep it
-                H = H * (np.arange(H.shape[1]) < 6)  # noqa: N806
+            h, H = predict(x_i)  # noqa: N806
             if i == 0 and self.config.robust:
-                r = r * _outlier_inflation(residual(z[rows], h), H @ p0 @ H.T, r)
+                r = r * _outlier_inflation(residual(z, h), H @ p0 @ H.T, r)
             gain = p0 @ H.T @ np.linalg.inv(H @ p0 @ H.T + r)
-            x_last, x_i = x_i, x0 + gain @ (residual(z[rows], h) - H @ (x0 - x_i))
+            x_last, x_i = x_i, x0 + gain @ (residual(z, h) - H @ (x0 - x_i))
         # The final step through filterpy (Joseph form), linearised at the last iterate.
         self._filter.update(
-            z[rows][:, None],
+            z[:, None],
             HJacobian=lambda _x: H,
             Hx=lambda x: (h + H @ (x[:, 0] - x_last))[:, None],
             R=r,

@@ -6,6 +6,7 @@
 - :mod:`~terrain_odom.evaluation.prediction`: the 2016 paper's prediction error.
 - :mod:`~terrain_odom.evaluation.groundtruth`: scores against a simulated run's truth.
 - :mod:`~terrain_odom.evaluation.plausibility`: wheels against poses before estimating.
+- :mod:`~terrain_odom.evaluation.mounting`: pose sensors' heading offset and lever arm.
 """
 
 from terrain_odom.evaluation import metrics, plausibility, prediction, windows

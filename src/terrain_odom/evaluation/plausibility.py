@@ -16,7 +16,11 @@ the likely cause instead of giving a plausible-looking wrong answer:
 - ``yaw_sign``: the heading turns against the wheels' turn (left and right
   swapped, or a clockwise yaw);
 - ``yaw_follow``: the heading does not follow the wheels' turn at all, or
-  turns many times faster (yaw in degrees, track width off by far).
+  turns many times faster (yaw in degrees, track width off by far);
+- ``heading_offset`` / ``lever_arm``: the measured heading is off the
+  positions' course on straight stretches, or the positions swing sideways
+  in turns like a point far ahead of or behind the ICRs: a pose sensor's
+  mounting left out of ``pose_sensor`` (:mod:`~terrain_odom.evaluation.mounting`).
 
 Every quantity is compared over chained intervals of at least 0.5 s
 between pose rows of one run of the log (never across a ``segment``
@@ -34,6 +38,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from terrain_odom.evaluation.mounting import MountingFit, fit_mounting, mounting_findings
 from terrain_odom.kinematics import wrap_angle
 from terrain_odom.records import WheelLog
 
@@ -113,6 +118,9 @@ class Plausibility:
     yaw_scale, yaw_correlation : float
         Least-squares ratio of measured to ideal heading changes, and their
         correlation (NaN without headings).
+    mounting : MountingFit or None
+        Heading offset and apparent lever arm left after the configured
+        mounting (None when the unit checks fired).
     """
 
     findings: tuple[Finding, ...]
@@ -122,6 +130,7 @@ class Plausibility:
     pose_travel: float
     yaw_scale: float
     yaw_correlation: float
+    mounting: MountingFit | None = None
 
     @property
     def ok(self) -> bool:
@@ -141,7 +150,12 @@ class _Intervals:
 
 
 def check_log(
-    log: WheelLog, track_width: float, limits: PlausibilityLimits | None = None
+    log: WheelLog,
+    track_width: float,
+    limits: PlausibilityLimits | None = None,
+    *,
+    antenna: tuple[float, float] = (0.0, 0.0),
+    heading_offset: float = 0.0,
 ) -> Plausibility:
     """Compare a log's wheel speeds with its poses (see the module).
 
@@ -153,6 +167,10 @@ def check_log(
         Nominal track width ``B``, m: the wheels' turn is ``(v_r - v_l) / B``.
     limits : PlausibilityLimits, optional
         Thresholds (default: :class:`PlausibilityLimits`).
+    antenna : tuple of 2 float
+        Configured position antenna in the robot frame, m (``pose_sensor``).
+    heading_offset : float
+        Configured heading offset, rad.
 
     Returns
     -------
@@ -170,6 +188,9 @@ def check_log(
     findings = _still(iv, pos, lim) or _travel(iv, pos, lim)
     scale, corr = _yaw_fit(iv, yaw)
     findings += _yaw(iv, yaw, scale, corr, lim)
+    mounting = fit_mounting(log, track_width, antenna=antenna, offset=heading_offset)
+    if not findings:  # a unit or sign mistake would also show here: report it alone
+        findings += [Finding(*f) for f in mounting_findings(mounting, track_width)]
     return Plausibility(
         tuple(findings),
         step,
@@ -178,6 +199,7 @@ def check_log(
         float(np.sum(iv.pose_travel[pos])),
         scale,
         corr,
+        mounting,
     )
 
 

@@ -54,6 +54,7 @@ __all__ = [
     "transform_matrix",
     "chain_transform",
     "camera_mount",
+    "sensor_mounting",
 ]
 
 JOINT_STATE = "sensor_msgs/msg/JointState"
@@ -321,3 +322,23 @@ def camera_mount(pose: np.ndarray, optical: bool) -> dict[str, float]:
         "mount_pitch": pitch,
         "mount_yaw": yaw,
     }
+
+
+def sensor_mounting(pose: np.ndarray) -> tuple[float, float, float]:
+    """Return the ``pose_sensor`` mounting of a sensor frame's pose in the robot's base frame.
+
+    ``antenna_x, antenna_y`` (m): the frame's origin in the base frame (its
+    height dropped); ``heading_offset`` (rad): the yaw of the frame's x axis
+    in the base frame. A sensor that reports its own frame's orientation
+    (an ``Imu``, REP 145) on a level robot reads the base's yaw plus this
+    offset, whatever its roll and pitch: the yaw of ``R_z(psi) @ M`` is
+    ``psi`` plus the yaw of ``M``'s first column.
+
+    Examples
+    --------
+    >>> turned = np.eye(4); turned[:2, :2] = [[0, -1], [1, 0]]; turned[:3, 3] = [0.5, -0.1, 0.9]
+    >>> [round(v, 4) for v in sensor_mounting(turned)]
+    [0.5, -0.1, 1.5708]
+    """
+    yaw = math.atan2(float(pose[1, 0]), float(pose[0, 0]))
+    return float(pose[0, 3]), float(pose[1, 3]), float(wrap_angle(yaw))

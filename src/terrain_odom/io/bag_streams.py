@@ -76,13 +76,23 @@ def median_sigma(values: Sequence[float]) -> float | None:
 
 @dataclass
 class _Stream:
-    """Stamps and values of one topic, with counts of what was skipped."""
+    """Stamps and values of one topic, with counts of what was skipped.
+
+    ``sensor_frame``: the frame whose pose or orientation the topic measures
+    (for the sensor's mounting from ``/tf_static``), if its messages name one.
+    """
 
     where: str
     stamps: StampRule
     stamps_kept: array[int] = field(default_factory=lambda: array("q"))
     values_kept: array[float] = field(default_factory=lambda: array("d"))
     skipped: dict[str, int] = field(default_factory=dict)
+    sensor_frame: str | None = None
+
+    def _name_frame(self, frame: str) -> None:
+        """Remember the sensor frame of the first message that names one."""
+        if self.sensor_frame is None and frame.lstrip("/"):
+            self.sensor_frame = frame.lstrip("/")
 
     def _keep(
         self, message: BagMessage, value: float | Sequence[float], header: Any | None = None
@@ -164,7 +174,11 @@ class PoseStream(_Stream):
     ``frames`` (parent, child) select the ``/tf`` transform; ``origin``
     (lat, lon deg, alt m) is the ENU origin of a NavSatFix topic (default
     the first valid fix in time). Standard deviations of the message
-    covariances are kept for the configuration.
+    covariances are kept for the configuration. ``sensor_frame`` is the
+    frame whose pose is measured (for its mounting on the robot): a
+    NavSatFix's ``frame_id`` (the antenna), an Odometry's
+    ``child_frame_id``, the ``/tf`` pose's child; None for a PoseStamped
+    (its ``frame_id`` is the world frame; it names no body frame).
     """
 
     frames: tuple[str, str] | None = None
@@ -179,8 +193,11 @@ class PoseStream(_Stream):
         if kind == TF_MESSAGE:
             self._transforms(message)
         elif kind == NAV_SAT_FIX:
+            self._name_frame(msg.header.frame_id)
             self._fix(message)
         elif kind in (ODOMETRY, POSE_COV_STAMPED):
+            if kind == ODOMETRY:
+                self._name_frame(msg.child_frame_id)
             self._keep(message, planar_pose(msg.pose.pose))
             self.sigmas.append(pose_sigmas(msg.pose.covariance))
         else:
@@ -192,6 +209,7 @@ class PoseStream(_Stream):
             pair = (tr.header.frame_id.lstrip("/"), tr.child_frame_id.lstrip("/"))
             self.frames_seen.add(pair)
             if pair == self.frames:
+                self.sensor_frame = self.frames[1]
                 self._keep(message, tf_pose(tr.transform), tr.header)
 
     def _fix(self, message: BagMessage) -> None:
@@ -250,12 +268,17 @@ class PoseStream(_Stream):
 
 @dataclass
 class HeadingStream(_Stream):
-    """Yaw from ``Imu`` orientations (messages without an orientation are skipped and counted)."""
+    """Yaw from ``Imu`` orientations (messages without an orientation are skipped and counted).
+
+    ``sensor_frame``: the first message's ``frame_id``, the IMU frame whose
+    orientation the message holds (REP 145).
+    """
 
     sigmas: list[float] = field(default_factory=list)
 
     def add(self, message: BagMessage) -> None:
         """Convert and keep one Imu message."""
+        self._name_frame(message.msg.header.frame_id)
         yaw = imu_yaw(message.msg)
         if yaw is None:
             self._skip("Imu without orientation")

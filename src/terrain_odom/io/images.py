@@ -15,13 +15,16 @@ everything after works on RGB.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
 from numpy.typing import NDArray
 
 from terrain_odom.errors import InputFileError
-from terrain_odom.vision.dataset import LabelledImages
+
+if TYPE_CHECKING:  # the feature code (scikit-image, joblib) loads when a folder is scanned
+    from terrain_odom.vision.dataset import LabelledImages
 
 __all__ = ["IMAGE_SUFFIXES", "scan_image_folder", "read_image_rgb"]
 
@@ -66,6 +69,8 @@ def scan_image_folder(root: str | Path) -> LabelledImages:
             )
         paths += images
         labels += [class_dir.name] * len(images)
+    from terrain_odom.vision.dataset import LabelledImages
+
     return LabelledImages(root, tuple(p.name for p in class_dirs), tuple(paths), tuple(labels))
 
 

@@ -2,9 +2,10 @@
 
 Two formats:
 
-* a CSV file with a header (any columns, e.g. ``t,x,y,yaw,terrain``), written
-  row by row by :class:`TrajectoryWriter` so that an interrupted run keeps the
-  rows it computed, and read back by :func:`read_trajectory_csv`;
+* a CSV file with a header (any columns, e.g. ``t,x,y,yaw,terrain``), streamed
+  by :class:`TrajectoryWriter` (a row, or a block of rows given column by
+  column) so that an interrupted run keeps the rows it computed, and read back
+  by :func:`read_trajectory_csv`;
 * the TUM format (``timestamp tx ty tz qx qy qz qw``, space separated) of the
   trajectory-evaluation tools (e.g. ``evo``), written by :func:`write_tum`.
 
@@ -15,22 +16,33 @@ Floats are written with the shortest text that reads back to the same float
 from __future__ import annotations
 
 import csv
+import io
 import math
 import numbers
 import os
 import time
 from collections.abc import Mapping, Sequence
 from types import TracebackType
+from typing import BinaryIO
 
 import numpy as np
 
 from terrain_odom.io._csv import CsvTable, floats_or_nan, read_csv
-from terrain_odom.io.atomic import write_text_atomic
+from terrain_odom.io.atomic import write_atomic
 
-__all__ = ["TrajectoryWriter", "read_trajectory_csv", "trajectory_columns", "write_tum"]
+__all__ = [
+    "TrajectoryBlocks",
+    "TrajectoryWriter",
+    "read_trajectory_csv",
+    "trajectory_columns",
+    "write_tum",
+]
 
 StrPath = str | os.PathLike[str]
 """A file path."""
+
+_BLOCK_ROWS = 4096
+"""Rows formatted at once (by :class:`TrajectoryBlocks` and :func:`write_tum`)."""
 
 Cell = str | float | np.floating | np.integer
 """A value of one CSV cell: text, or a real number (Python or numpy)."""
@@ -130,14 +142,55 @@ class TrajectoryWriter:
         TypeError
             If a value is neither a str nor a real number.
         """
+        self._check_keys(row)
+        self._csv.writerow([_format_cell(row[column]) for column in self._columns])
+        self._written(1)
+
+    def write_block(self, block: Mapping[str, np.ndarray | Sequence[Cell]]) -> None:
+        """Append a block of rows given column by column (the fast way to stream many rows).
+
+        Each column is formatted at once (floats with ``repr``, NaN empty, as
+        :meth:`write`): a 22-column row costs about 3 us, against ~27 us
+        through :meth:`write`.
+
+        Parameters
+        ----------
+        block : mapping of str to array_like, each of shape (B,)
+            One sequence per column, all of one length; its keys must be
+            exactly :attr:`columns`.
+
+        Raises
+        ------
+        ValueError
+            If the writer is closed, the keys differ from the columns or the
+            lengths differ.
+        TypeError
+            If a value is neither a str nor a real number.
+        """
+        self._check_keys(block)
+        cells = [_format_column(block[column]) for column in self._columns]
+        lengths = {len(column) for column in cells}
+        if len(lengths) > 1:
+            raise ValueError(f"columns of a block differ in length: {sorted(lengths)}")
+        rows = lengths.pop() if lengths else 0
+        if len(cells) == 1:  # a lone empty cell must be quoted: the csv module's rules
+            self._csv.writerows(zip(*cells, strict=True))
+        elif rows:  # the csv module's writer costs ~6 us a row; joining ~1 us
+            self._file.write("\n".join(map(",".join, zip(*cells, strict=True))) + "\n")
+        self._written(rows)
+
+    def _check_keys(self, row: Mapping[str, object]) -> None:
+        """Refuse a closed writer or keys that are not exactly the columns."""
         if self.closed:
             raise ValueError("write to a closed TrajectoryWriter")
         if row.keys() != self._column_set:
             missing = [c for c in self._columns if c not in row]
             unknown = [k for k in row if k not in self._column_set]
             raise ValueError(f"row keys differ from columns: missing {missing}, extra {unknown}")
-        self._csv.writerow([_format_cell(row[column]) for column in self._columns])
-        self._pending += 1
+
+    def _written(self, rows: int) -> None:
+        """Count ``rows`` more pending rows; flush if the row or time limit is reached."""
+        self._pending += rows
         if (
             self._pending >= self._flush_rows
             or time.monotonic() - self._last_flush >= self._flush_seconds
@@ -167,6 +220,74 @@ class TrajectoryWriter:
         traceback: TracebackType | None,
     ) -> None:
         self.close()
+
+
+class TrajectoryBlocks:
+    """Rows of a filter run (``t``, state, std, terrain) into ``trajectory.csv``, in blocks.
+
+    Rows are copied into preallocated arrays and written with
+    :meth:`TrajectoryWriter.write_block` every ``size`` rows and on
+    :meth:`flush` (call it when the run ends or is interrupted), so memory
+    stays at one block whatever the log's length.
+
+    Parameters
+    ----------
+    writer : TrajectoryWriter
+        Opened with :func:`trajectory_columns` of ``names``.
+    names : tuple of str, shape (n,)
+        State names, in the order of the state vectors given to :meth:`add`.
+    size : int, optional
+        Rows per block (default 4096).
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> folder = tempfile.TemporaryDirectory()
+    >>> path = pathlib.Path(folder.name) / "trajectory.csv"
+    >>> names = ("x", "y", "yaw", "y_l", "y_r", "x_icr")
+    >>> with TrajectoryWriter(path, trajectory_columns(names)) as writer:
+    ...     blocks = TrajectoryBlocks(writer, names)
+    ...     blocks.add(0.5, np.arange(6.0), np.full(6, np.nan), "grass")
+    ...     blocks.flush()
+    >>> path.read_text().splitlines()[1]
+    '0.5,0.0,1.0,2.0,3.0,4.0,5.0,grass,,,,,,'
+    >>> folder.cleanup()
+    """
+
+    def __init__(
+        self, writer: TrajectoryWriter, names: tuple[str, ...], size: int = _BLOCK_ROWS
+    ) -> None:
+        self._writer = writer
+        self._names = names
+        self._t = np.empty(size)
+        self._states = np.empty((size, len(names)))
+        self._stds = np.empty((size, len(names)))
+        self._terrain: list[str] = []
+
+    def add(self, t: float, state: np.ndarray, std: np.ndarray, terrain: str) -> None:
+        """Append one row; write the block when it is full."""
+        row = len(self._terrain)
+        self._t[row] = t
+        self._states[row] = state
+        self._stds[row] = std
+        self._terrain.append(terrain)
+        if row + 1 == self._t.size:
+            self.flush()
+
+    def flush(self) -> None:
+        """Write the rows added since the last block."""
+        rows = len(self._terrain)
+        if not rows:
+            return
+        block: dict[str, np.ndarray | Sequence[Cell]] = {
+            "t": self._t[:rows],
+            "terrain": self._terrain,
+        }
+        for column, name in enumerate(self._names):
+            block[name] = self._states[:rows, column]
+            block[f"std_{name}"] = self._stds[:rows, column]
+        self._writer.write_block(block)
+        self._terrain = []
 
 
 def read_trajectory_csv(path: StrPath) -> dict[str, np.ndarray]:
@@ -238,9 +359,16 @@ def write_tum(path: StrPath, t: np.ndarray, x: np.ndarray, y: np.ndarray, yaw: n
     >>> folder.cleanup()
     """
     columns = _tum_columns(t, x, y, yaw)
-    lines = ["# timestamp tx ty tz qx qy qz qw\n"]
-    lines += [" ".join(map(repr, values)) + "\n" for values in columns.T.tolist()]
-    write_text_atomic(path, "".join(lines))
+
+    def write(handle: BinaryIO) -> None:  # a block of rows at a time: memory stays small
+        handle.write(b"# timestamp tx ty tz qx qy qz qw\n")
+        for start in range(0, columns.shape[1], _BLOCK_ROWS):
+            block = columns[:, start : start + _BLOCK_ROWS].tolist()
+            cells = [list(map(float.__repr__, column)) for column in block]
+            lines = "".join(line + "\n" for line in map(" ".join, zip(*cells, strict=True)))
+            handle.write(lines.encode("ascii"))
+
+    write_atomic(path, write)
 
 
 def _checked_columns(columns: Sequence[str]) -> tuple[str, ...]:
@@ -266,6 +394,31 @@ def _format_cell(value: Cell) -> str:
         number = float(value)
         return "" if math.isnan(number) else repr(number)
     raise TypeError(f"cannot write {type(value).__name__} {value!r} to a trajectory cell")
+
+
+def _format_column(values: np.ndarray | Sequence[Cell]) -> list[str]:
+    """Texts of one column's cells (see :class:`TrajectoryWriter`), formatted at once."""
+    array = np.asarray(values)
+    if array.ndim != 1:
+        raise ValueError(f"a block column must be 1-D, got shape {array.shape}")
+    kind = array.dtype.kind
+    if kind == "f":
+        cells = list(map(float.__repr__, array.astype(float).tolist()))
+        for index in np.flatnonzero(np.isnan(array)).tolist():
+            cells[index] = ""
+        return cells
+    if kind in "iu":
+        return list(map(str, array.tolist()))
+    texts = array.tolist() if kind == "U" else list(map(_format_cell, array.tolist()))
+    quoted = {text: _quoted(text) for text in set(texts)}  # few distinct labels
+    return list(map(quoted.__getitem__, texts))
+
+
+def _quoted(text: str) -> str:
+    """``text`` as a CSV cell, quoted (or not) exactly as the csv module's writer does."""
+    buffer = io.StringIO()
+    csv.writer(buffer, lineterminator="\n").writerow([text, ""])
+    return buffer.getvalue()[:-2]  # without ",\n"
 
 
 def _column_array(table: CsvTable, column: str) -> np.ndarray:

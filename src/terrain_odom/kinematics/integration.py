@@ -59,18 +59,45 @@ def wrap_angle(angle: ArrayLike) -> np.ndarray:
     return np.where(inside, a, np.pi - np.mod(np.pi - a, 2.0 * np.pi))
 
 
-def _arc_coefficients(phi: np.ndarray) -> tuple[np.ndarray, ...]:
-    """Return ``A, B, dA/dphi, dB/dphi`` for rotation angles ``phi`` (rad)."""
+def _arc_coefficients(phi: np.ndarray, derivatives: bool = True) -> tuple[np.ndarray, ...]:
+    """Return ``A, B`` (and ``dA/dphi, dB/dphi`` if ``derivatives``) for angles ``phi`` (rad).
+
+    The closed forms where ``|phi| >= _SERIES_LIMIT``, the Taylor series
+    elsewhere, each computed only on its own angles (at 20 Hz most steps are
+    small), with each sine and cosine taken once.
+    """
+    phi = np.asarray(phi, dtype=float)
     small = np.abs(phi) < _SERIES_LIMIT
-    p = np.where(small, 1.0, phi)  # safe divisor; series used where small
+    if small.all():
+        return _arc_series(phi, derivatives)
+    if not small.any():
+        return _arc_closed(phi, derivatives)
+    out = tuple(np.empty_like(phi) for _ in range(4 if derivatives else 2))
+    for branch, where in ((_arc_series, small), (_arc_closed, ~small)):
+        for value, part in zip(out, branch(phi[where], derivatives), strict=True):
+            value[where] = part
+    return out
+
+
+def _arc_series(phi: np.ndarray, derivatives: bool) -> tuple[np.ndarray, ...]:
+    """Return the Taylor series of :func:`_arc_coefficients` (error < 1e-12 for ``|phi| < 1e-2``)."""
     p2 = phi * phi
-    a = np.where(small, 1.0 - p2 / 6.0 + p2 * p2 / 120.0, np.sin(p) / p)
-    b = np.where(small, phi / 2.0 - phi * p2 / 24.0 + phi * p2 * p2 / 720.0, (1.0 - np.cos(p)) / p)
-    da = np.where(small, -phi / 3.0 + phi * p2 / 30.0, (p * np.cos(p) - np.sin(p)) / (p * p))
-    db = np.where(
-        small, 0.5 - p2 / 8.0 + p2 * p2 / 144.0, (p * np.sin(p) - (1.0 - np.cos(p))) / (p * p)
-    )
-    return a, b, da, db
+    a = 1.0 - p2 / 6.0 + p2 * p2 / 120.0
+    b = phi / 2.0 - phi * p2 / 24.0 + phi * p2 * p2 / 720.0
+    if not derivatives:
+        return a, b
+    return a, b, -phi / 3.0 + phi * p2 / 30.0, 0.5 - p2 / 8.0 + p2 * p2 / 144.0
+
+
+def _arc_closed(phi: np.ndarray, derivatives: bool) -> tuple[np.ndarray, ...]:
+    """Return the closed forms of :func:`_arc_coefficients` (``phi`` away from 0)."""
+    sin, cos = np.sin(phi), np.cos(phi)
+    one_minus_cos = 1.0 - cos
+    a, b = sin / phi, one_minus_cos / phi
+    if not derivatives:
+        return a, b
+    p2 = phi * phi
+    return a, b, (phi * cos - sin) / p2, (phi * sin - one_minus_cos) / p2
 
 
 def arc_increment(v_x: ArrayLike, v_y: ArrayLike, omega: ArrayLike, dt: ArrayLike) -> np.ndarray:
@@ -98,12 +125,19 @@ def arc_increment(v_x: ArrayLike, v_y: ArrayLike, omega: ArrayLike, dt: ArrayLik
     >>> arc_increment(np.pi, 0.0, np.pi, 1.0).round(6).tolist()
     [0.0, 2.0, 3.141593]
     """
+    return np.stack(_arc_parts(v_x, v_y, omega, dt), axis=-1)
+
+
+def _arc_parts(
+    v_x: ArrayLike, v_y: ArrayLike, omega: ArrayLike, dt: ArrayLike
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Return the ``dx, dy, dyaw`` of :func:`arc_increment` as three contiguous arrays."""
     v_x, v_y, omega, dt = np.broadcast_arrays(
         *(np.asarray(a, dtype=float) for a in (v_x, v_y, omega, dt))
     )
     phi = omega * dt
-    a, b, _, _ = _arc_coefficients(phi)
-    return np.stack([dt * (v_x * a - v_y * b), dt * (v_x * b + v_y * a), phi], axis=-1)
+    a, b = _arc_coefficients(phi, derivatives=False)
+    return dt * (v_x * a - v_y * b), dt * (v_x * b + v_y * a), phi
 
 
 def arc_increment_with_jacobian(
@@ -224,8 +258,8 @@ def integrate(
     >>> np.abs(poses[-1]).max() < 1e-12
     np.True_
     """
-    inc = arc_increment(v_x, v_y, omega, dt)  # (..., K, 3)
-    lead = inc.shape[:-2]
+    inc_x, inc_y, inc_yaw = _arc_parts(v_x, v_y, omega, dt)  # each (..., K), in the start frame
+    lead = inc_yaw.shape[:-1]
     start_pose = (
         np.zeros(lead + (3,))
         if start is None
@@ -233,11 +267,11 @@ def integrate(
     )
     # Heading before each step, then rotate each body increment into the world.
     yaw = start_pose[..., None, 2] + np.concatenate(
-        [np.zeros(lead + (1,)), np.cumsum(inc[..., 2], axis=-1)], axis=-1
+        [np.zeros(lead + (1,)), np.cumsum(inc_yaw, axis=-1)], axis=-1
     )
     c, s = np.cos(yaw[..., :-1]), np.sin(yaw[..., :-1])
-    dx = c * inc[..., 0] - s * inc[..., 1]
-    dy = s * inc[..., 0] + c * inc[..., 1]
+    dx = c * inc_x - s * inc_y
+    dy = s * inc_x + c * inc_y
     zero = np.zeros(lead + (1,))
     x = start_pose[..., None, 0] + np.concatenate([zero, np.cumsum(dx, axis=-1)], axis=-1)
     y = start_pose[..., None, 1] + np.concatenate([zero, np.cumsum(dy, axis=-1)], axis=-1)

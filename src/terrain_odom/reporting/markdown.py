@@ -148,6 +148,30 @@ def _reconvergence(section: dict[str, Any]) -> list[str]:
     ]
 
 
+def _pose_use(use: dict[str, Any]) -> list[str]:
+    """Return the pose components measured, used, dropped (by reason): ``counts.pose_components``."""
+    dropped = {"position": 0, "heading": 0}
+    reasons = []
+    for key, n in use["dropped"].items():
+        component, reason = key.split(": ", 1)
+        dropped[component] = dropped.get(component, 0) + n
+        reasons.append([component, reason, n])
+    rows = [
+        [what, use[what], use[f"used_{what}"], dropped[what]] for what in ("position", "heading")
+    ]
+    parts = [
+        "## Pose measurements (per component: position x, y; heading yaw)",
+        table(["component", "measured", "used", "dropped"], rows),
+    ]
+    if reasons:
+        parts.append(table(["dropped component", "why", "count"], reasons))
+    return parts
+
+
+def _warnings(warnings: Sequence[str]) -> list[str]:
+    return ["## Warnings", "\n".join(f"- {w}" for w in warnings) if warnings else "None."]
+
+
 def run_markdown(report: dict[str, Any], plots: Sequence[str] = ()) -> str:
     """Render a run's ``report.json`` content as Markdown.
 
@@ -166,9 +190,12 @@ def run_markdown(report: dict[str, Any], plots: Sequence[str] = ()) -> str:
         f"{report['config']['terrain']['reset_at']}",
         f"- rows: {counts['rows']}, pose measurements fused: {counts['updates']}, "
         f"run time {report['run_time_s']:.1f} s",
-        "## Terrain changes",
-        _changes(report),
     ]
+    if "pose_components" in counts:
+        parts += _pose_use(counts["pose_components"])
+    if "warnings" in report:
+        parts += _warnings(report["warnings"])
+    parts += ["## Terrain changes", _changes(report)]
     priors = report["inputs"].get("priors")
     if priors is not None:
         parts.insert(2, f"- offline priors: `{priors}`")

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from terrain_odom.estimation.pose_measurement import Mounting, sensor_pose
 from terrain_odom.kinematics import arc_increment, compose, twist_icr, wrap_angle
 from terrain_odom.sim.world import GroundMap
 
@@ -140,7 +141,12 @@ def encoder_speeds(
 
 
 def pose_measurements(
-    motion: Motion, every: int, sigma_xy: float, sigma_yaw: float, rng: np.random.Generator
+    motion: Motion,
+    every: int,
+    sigma_xy: float,
+    sigma_yaw: float,
+    rng: np.random.Generator,
+    mounting: Mounting | None = None,
 ) -> np.ndarray:
     """GPS-like poses on every ``every``-th sample (from the first), NaN elsewhere.
 
@@ -153,6 +159,9 @@ def pose_measurements(
     sigma_xy, sigma_yaw : float
         Noise std of the position (m) and heading (rad).
     rng : numpy.random.Generator
+    mounting : Mounting, optional
+        Antenna lever arm and heading offset: the antenna's position and the
+        sensor's heading are measured (the robot's own pose by default).
 
     Returns
     -------
@@ -162,6 +171,9 @@ def pose_measurements(
     measured = np.full_like(motion.pose, np.nan)
     rows = np.arange(0, motion.t.size, every)
     noise = rng.normal(0.0, 1.0, (rows.size, 3)) * (sigma_xy, sigma_xy, sigma_yaw)
-    measured[rows] = motion.pose[rows] + noise
+    sensor = motion.pose[rows]
+    if mounting is not None and mounting != Mounting():
+        sensor = np.array([sensor_pose(pose, mounting) for pose in sensor]).reshape(-1, 3)
+    measured[rows] = sensor + noise
     measured[rows, 2] = wrap_angle(measured[rows, 2])
     return measured

@@ -26,6 +26,7 @@ import numpy as np
 
 from terrain_odom.config import CameraConfig, RobotConfig
 from terrain_odom.errors import ConfigError
+from terrain_odom.estimation.pose_measurement import Mounting
 from terrain_odom.kinematics import wrap_angle
 from terrain_odom.sim.render import Lighting
 from terrain_odom.sim.robot import Driver, TerrainParams
@@ -146,6 +147,11 @@ class Scenario:
         Encoder noise std on each track speed, m/s.
     sigma_xy, sigma_yaw : float
         Pose measurement noise std, m and rad.
+    antenna : tuple of 2 float
+        Position sensor (GPS antenna) in the robot frame, m: the measured
+        ``x, y`` are the antenna's (see ``pose_sensor`` in the configuration).
+    heading_offset : float
+        Measured heading minus the true yaw, rad (an IMU's mounting).
     camera : CameraConfig
     robot : RobotConfig
     lighting : Lighting
@@ -170,6 +176,8 @@ class Scenario:
     sigma_encoder: float = 0.01
     sigma_xy: float = 0.02
     sigma_yaw: float = 0.01
+    antenna: tuple[float, float] = (0.0, 0.0)
+    heading_offset: float = 0.0
     camera: CameraConfig = SIM_CAMERA
     robot: RobotConfig = field(default_factory=lambda: RobotConfig(track_width=0.5))
     lighting: Lighting = field(default_factory=Lighting)
@@ -184,6 +192,11 @@ class Scenario:
                 raise ConfigError(
                     f"{name}: wheel_rate {self.wheel_rate} Hz must be a multiple of it ({rate} Hz)"
                 )
+
+    @property
+    def mounting(self) -> Mounting:
+        """The pose sensors' mounting (antenna, heading offset)."""
+        return Mounting(*self.antenna, self.heading_offset)
 
     def make_driver(self) -> Driver:
         """Return a fresh wheel-speed schedule (drivers may keep state)."""

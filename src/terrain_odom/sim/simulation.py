@@ -115,7 +115,7 @@ def simulate(
     v_l, v_r = encoder_speeds(motion, scenario.sigma_encoder, _rng(seed, "encoder"))
     every = int(round(scenario.wheel_rate / scenario.pose_rate))
     measured = pose_measurements(
-        motion, every, scenario.sigma_xy, scenario.sigma_yaw, _rng(seed, "pose")
+        motion, every, scenario.sigma_xy, scenario.sigma_yaw, _rng(seed, "pose"), scenario.mounting
     )
     phase = float(_rng(seed, "lighting").uniform(0.0, 2.0 * np.pi))
     lighting = dataclasses.replace(scenario.lighting, phase=phase)

@@ -368,6 +368,11 @@ class RoiResult:
     image_size: tuple[int, int]
     reason: str
 
+    @property
+    def ahead(self) -> float:
+        """Distance from the robot to the region's centre (the predicted pose), m."""
+        return float(np.hypot(self.pose[0], self.pose[1]))
+
 
 def _clip_half_plane(polygon: np.ndarray, coeffs: np.ndarray) -> np.ndarray:
     """Part of a convex polygon (K, 2) where ``coeffs @ (x, y, 1) >= 0`` (Sutherland-Hodgman)."""

@@ -11,10 +11,11 @@ of each row's image (:class:`LabelledFeatures`).
 
 from __future__ import annotations
 
+import contextlib
 import os
 import time
 from collections import Counter
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TypeAlias
@@ -174,6 +175,17 @@ def _extract_in_worker(
     return _extract_one(path, configs, read)
 
 
+@contextlib.contextmanager
+def _opencv_threads(threads: int) -> Iterator[None]:
+    """Run the block with OpenCV's thread pool set to ``threads``; restore it after."""
+    previous = cv2.getNumThreads()
+    cv2.setNumThreads(threads)
+    try:
+        yield
+    finally:
+        cv2.setNumThreads(previous)
+
+
 def _default_jobs() -> int:
     try:
         return len(os.sched_getaffinity(0))
@@ -237,12 +249,18 @@ def _run_all(
 ) -> list[tuple[list[NDArray], list[float]] | str]:
     """:func:`_extract_one` over all images, in order, in ``jobs`` processes."""
     disable = None if progress is None else not progress
-    with tqdm(total=len(paths), desc="features", unit="image", disable=disable) as bar:
+    with (
+        tqdm(total=len(paths), desc="features", unit="image", disable=disable) as bar,
+        _opencv_threads(1),  # as in every worker: one image per core, no thread contention
+    ):
         if jobs == 1:
             tasks = (_extract_one(path, configs, read) for path in paths)
         else:  # loky workers do not re-run the caller's __main__ (unlike spawn)
             parallel = Parallel(n_jobs=jobs, return_as="generator", batch_size="auto")
-            tasks = parallel(delayed(_extract_in_worker)(path, configs, read) for path in paths)
+            # absolute: a reused worker keeps the working directory it started in
+            tasks = parallel(
+                delayed(_extract_in_worker)(Path(path).absolute(), configs, read) for path in paths
+            )
         results = []
         for result in tasks:
             results.append(result)

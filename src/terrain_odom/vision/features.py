@@ -39,6 +39,7 @@ __all__ = [
     "region_features",
     "tiles_per_side",
     "tile_grid",
+    "tile_boxes",
     "split_tiles",
     "tiles_within",
     "image_features",
@@ -189,6 +190,23 @@ def _tile_edges(height: int, width: int, tiles: int, columns: int) -> tuple[NDAr
     rows = np.rint(np.linspace(0, height, tiles + 1)).astype(int)
     cols = np.rint(np.linspace(0, width, columns + 1)).astype(int)
     return rows, cols
+
+
+def tile_boxes(height: int, width: int, cfg: ClassifierConfig) -> NDArray:
+    """Return the :func:`tile_grid` tiles of a region as boxes, row by row.
+
+    Returns
+    -------
+    ndarray of int, shape (n_tiles, 4)
+        ``(x0, y0, x1, y1)`` of each tile, px, half-open (as :func:`split_tiles` cuts them).
+
+    >>> tile_boxes(40, 90, ClassifierConfig(tile_size=30)).tolist()
+    [[0, 0, 30, 40], [30, 0, 60, 40], [60, 0, 90, 40]]
+    """
+    rows, cols = _tile_edges(height, width, *tile_grid(height, width, cfg))
+    y0, x0 = np.meshgrid(rows[:-1], cols[:-1], indexing="ij")
+    y1, x1 = np.meshgrid(rows[1:], cols[1:], indexing="ij")
+    return np.column_stack([x0.ravel(), y0.ravel(), x1.ravel(), y1.ravel()])
 
 
 def split_tiles(image: NDArray, tiles: int, columns: int | None = None) -> list[NDArray]:

@@ -20,6 +20,7 @@ from __future__ import annotations
 import functools
 import time
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -27,8 +28,9 @@ from terrain_odom.config import RoiConfig
 from terrain_odom.errors import ConfigError, InputFileError
 from terrain_odom.records import Sighting
 from terrain_odom.vision.camera import GroundCamera, crop, region_of_interest
-from terrain_odom.vision.classifier import TerrainClassifier
-from terrain_odom.vision.features import image_features
+
+if TYPE_CHECKING:  # scikit-learn and the feature code load with a classifier, not with this module
+    from terrain_odom.vision.classifier import TerrainClassifier
 
 __all__ = ["FULL_FRAME", "FrameClassification", "FrameClassifier"]
 
@@ -152,7 +154,7 @@ class FrameClassifier:
             result = region_of_interest(camera, self.roi, v_l, v_r, icr_params)
             record.roi_status = result.status.value
             record.box = result.box
-            record.ahead = float(np.hypot(*result.pose[:2]))
+            record.ahead = result.ahead
             region = footprint = None
             if result.box is not None:  # the footprint's tiles vote, not its bounding box's
                 region = crop(image, result)
@@ -198,6 +200,8 @@ class FrameClassifier:
         self, region: np.ndarray, footprint: np.ndarray | None
     ) -> tuple[tuple[str, float], float, float]:
         """``(label, confidence)``, feature time and KNN time (ms) of a region."""
+        from terrain_odom.vision.features import image_features
+
         started = time.perf_counter()
         features = image_features(region, self.classifier.cfg, footprint)
         extracted = time.perf_counter()
@@ -226,6 +230,8 @@ def _check_feature_width(classifier: TerrainClassifier) -> None:
         The width of the training features differs from that of the features
         its configuration computes (a damaged or hand-made model file).
     """
+    from terrain_odom.vision.features import image_features
+
     cfg = classifier.cfg
     probe = np.random.default_rng(0).integers(0, 256, (64, 64, 3), dtype=np.uint8)
     expected = image_features(probe, cfg).shape[1]

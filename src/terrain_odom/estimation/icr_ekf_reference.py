@@ -1,0 +1,112 @@
+"""The ICR EKF in its filterpy formulation: the reference of the compiled kernels.
+
+:class:`FilterpyIcrEkf` is :class:`~terrain_odom.estimation.icr_ekf.IcrEkf`
+with predict and update done as before the kernels of
+:mod:`terrain_odom.estimation._kernels`: a filterpy ``ExtendedKalmanFilter``
+whose prediction is :func:`~terrain_odom.estimation.icr_ekf.icr_step_with_jacobian`,
+filterpy's Joseph-form update with SciPy's inverse and the pose sensors'
+:func:`~terrain_odom.estimation.pose_measurement.measurement`, numpy clipping. Everything
+else (terrain resets, memory, priors) is inherited, so both run the same logs
+through the same streaming path. The tests hold the kernels to it within
+1e-12 and ``bench/ekf_speed.py`` times both; it is ~100x slower, and imports
+filterpy (and SciPy's statistics) on first use.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from terrain_odom.errors import EstimationError
+from terrain_odom.estimation.icr_ekf import IcrEkf, icr_step_with_jacobian
+from terrain_odom.estimation.pose_measurement import measured_rows, measurement
+from terrain_odom.kinematics import wrap_angle
+
+__all__ = ["FilterpyIcrEkf"]
+
+
+def _filterpy_ekf(x: np.ndarray, p: np.ndarray) -> Any:
+    """Return a filterpy EKF at state ``x`` and covariance ``p`` predicting with the ICR step."""
+    from filterpy.kalman import ExtendedKalmanFilter
+
+    class _Filter(ExtendedKalmanFilter):
+        x: np.ndarray  # state, shape (n, 1) (filterpy is untyped)
+        F: np.ndarray  # noqa: N815 - filterpy's name of the process Jacobian
+
+        def predict_x(self, u: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> None:
+            state, self.F = icr_step_with_jacobian(self.x[:, 0], *u)
+            self.x = state[:, None]
+
+    ekf = _Filter(dim_x=x.size, dim_z=3)
+    ekf.x, ekf.P = x[:, None].copy(), p.copy()
+    return ekf
+
+
+class FilterpyIcrEkf(IcrEkf):
+    """:class:`~terrain_odom.estimation.icr_ekf.IcrEkf` through filterpy (same parameters).
+
+    Examples
+    --------
+    >>> from terrain_odom.config import EkfConfig
+    >>> ekf, ref = IcrEkf(EkfConfig()), FilterpyIcrEkf(EkfConfig())
+    >>> for f in (ekf, ref):
+    ...     f.predict(0.8, 1.0, 0.1)
+    ...     _ = f.update([0.1, 0.0, 0.02])
+    >>> bool(np.allclose(ekf.P, ref.P, rtol=0, atol=1e-14))
+    True
+    """
+
+    def predict(self, v_l: float, v_r: float, dt: float) -> None:
+        """Propagate over one wheel sample (see :meth:`IcrEkf.predict`)."""
+        if not dt > 0.0:
+            raise EstimationError(f"predict needs dt > 0 s, got {dt}")
+        ekf = _filterpy_ekf(self._x, self._P)
+        ekf.Q = np.diag(self._q_density * dt)
+        ekf.predict(u=(float(v_l), float(v_r), float(dt)))
+        self._x[:] = ekf.x[:, 0]
+        self._P[:] = 0.5 * (ekf.P + ekf.P.T)
+        self.t += dt
+
+    def update(self, z: ArrayLike, *, R: ArrayLike | None = None) -> float:  # noqa: N803
+        """Fuse a pose measurement (see :meth:`IcrEkf.update`)."""
+        z = np.asarray(z, dtype=float)
+        rows = measured_rows(z)
+        if rows.size == 0:
+            return float("nan")
+        r_full = np.diag(self._r_diag) if R is None else np.asarray(R, dtype=float)
+        r_full = np.diag(r_full) if r_full.ndim == 1 else r_full
+        yaw_row = np.flatnonzero(rows == 2)
+
+        def residual(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+            res = a - b
+            res[yaw_row] = wrap_angle(res[yaw_row])
+            return res
+
+        h, H = measurement(self._x, rows, self.mounting)  # noqa: N806
+        ekf = _filterpy_ekf(self._x, self._P)
+        ekf.update(  # filterpy evaluates both at the prior state
+            z[rows][:, None],
+            HJacobian=lambda _x: H,
+            Hx=lambda _x: h[:, None],
+            R=r_full[np.ix_(rows, rows)],
+            residual=residual,
+        )
+        self.last_nis = float((ekf.y.T @ ekf.SI @ ekf.y).item())
+        self._x[:], self._P[:] = ekf.x[:, 0], ekf.P
+        self._constrain()
+        return self.last_nis
+
+    def _constrain(self) -> None:
+        """Wrap yaw, clip the ICR state into its limits (numpy), symmetrise P."""
+        x, lim = self._x, self.config.limits
+        x[2] = wrap_angle(x[2])
+        x[3] = np.clip(x[3], lim.half_width_min, lim.half_width_max)
+        x[4] = np.clip(x[4], -lim.half_width_max, -lim.half_width_min)
+        x[5] = np.clip(x[5], -lim.x_icr_max, lim.x_icr_max)
+        if x.shape[0] > 6:
+            x[6] = np.clip(x[6], lim.alpha_min, lim.alpha_max)
+        self._P[:] = 0.5 * (self._P + self._P.T)
+        if not (np.all(np.isfinite(self._P)) and np.all(np.isfinite(x))):
+            raise EstimationError("EKF state became non-finite; check the noise configuration")

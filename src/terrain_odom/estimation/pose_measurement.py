@@ -1,0 +1,296 @@
+"""The pose measurement as a robot mounts its sensors: antenna lever arm, heading offset.
+
+A GPS antenna is rarely at the robot's reference point, and a heading sensor
+(IMU, compass) reads the robot's yaw plus an offset (its mounting, the
+magnetic declination). With the robot's pose ``x, y, yaw`` and the sensor
+mounting of ``pose_sensor`` in the configuration
+(:class:`~terrain_odom.config.PoseSensorConfig`), a measurement row holds
+any subset of
+
+- ``x, y``: the antenna's position, ``p + R(yaw) @ a`` with the antenna at
+  ``a = (antenna_x, antenna_y)`` in the robot frame (x forward, y left);
+- ``yaw``: the sensor's heading, ``yaw + heading_offset`` (wrapped).
+
+During a turn at rate ``omega`` an antenna ``antenna_x`` ahead of the
+reference point moves sideways at ``omega * antenna_x``: exactly what an
+ICR ``x_icr`` does, so an unmodelled lever arm is learned as one.
+
+:func:`measurement` gives the prediction ``h(x)`` of the measured
+components and its Jacobian ``H`` (tested against finite differences);
+:func:`robot_pose` inverts a full measurement; :class:`PoseUse` counts what
+became of each measured component.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from terrain_odom.kinematics import wrap_angle
+
+__all__ = [
+    "Mounting",
+    "PoseUse",
+    "chord_turn",
+    "measurement",
+    "measured_rows",
+    "robot_pose",
+    "sensor_pose",
+]
+
+_YAW = 2
+
+
+@dataclass(frozen=True)
+class Mounting:
+    """Where the pose sensors sit on the robot (numbers; ``auto`` resolved).
+
+    Attributes
+    ----------
+    antenna_x, antenna_y : float
+        Position antenna in the robot frame, m (x forward, y left).
+    heading_offset : float
+        Measured heading minus the robot's yaw, rad.
+
+    Examples
+    --------
+    >>> Mounting(0.5, 0.0, 0.0).antenna.tolist()
+    [0.5, 0.0]
+    """
+
+    antenna_x: float = 0.0
+    antenna_y: float = 0.0
+    heading_offset: float = 0.0
+
+    @property
+    def antenna(self) -> np.ndarray:
+        """Antenna position in the robot frame, m, shape (2,)."""
+        return np.array([self.antenna_x, self.antenna_y], dtype=float)
+
+
+def _rotation(yaw: float) -> tuple[np.ndarray, np.ndarray]:
+    """Return ``R(yaw)`` and ``dR/dyaw``."""
+    c, s = np.cos(yaw), np.sin(yaw)
+    return np.array([[c, -s], [s, c]]), np.array([[-s, -c], [c, -s]])
+
+
+def measured_rows(z: ArrayLike) -> np.ndarray:
+    """Return the indices (into ``x, y, yaw``) of the finite components of ``z``.
+
+    A position is measured only as a pair: ``x`` without ``y`` (or the
+    reverse) leaves both out.
+
+    Examples
+    --------
+    >>> measured_rows([1.0, float("nan"), 0.3]).tolist()
+    [2]
+    """
+    finite = np.isfinite(np.asarray(z, dtype=float))
+    if not (finite[0] and finite[1]):
+        finite[:2] = False
+    return np.flatnonzero(finite)
+
+
+def measurement(
+    state: ArrayLike, rows: ArrayLike, mounting: Mounting
+) -> tuple[np.ndarray, np.ndarray]:
+    """Predict the measured components ``rows`` of a pose sensor, and the Jacobian.
+
+    Parameters
+    ----------
+    state : array_like, shape (n,)
+        Filter state starting with the robot's ``x, y, yaw``.
+    rows : array_like of int
+        Measured components (0: x, 1: y, 2: yaw), ascending.
+    mounting : Mounting
+        Antenna lever arm and heading offset.
+
+    Returns
+    -------
+    h : ndarray, shape (len(rows),)
+        Predicted antenna position and sensor heading (wrapped).
+    H : ndarray, shape (len(rows), n)
+        ``d h / d state``.
+
+    Examples
+    --------
+    >>> h, H = measurement([1.0, 2.0, np.pi / 2, 0.3], [0, 1], Mounting(0.5, 0.0, 0.0))
+    >>> h.round(6).tolist(), H[:, 2].round(6).tolist()
+    ([1.0, 2.5], [-0.5, 0.0])
+    """
+    s = np.asarray(state, dtype=float)
+    rows = np.asarray(rows, dtype=int)
+    rot, d_rot = _rotation(s[_YAW])
+    arm = mounting.antenna
+    full_h = np.r_[s[:2] + rot @ arm, wrap_angle(s[_YAW] + mounting.heading_offset)]
+    full_H = np.zeros((3, s.size))  # noqa: N806 - the usual symbol
+    full_H[[0, 1, 2], [0, 1, 2]] = 1.0
+    full_H[:2, _YAW] = d_rot @ arm
+    return full_h[rows], full_H[rows]
+
+
+def sensor_pose(pose: ArrayLike, mounting: Mounting) -> np.ndarray:
+    """Return what the sensors measure at robot pose ``x, y, yaw`` (antenna, heading).
+
+    Examples
+    --------
+    >>> sensor_pose([0.0, 0.0, 0.0], Mounting(0.5, 0.1, 0.2)).round(6).tolist()
+    [0.5, 0.1, 0.2]
+    """
+    return measurement(pose, [0, 1, 2], mounting)[0]
+
+
+def robot_pose(z: ArrayLike, mounting: Mounting, yaw: float | None = None) -> np.ndarray:
+    """Invert :func:`sensor_pose`: the robot pose from antenna position and heading.
+
+    Parameters
+    ----------
+    z : array_like, shape (3,)
+        Measured antenna ``x, y`` and sensor heading; the heading may be NaN
+        if ``yaw`` is given.
+    mounting : Mounting
+    yaw : float, optional
+        The robot's yaw where ``z`` has no heading (e.g. an estimate).
+
+    Returns
+    -------
+    ndarray, shape (3,)
+        ``x, y, yaw`` of the robot (NaN where ``z`` has no position).
+
+    Examples
+    --------
+    >>> m = Mounting(0.5, 0.1, 0.2)
+    >>> robot_pose(sensor_pose([1.0, 2.0, 0.3], m), m).round(6).tolist()
+    [1.0, 2.0, 0.3]
+    """
+    z = np.asarray(z, dtype=float)
+    if np.isfinite(z[_YAW]):
+        yaw = float(wrap_angle(z[_YAW] - mounting.heading_offset))
+    if yaw is None:
+        raise ValueError("robot_pose needs a heading: in z, or as yaw")
+    rot, _ = _rotation(yaw)
+    return np.r_[z[:2] - rot @ mounting.antenna, yaw]
+
+
+def _chord(change: np.ndarray, jac: np.ndarray, arm: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Return the antenna's displacement over a pose ``change`` (start frame) and its Jacobian."""
+    rot, d_rot = _rotation(change[_YAW])
+    return change[:2] + rot @ arm - arm, jac[:2] + np.outer(d_rot @ arm, jac[_YAW])
+
+
+def chord_turn(
+    first: ArrayLike,
+    j_first: ArrayLike,
+    second: ArrayLike,
+    j_second: ArrayLike,
+    antenna: ArrayLike,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Predict two consecutive antenna chords as a GPS alone sees them: length and turn.
+
+    Without a heading, positions fix the path only up to a rotation; what
+    they measure of two consecutive pose changes is the length of the
+    antenna's second chord and the angle from the first chord to the second.
+
+    Parameters
+    ----------
+    first, second : array_like, shape (3,)
+        Consecutive pose changes ``dx, dy, dyaw``, each in its start frame.
+    j_first, j_second : array_like, shape (3, n)
+        Their Jacobians with respect to the parameters.
+    antenna : array_like, shape (2,)
+        Position sensor in the robot frame, m.
+
+    Returns
+    -------
+    h : ndarray, shape (2,)
+        Length of the second chord (m), and turn from the first chord's
+        direction to the second's (rad, wrapped).
+    H : ndarray, shape (2, n)
+        ``d h / d params``.
+
+    Examples
+    --------
+    >>> quarter = [1.0, 1.0, np.pi / 2]  # a quarter circle of radius 1, to the left
+    >>> h, _ = chord_turn(quarter, np.zeros((3, 1)), quarter, np.zeros((3, 1)), [0.0, 0.0])
+    >>> h.round(6).tolist()  # chord sqrt(2); the chords turn by the quarter
+    [1.414214, 1.570796]
+    """
+    arm = np.asarray(antenna, dtype=float)
+    first, second = np.asarray(first, dtype=float), np.asarray(second, dtype=float)
+    c1, j1 = _chord(first, np.asarray(j_first, dtype=float), arm)
+    c2, j2 = _chord(second, np.asarray(j_second, dtype=float), arm)
+    l1, l2 = float(c1 @ c1), float(c2 @ c2)
+    h = np.array(
+        [
+            np.sqrt(l2),
+            wrap_angle(first[_YAW] + np.arctan2(c2[1], c2[0]) - np.arctan2(c1[1], c1[0])),
+        ]
+    )
+    d_turn = (
+        np.asarray(j_first, dtype=float)[_YAW]
+        + (c2[0] * j2[1] - c2[1] * j2[0]) / l2
+        - (c1[0] * j1[1] - c1[1] * j1[0]) / l1
+    )
+    return h, np.vstack([c2 @ j2 / np.sqrt(l2), d_turn])
+
+
+@dataclass
+class PoseUse:
+    """What became of the measured pose components of a run.
+
+    Each measured row counts once per component it has: ``position`` (an
+    ``x, y`` pair) and ``heading`` (``yaw``).
+
+    Attributes
+    ----------
+    position, heading : int
+        Components measured.
+    used_position, used_heading : int
+        Fused by the filter (or used as the anchor of a later update).
+    dropped : dict of str to int
+        Components not used, by reason (``"position: ..."``, ``"heading: ..."``).
+    """
+
+    position: int = 0
+    heading: int = 0
+    used_position: int = 0
+    used_heading: int = 0
+    dropped: dict[str, int] = field(default_factory=dict)
+
+    def measured(self, rows: np.ndarray, z: np.ndarray) -> None:
+        """Count the components of one measurement ``z`` (``rows``: its usable ones)."""
+        self.position += int(0 in rows)
+        self.heading += int(_YAW in rows)
+        if np.isfinite(z[:2]).any() and 0 not in rows:
+            self.drop("position", "x without y (or y without x)")
+
+    def used(self, what: str) -> None:
+        """Count one ``position`` or ``heading`` component as used."""
+        if what == "position":
+            self.used_position += 1
+        else:
+            self.used_heading += 1
+
+    def drop(self, what: str, why: str) -> None:
+        """Count one ``position`` or ``heading`` component dropped because ``why``."""
+        key = f"{what}: {why}"
+        self.dropped[key] = self.dropped.get(key, 0) + 1
+
+    def summary(self) -> str:
+        """One line: components used of measured, and the dropped ones by reason.
+
+        Examples
+        --------
+        >>> use = PoseUse(position=10, used_position=8, dropped={"position: before a heading": 2})
+        >>> use.summary()
+        'position 8 of 10 used, heading 0 of 0 (dropped: 2 position: before a heading)'
+        """
+        line = (
+            f"position {self.used_position} of {self.position} used, "
+            f"heading {self.used_heading} of {self.heading}"
+        )
+        if self.dropped:
+            line += " (dropped: " + ", ".join(f"{n} {k}" for k, n in self.dropped.items()) + ")"
+        return line

@@ -1,0 +1,132 @@
+"""Tests of block writing: :meth:`TrajectoryWriter.write_block` and :class:`TrajectoryBlocks`."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from terrain_odom.io import TrajectoryWriter, read_trajectory_csv, write_tum
+from terrain_odom.io.trajectory import TrajectoryBlocks, trajectory_columns
+
+TRICKY_FLOATS = [0.1, 1.0 / 3.0, -2.5e-300, 1.7e9 + 0.123456789, 5e-324, 1e308, -0.0, np.inf]
+LABELS = ["grass", "asphalt, wet", 'say "hi"', " padded ", "", "two\nlines", "é", "gravel"]
+COLUMNS = ["t", "x", "segment", "terrain", "f32"]
+
+
+def _rows() -> list[dict]:
+    x = np.array(TRICKY_FLOATS)
+    x[2] = np.nan
+    return [
+        {
+            "t": 0.05 * k,
+            "x": x[k],
+            "segment": np.int64(k // 3),
+            "terrain": LABELS[k],
+            "f32": np.float32(k / 7),
+        }
+        for k in range(len(LABELS))
+    ]
+
+
+def test_a_block_writes_the_bytes_of_its_rows_written_one_by_one(tmp_path: Path) -> None:
+    rows = _rows()
+    one, block = tmp_path / "rows.csv", tmp_path / "block.csv"
+    with TrajectoryWriter(one, COLUMNS) as writer:
+        for row in rows:
+            writer.write(row)
+    with TrajectoryWriter(block, COLUMNS) as writer:
+        writer.write_block(
+            {
+                "t": np.array([r["t"] for r in rows]),
+                "x": np.array([r["x"] for r in rows]),
+                "segment": np.array([r["segment"] for r in rows]),
+                "terrain": [r["terrain"] for r in rows],
+                "f32": np.array([r["f32"] for r in rows], dtype=np.float32),
+            }
+        )
+    assert block.read_bytes() == one.read_bytes()
+    back = read_trajectory_csv(block)
+    assert back["x"][0] == 0.1 and np.isnan(back["x"][2]) and back["x"][7] == np.inf
+    assert back["terrain"].tolist()[1:6] == ["asphalt, wet", 'say "hi"', "padded", "", "two\nlines"]
+
+
+@pytest.mark.parametrize(
+    ("block", "error", "match"),
+    [
+        (
+            {"t": [0.0], "x": [1.0, 2.0], "segment": [0], "terrain": ["a"], "f32": [0.0]},
+            ValueError,
+            "length",
+        ),
+        ({"t": [0.0]}, ValueError, "missing"),
+        (
+            {"t": [True], "x": [1.0], "segment": [0], "terrain": ["a"], "f32": [0.0]},
+            TypeError,
+            "bool",
+        ),
+        (
+            {"t": [None], "x": [1.0], "segment": [0], "terrain": ["a"], "f32": [0.0]},
+            TypeError,
+            "None",
+        ),
+        (
+            {"t": [[0.0]], "x": [1.0], "segment": [0], "terrain": ["a"], "f32": [0.0]},
+            ValueError,
+            "1-D",
+        ),
+    ],
+)
+def test_write_block_rejects_bad_blocks(
+    tmp_path: Path, block: dict, error: type, match: str
+) -> None:
+    with TrajectoryWriter(tmp_path / "t.csv", COLUMNS) as writer, pytest.raises(error, match=match):
+        writer.write_block(block)
+
+
+def test_blocks_flush_every_size_rows_and_on_flush(tmp_path: Path) -> None:
+    """Rows reach the file block by block; the file equals one written row by row."""
+    names = ("x", "y", "yaw", "y_l", "y_r", "x_icr", "alpha")
+    rng = np.random.default_rng(1)
+    states, stds = rng.normal(size=(7, 7)), rng.normal(size=(7, 7)) ** 2
+    stds[:, :3] = np.nan
+    path, reference = tmp_path / "blocks.csv", tmp_path / "rows.csv"
+    with TrajectoryWriter(path, trajectory_columns(names), flush_rows=1) as writer:
+        blocks = TrajectoryBlocks(writer, names, size=3)
+        for k in range(7):
+            blocks.add(0.1 * k, states[k], stds[k], "grass" if k < 4 else "gravel")
+            on_disk = len(path.read_text().splitlines()) - 1
+            assert on_disk == 3 * ((k + 1) // 3)  # whole blocks only
+        blocks.flush()
+        blocks.flush()  # nothing more
+        assert len(path.read_text().splitlines()) == 8
+    with TrajectoryWriter(reference, trajectory_columns(names)) as writer:
+        for k in range(7):
+            row = {"t": 0.1 * k, "terrain": "grass" if k < 4 else "gravel"}
+            row.update(zip(names, states[k], strict=True))
+            row.update((f"std_{n}", s) for n, s in zip(names, stds[k], strict=True))
+            writer.write(row)
+    assert path.read_bytes() == reference.read_bytes()
+
+
+def test_a_one_column_block_keeps_empty_cells(tmp_path: Path) -> None:
+    """A lone empty cell is quoted (an empty line would be skipped on reading)."""
+    path = tmp_path / "one.csv"
+    with TrajectoryWriter(path, ["terrain"]) as writer:
+        writer.write_block({"terrain": ["a", "", "b"]})
+    assert read_trajectory_csv(path)["terrain"].tolist() == ["a", "", "b"]
+
+
+def test_write_tum_over_several_blocks_writes_every_row(tmp_path: Path) -> None:
+    """10 000 rows (three blocks): each line is the row's values by repr, in order."""
+    rng = np.random.default_rng(2)
+    t, x, y, yaw = np.cumsum(rng.uniform(0.01, 0.1, 10000)), *rng.normal(size=(3, 10000))
+    path = tmp_path / "t.tum"
+    write_tum(path, t, x, y, yaw)
+    lines = path.read_text().splitlines()
+    assert len(lines) == 10001
+    for k in (0, 4095, 4096, 9999):
+        half = 0.5 * yaw[k]
+        values = [t[k], x[k], y[k], 0.0, 0.0, 0.0, np.sin(half), np.cos(half)]
+        assert lines[k + 1] == " ".join(repr(float(v)) for v in values)
