@@ -10,6 +10,9 @@ import pytest
 import yaml
 
 from terrain_odom.cli.main import main
+from terrain_odom.config import load_config
+from terrain_odom.estimation import odometry, online
+from terrain_odom.estimation.icr_ekf_reference import FilterpyIcrEkf
 from terrain_odom.io.bag_writer import MessageFactory, write_bag
 from terrain_odom.io.wheel_log import read_wheel_log
 from tests.conftest import SHARED_DATA
@@ -280,3 +283,18 @@ def test_real_bag_both_estimators_update_on_every_heading(
     if estimator == "icr-ekf":  # the spacing takes the turn; x_icr never correlates with yaw
         assert run["y_l"][-1] - run["y_r"][-1] == pytest.approx(2.30, abs=0.01)
         assert np.all(run["x_icr"] == 0.0) and np.all(run["alpha"] == 1.0)
+
+
+def test_real_bag_icr_ekf_kernels_equal_filterpy_holding_alpha(
+    jackal: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Headings alone on a real log: the kernels equal the reference (Schmidt update) to 1e-12."""
+    log = read_wheel_log(jackal / "log.csv")
+    cfg = load_config(jackal / "config.yaml")
+    fast = odometry.run_icr_ekf(log, cfg)
+    monkeypatch.setattr(online, "IcrEkf", FilterpyIcrEkf)
+    slow = odometry.run_icr_ekf(log, cfg)
+    assert fast.n_updates == slow.n_updates == 3058
+    np.testing.assert_allclose(fast.states, slow.states, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(fast.stds, slow.stds, rtol=0, atol=1e-12)
+    assert np.all(fast.states[:, 6] == 1.0) and np.all(fast.states[:, 5] == 0.0)
