@@ -101,3 +101,17 @@ def test_non_finite_update_raises():
     ekf.reset_pose([0.0, 0.0, 0.0], sigma=[0.0, 0.0, 0.0])
     with pytest.raises(EstimationError, match="non-finite"):
         ekf.update([1.0, 1.0, 0.5])
+
+
+def test_kernels_equal_filterpy_with_heading_only_rows_holding_alpha(sample_dir, monkeypatch):
+    """Positions blanked on every other pose row: alpha moves on position rows only."""
+    cfg = load_config(sample_dir / "config.yaml")
+    log = read_wheel_log(sample_dir / "log.csv", wheel_radius=cfg.robot.wheel_radius)
+    pose = log.pose.copy()
+    rows = np.flatnonzero(log.has_yaw)
+    pose[rows[1::2], :2] = np.nan
+    log = dataclasses.replace(log, pose=pose)
+    fast, slow = _both(log, cfg, monkeypatch)
+    _assert_equal(fast, slow)
+    moved = np.flatnonzero(np.diff(fast.states[:, 6]) != 0.0) + 1
+    assert moved.size > 100 and np.all(log.has_position[moved])

@@ -222,8 +222,10 @@ def icr_update(
 
     filterpy's Joseph-form update with the pose sensors' measurement (the
     antenna position ``x, y`` as a pair, the heading; ``h`` and ``H`` at the
-    prior state, heading innovation wrapped), then the state is constrained:
-    yaw wrapped, ``y_l`` in ``[lim0, lim1]``, ``y_r`` in ``[-lim1, -lim0]``,
+    prior state, heading innovation wrapped). A heading without a position
+    leaves ``alpha`` alone: its gain row is zero (a Schmidt update; ``P``
+    through the Joseph form, which holds for any gain). Then the state is
+    constrained: yaw wrapped, ``y_l`` in ``[lim0, lim1]``, ``y_r`` in ``[-lim1, -lim0]``,
     ``|x_icr| <= lim2``, ``alpha`` in ``[lim3, lim4]``; ``P`` symmetrised.
 
     Parameters
@@ -273,6 +275,8 @@ def icr_update(
         for j in range(m):
             for k in range(m):
                 k_gain[i, j] += pht[i, k] * si[k, j]
+    if n > 6 and not pair:  # heading only: alpha not observable, held (Schmidt update)
+        k_gain[6, :] = 0.0
     y = np.empty(m)
     for j in range(m):
         y[j] = z[rows[j]] - h[j]

@@ -282,6 +282,16 @@ class IcrEkf:
         The measurement is the pose sensors' (:attr:`mounting`): antenna
         position and sensor heading (:func:`~terrain_odom.estimation.pose_measurement.measurement`).
 
+        A heading without a position leaves ``alpha`` unchanged. A heading
+        measures the turn rate ``alpha (v_r - v_l) / (y_l - y_r)``, to which
+        a slip factor and a wider ICR spacing are the same; letting it move
+        ``alpha`` too scales the distance by a factor nothing measured
+        (on the Jackal bag of docs/bags.md it shrank the path from 84 m to
+        37 m). So alpha's gain row is zero (a Schmidt, or consider, update):
+        the other states get the Kalman gain and ``P`` follows the Joseph
+        form, the covariance of any gain, so alpha's variance stays and its
+        covariances with the updated states change consistently.
+
         Parameters
         ----------
         z : array_like, shape (3,)

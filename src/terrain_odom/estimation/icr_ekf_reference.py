@@ -44,6 +44,20 @@ def _filterpy_ekf(x: np.ndarray, p: np.ndarray) -> Any:
     return ekf
 
 
+def _hold_alpha(ekf: Any, x: np.ndarray, p: np.ndarray, jac: np.ndarray, r: np.ndarray) -> None:
+    """Redo filterpy's update from prior ``x, p`` with alpha's gain row zero (a Schmidt update).
+
+    The state moves by the gain with that row zero; ``P`` follows the Joseph
+    form ``(I - K H) P (I - K H)^T + K R K^T``, the covariance of any gain.
+    """
+    gain = ekf.K.copy()
+    gain[6] = 0.0
+    i_kh = np.eye(x.size) - gain @ jac
+    ekf.K = gain
+    ekf.x = x[:, None] + gain @ ekf.y
+    ekf.P = i_kh @ p @ i_kh.T + gain @ r @ gain.T
+
+
 class FilterpyIcrEkf(IcrEkf):
     """:class:`~terrain_odom.estimation.icr_ekf.IcrEkf` through filterpy (same parameters).
 
@@ -85,14 +99,17 @@ class FilterpyIcrEkf(IcrEkf):
             return res
 
         h, H = measurement(self._x, rows, self.mounting)  # noqa: N806
+        r = r_full[np.ix_(rows, rows)]
         ekf = _filterpy_ekf(self._x, self._P)
         ekf.update(  # filterpy evaluates both at the prior state
             z[rows][:, None],
             HJacobian=lambda _x: H,
             Hx=lambda _x: h[:, None],
-            R=r_full[np.ix_(rows, rows)],
+            R=r,
             residual=residual,
         )
+        if self._x.size > 6 and rows[0] == 2:  # heading only: alpha not observable, held
+            _hold_alpha(ekf, self._x, self._P, H, r)
         self.last_nis = float((ekf.y.T @ ekf.SI @ ekf.y).item())
         self._x[:], self._P[:] = ekf.x[:, 0], ekf.P
         self._constrain()
