@@ -224,14 +224,17 @@ def run_odometry(
     n_after = int(frame_t.size - np.searchsorted(frame_t, log.t[-1], side="right")) if n_rows else 0
     new_segment = np.zeros(n_rows, dtype=bool)
     new_segment[log.run_starts()] = True
-    has_pose = np.isfinite(log.pose).any(axis=1)
-    for k in range(n_rows):
-        t = float(log.t[k])
+    poses = np.flatnonzero(np.isfinite(log.pose).any(axis=1)).tolist()
+    pose_at = dict(zip(poses, log.pose[poses].tolist(), strict=True))
+    # Python floats and bools, converted once: indexing numpy per row costs more than the row
+    rows = zip(log.t.tolist(), log.v_l.tolist(), log.v_r.tolist(), new_segment.tolist(), strict=True)
+    for k, (t, v_l, v_r, new) in enumerate(rows):
         if labels is not None and (k == 0 or labels[k] != labels[k - 1]):
             odometry.terrain(t, str(labels[k]))
-        odometry.wheels(t, float(log.v_l[k]), float(log.v_r[k]), new_segment=new_segment[k])
-        if has_pose[k]:
-            odometry.pose(t, *map(float, log.pose[k]))
+        odometry.wheels(t, v_l, v_r, new_segment=new)
+        pose = pose_at.get(k)
+        if pose is not None:
+            odometry.pose(t, *pose)
         if frames is not None:
             stop = int(bounds[k + 1]) if k + 1 < n_rows else frame_t.size - n_after
             for i in range(int(bounds[k]), stop):
