@@ -406,6 +406,7 @@ def run(
     estimator: Estimator = "icr-ekf",
     priors: str | Path | None = None,
     overwrite: bool = False,
+    plots: bool = True,
 ) -> RunSummary:
     """Run the terrain-adaptive ICR EKF (or slip EKF) over a wheel log; write the results.
 
@@ -467,6 +468,9 @@ def run(
         Not for ``slip-ekf``.
     overwrite : bool
         Replace a run already in ``out_dir``: its files are removed first.
+    plots : bool
+        Draw the plots (default); false skips them (matplotlib's import and
+        drawing are most of a short run's time).
 
     Returns
     -------
@@ -505,11 +509,11 @@ def run(
         frames = records if pipeline is not None else None
         scored = _score(inputs, inputs.gt, report, frames, use_roi)
         report["inputs"]["groundtruth"] = str(Path(groundtruth).resolve())
-    plots = write_run_plots(
+    drawn = write_run_plots(
         out, log, result, inputs.cfg, truth=inputs.gt, scored=scored, records=records,
         images=root, classifier=inputs.classifier,
-    )  # fmt: skip
-    report_path, md_path = _write_reports(out, report, plots)
+    ) if plots else []  # fmt: skip
+    report_path, md_path = _write_reports(out, report, drawn)
     return RunSummary(
         out / TRAJECTORY_CSV,
         tum_path,
@@ -519,7 +523,7 @@ def run(
         md_path,
         inputs.timing,
         frames_csv=None if pipeline is None else out / FRAMES_CSV,
-        plots=tuple(out / name for name in plots),
+        plots=tuple(out / name for name in drawn),
         config_yaml=config_yaml,
         frames=_frame_counts(result, pipeline),
         unused_priors=_unused_priors(inputs),
