@@ -227,7 +227,9 @@ def run_odometry(
     poses = np.flatnonzero(np.isfinite(log.pose).any(axis=1)).tolist()
     pose_at = dict(zip(poses, log.pose[poses].tolist(), strict=True))
     # Python floats and bools, converted once: indexing numpy per row costs more than the row
-    rows = zip(log.t.tolist(), log.v_l.tolist(), log.v_r.tolist(), new_segment.tolist(), strict=True)
+    rows = zip(
+        log.t.tolist(), log.v_l.tolist(), log.v_r.tolist(), new_segment.tolist(), strict=True
+    )
     for k, (t, v_l, v_r, new) in enumerate(rows):
         if labels is not None and (k == 0 or labels[k] != labels[k - 1]):
             odometry.terrain(t, str(labels[k]))
