@@ -14,8 +14,7 @@ import pytest
 
 from terrain_odom.config import Config, EkfConfig, PoseSigmas, load_config
 from terrain_odom.errors import EstimationError
-from terrain_odom.estimation import IcrEkf, icr_step_with_jacobian, odometry, online
-from terrain_odom.estimation import _kernels
+from terrain_odom.estimation import IcrEkf, _kernels, icr_step_with_jacobian, odometry, online
 from terrain_odom.estimation._kernels import icr_predict
 from terrain_odom.estimation.icr_ekf_reference import FilterpyIcrEkf
 from terrain_odom.estimation.pose_measurement import Mounting
@@ -30,11 +29,17 @@ def kernels(request, monkeypatch):
     if request.param == "compiled":
         _kernels.compile_kernels()
     else:
-        monkeypatch.setattr(_kernels, "_compiled", False)
         monkeypatch.setattr(_kernels, "PURE_CALLS", 10**12)
-        for name, function in _kernels._PURE.items():
-            monkeypatch.setattr(_kernels, name, function)
+        _python_kernels(monkeypatch)
     return request.param
+
+
+def _python_kernels(monkeypatch):
+    """Put the kernels back as a fresh process has them: Python, counting calls."""
+    monkeypatch.setattr(_kernels, "_compiled", False)
+    monkeypatch.setattr(_kernels, "_calls", 0)
+    for name, function in {**_kernels._PURE, **_kernels._WRAPPERS}.items():
+        monkeypatch.setattr(_kernels, name, function)
 
 
 def _both(log, cfg, monkeypatch, labels=None):
@@ -82,13 +87,11 @@ def test_switch_to_compiled_kernels_mid_run_changes_no_bit(drive_dir, warthog_ya
     log = read_wheel_log(drive_dir / "stitched_grass_to_asphalt.csv", wheel_radius=0.30)
     _kernels.compile_kernels()
     compiled = odometry.run_icr_ekf(log, cfg, labels=log.terrain)
-    monkeypatch.setattr(_kernels, "_compiled", False)
-    monkeypatch.setattr(_kernels, "_calls", 0)
+    _python_kernels(monkeypatch)
     monkeypatch.setattr(_kernels, "PURE_CALLS", 300)
-    for name, function in _kernels._PURE.items():
-        monkeypatch.setattr(_kernels, name, function)
+    assert _kernels.icr_predict is _kernels._WRAPPERS["icr_predict"]
     switched = odometry.run_icr_ekf(log, cfg, labels=log.terrain)
-    assert _kernels._compiled  # the switch happened
+    assert _kernels._compiled and _kernels.icr_predict is _kernels._icr_predict  # switched
     np.testing.assert_array_equal(switched.states, compiled.states)
     np.testing.assert_array_equal(switched.stds, compiled.stds)
 

@@ -342,6 +342,7 @@ _PURE: dict[str, Callable[..., Any]] = {
     for name in ("_wrap", "_arc", "_step_jacobian", "_matmul", "_symmetrise", "_inverse")
     + ("_sensor", "_joseph", "_icr_predict", "_icr_update", "_constrain", "_std")
 }
+_PUBLIC = ("icr_predict", "icr_update", "constrain", "std")
 _calls = 0  # kernel calls run as Python so far
 _compiled = False
 
@@ -359,6 +360,8 @@ def compile_kernels() -> None:
 
     for name, function in _PURE.items():
         globals()[name] = njit(cache=True, error_model="numpy")(function)
+    for name in _PUBLIC:  # callers looking the kernels up here get no wrapper any more
+        globals()[name] = globals()[f"_{name}"]
     _compiled = True
 
 
@@ -380,7 +383,8 @@ def _python_first(name: str) -> Callable[..., Any]:
     return call
 
 
-icr_predict = _python_first("icr_predict")
-icr_update = _python_first("icr_update")
-constrain = _python_first("constrain")
-std = _python_first("std")
+_WRAPPERS = {name: _python_first(name) for name in _PUBLIC}
+icr_predict = _WRAPPERS["icr_predict"]
+icr_update = _WRAPPERS["icr_update"]
+constrain = _WRAPPERS["constrain"]
+std = _WRAPPERS["std"]
