@@ -45,6 +45,7 @@ import numpy as np
 
 from terrain_odom.config import Config, load_config
 from terrain_odom.estimation import IcrEkf, icr_step_with_jacobian
+from terrain_odom.estimation._kernels import compile_kernels
 from terrain_odom.estimation.icr_ekf_reference import FilterpyIcrEkf
 from terrain_odom.io import read_wheel_log, write_wheel_log
 from terrain_odom.records import WheelLog
@@ -126,6 +127,7 @@ def per_sample(log: WheelLog, cfg: Config, rows: int) -> None:
     """Section 1: the filter alone, per wheel sample."""
     rows = min(rows, len(log))
     n_poses = int(np.isfinite(log.pose[:rows]).any(axis=1).sum())
+    compile_kernels()  # the compiled kernels (a run's first PURE_CALLS calls run as Python)
     fast = IcrEkf(cfg.ekf)
     filter_loop(fast, log, 200)  # load the compiled kernels (cache) before timing
     fast = IcrEkf(cfg.ekf)
@@ -149,8 +151,8 @@ def per_sample(log: WheelLog, cfg: Config, rows: int) -> None:
 
 
 # ------------------------------------------------------------ 2. whole run
-def run_cli(log: Path, out: Path, *, stats: bool = False) -> tuple[float, int]:
-    """Run ``terrain-odom run`` in a fresh process; return (wall s, peak RSS KiB).
+def run_cli(log: Path, out: Path, *options: str, stats: bool = False) -> tuple[float, int]:
+    """Run ``terrain-odom run`` (with ``options``) in a fresh process; return (wall s, peak RSS KiB).
 
     The peak is the process's ``VmHWM`` (``ru_maxrss`` would carry over the
     bench's own peak through fork and exec).
@@ -158,10 +160,11 @@ def run_cli(log: Path, out: Path, *, stats: bool = False) -> tuple[float, int]:
     code = (
         "import re, sys, runpy\n"
         f"sys.argv = ['terrain-odom', 'run', '--wheels', {str(log)!r}, '--out', {str(out)!r}, "
-        f"'--config', {str(CONFIG)!r}, '--overwrite']\n"
+        f"'--config', {str(CONFIG)!r}, '--overwrite', *{list(options)!r}]\n"
         "try:\n    runpy.run_module('terrain_odom', run_name='__main__')\n"
         "except SystemExit as exc:\n    assert not exc.code, exc.code\n"
-        "heavy = [m for m in ('sklearn', 'scipy.stats', 'filterpy') if m in sys.modules]\n"
+        "heavy = [m for m in ('sklearn', 'scipy.stats', 'filterpy', 'numba', 'matplotlib')"
+        " if m in sys.modules]\n"
         "status = open('/proc/self/status').read()  # VmHWM: this process's own peak\n"
         "print('@@', re.search(r'VmHWM:\\s+(\\d+)', status)[1], ','.join(heavy))\n"
     )
@@ -172,7 +175,7 @@ def run_cli(log: Path, out: Path, *, stats: bool = False) -> tuple[float, int]:
     if stats:
         print(
             f"   modules imported by the run: {marker[2] if len(marker) > 2 else 'none of'} "
-            "(scikit-learn, scipy.stats, filterpy)"
+            "(scikit-learn, scipy.stats, filterpy, numba, matplotlib)"
         )
     return seconds, int(marker[1])
 
@@ -186,13 +189,19 @@ def whole_run(path: Path, rows: int, work: Path, repeat: int) -> None:
     def pandas_io() -> None:
         pd.read_csv(path).to_csv(work / "pandas.csv", index=False)
 
-    t_pandas, t_run = best_of(repeat, pandas_io, lambda: run_cli(path, work / "run"))
+    t_pandas, t_run, t_bare = best_of(
+        repeat,
+        pandas_io,
+        lambda: run_cli(path, work / "run"),
+        lambda: run_cli(path, work / "run", "--no-plots"),
+    )
     print(f"2. whole run on the long log ({rows} rows), best of {repeat}")
     print(f"   pandas read_csv + to_csv (baseline)  {t_pandas:6.2f} s")
-    print(
-        f"   terrain-odom run (fresh process)     {t_run:6.2f} s = {t_run / t_pandas:4.1f}x pandas"
-        f" (goal <= 4x) = {1e6 * t_run / rows:.1f} us/row"
-    )
+    for what, seconds in (("", t_run), (" --no-plots", t_bare)):
+        print(
+            f"   terrain-odom run{what:11s} (fresh)  {seconds:6.2f} s = "
+            f"{seconds / t_pandas:4.1f}x pandas (goal <= 4x) = {1e6 * seconds / rows:.1f} us/row"
+        )
     cfg = load_config(CONFIG)
     run(path, work / "warm", config=cfg, progress=False, overwrite=True)
     started = time.perf_counter()
@@ -248,14 +257,21 @@ def startup(path: Path, work: Path, repeat: int) -> None:
     def numpy_only() -> None:
         subprocess.run([sys.executable, "-c", "import numpy"], check=True)
 
-    t_numpy, t_run = best_of(repeat, numpy_only, lambda: run_cli(short, work / "short"))
+    t_numpy, t_run, t_bare = best_of(
+        repeat,
+        numpy_only,
+        lambda: run_cli(short, work / "short"),
+        lambda: run_cli(short, work / "short", "--no-plots"),
+    )
     print(f"3. start-up, best of {repeat} fresh processes")
     print(f"   python -c 'import numpy' (baseline)  {t_numpy:6.3f} s")
-    print(
-        f"   terrain-odom run, 200 rows           {t_run:6.3f} s = {t_run / t_numpy:4.1f}x numpy"
-        " (goal <= 4x)"
-    )
+    for what, seconds in (("", t_run), (" --no-plots", t_bare)):
+        print(
+            f"   terrain-odom run, 200 rows{what:11s} {seconds:6.3f} s = "
+            f"{seconds / t_numpy:4.1f}x numpy (goal <= 4x)"
+        )
     run_cli(short, work / "short", stats=True)
+    run_cli(short, work / "short", "--no-plots", stats=True)
 
 
 def memory(data: Path, copies: int, path: Path, rows: int, work: Path) -> None:
@@ -277,16 +293,21 @@ def main() -> None:
     parser.add_argument("--rows", type=int, default=20000, help="rows for the per-sample figure")
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--work", type=Path, default=Path("/tmp/bench_ekf_speed"))
+    parser.add_argument("--sections", default="1234", help="sections to run, e.g. 34")
     args = parser.parse_args()
     args.work.mkdir(parents=True, exist_ok=True)
     path = args.work / "long.csv"
     rows = long_log(args.data, args.copies, path)
     print(f"long log: {path} ({rows} rows); load average {os.getloadavg()}")
     cfg = load_config(CONFIG)
-    per_sample(read_wheel_log(path, wheel_radius=0.30), cfg, args.rows)
-    whole_run(path, rows, args.work, args.repeat)
-    startup(path, args.work, args.repeat)
-    memory(args.data, args.copies, path, rows, args.work)
+    if "1" in args.sections:
+        per_sample(read_wheel_log(path, wheel_radius=0.30), cfg, args.rows)
+    if "2" in args.sections:
+        whole_run(path, rows, args.work, args.repeat)
+    if "3" in args.sections:
+        startup(path, args.work, args.repeat)
+    if "4" in args.sections:
+        memory(args.data, args.copies, path, rows, args.work)
     print(f"load average after: {os.getloadavg()}")
 
 

@@ -14,13 +14,32 @@ import pytest
 
 from terrain_odom.config import Config, EkfConfig, PoseSigmas, load_config
 from terrain_odom.errors import EstimationError
-from terrain_odom.estimation import IcrEkf, icr_step_with_jacobian, odometry, online
+from terrain_odom.estimation import IcrEkf, _kernels, icr_step_with_jacobian, odometry, online
 from terrain_odom.estimation._kernels import icr_predict
 from terrain_odom.estimation.icr_ekf_reference import FilterpyIcrEkf
 from terrain_odom.estimation.pose_measurement import Mounting
 from terrain_odom.io import read_wheel_log
 
 TOLERANCE = 1e-12
+
+
+@pytest.fixture
+def kernels(request, monkeypatch):
+    """Run the kernels as Python (as the first calls of a process do), or compiled."""
+    if request.param == "compiled":
+        _kernels.compile_kernels()
+    else:
+        monkeypatch.setattr(_kernels, "PURE_CALLS", 10**12)
+        _python_kernels(monkeypatch)
+    return request.param
+
+
+def _python_kernels(monkeypatch):
+    """Put the kernels back as a fresh process has them: Python, counting calls."""
+    monkeypatch.setattr(_kernels, "_compiled", False)
+    monkeypatch.setattr(_kernels, "_calls", 0)
+    for name, function in {**_kernels._PURE, **_kernels._WRAPPERS}.items():
+        monkeypatch.setattr(_kernels, name, function)
 
 
 def _both(log, cfg, monkeypatch, labels=None):
@@ -38,8 +57,12 @@ def _assert_equal(fast, slow):
     np.testing.assert_allclose(fast.stds, slow.stds, rtol=0, atol=TOLERANCE)
 
 
-@pytest.mark.parametrize("alpha", [True, False])
-def test_kernels_equal_filterpy_on_the_simulated_run(sample_dir, monkeypatch, alpha):
+@pytest.mark.parametrize(
+    ("alpha", "kernels"),
+    [(True, "python"), (True, "compiled"), (False, "compiled")],
+    indirect=["kernels"],
+)
+def test_kernels_equal_filterpy_on_the_simulated_run(sample_dir, monkeypatch, alpha, kernels):
     cfg = load_config(sample_dir / "config.yaml")
     cfg = dataclasses.replace(cfg, ekf=dataclasses.replace(cfg.ekf, estimate_alpha=alpha))
     log = read_wheel_log(sample_dir / "log.csv", wheel_radius=cfg.robot.wheel_radius)
@@ -49,12 +72,28 @@ def test_kernels_equal_filterpy_on_the_simulated_run(sample_dir, monkeypatch, al
 
 
 def test_kernels_equal_filterpy_on_a_real_log(drive_dir, warthog_yaml, monkeypatch):
-    """Real Warthog log, grass then asphalt (ICP poses, a terrain change)."""
+    """Real Warthog log, grass then asphalt (ICP poses, a terrain change); compiled kernels."""
+    _kernels.compile_kernels()
     cfg = load_config(warthog_yaml)
     log = read_wheel_log(drive_dir / "stitched_grass_to_asphalt.csv", wheel_radius=0.30)
     fast, slow = _both(log, cfg, monkeypatch, labels=log.terrain)
     assert len(fast.changes) == 1
     _assert_equal(fast, slow)
+
+
+def test_switch_to_compiled_kernels_mid_run_changes_no_bit(drive_dir, warthog_yaml, monkeypatch):
+    """A run whose kernels are compiled after 300 Python calls equals a wholly compiled one."""
+    cfg = load_config(warthog_yaml)
+    log = read_wheel_log(drive_dir / "stitched_grass_to_asphalt.csv", wheel_radius=0.30)
+    _kernels.compile_kernels()
+    compiled = odometry.run_icr_ekf(log, cfg, labels=log.terrain)
+    _python_kernels(monkeypatch)
+    monkeypatch.setattr(_kernels, "PURE_CALLS", 300)
+    assert _kernels.icr_predict is _kernels._WRAPPERS["icr_predict"]
+    switched = odometry.run_icr_ekf(log, cfg, labels=log.terrain)
+    assert _kernels._compiled and _kernels.icr_predict is _kernels._icr_predict  # switched
+    np.testing.assert_array_equal(switched.states, compiled.states)
+    np.testing.assert_array_equal(switched.stds, compiled.stds)
 
 
 @pytest.mark.parametrize("mounting", [Mounting(), Mounting(0.5, -0.1, 0.2)])

@@ -179,3 +179,15 @@ def test_a_label_takes_effect_once_the_filter_reaches_its_time():
     for t in (0.2, 0.3, 0.4)[: cfg.terrain.confirm]:
         odo.wheels(t, 0.5, 0.5)
     assert odo.state()["terrain"] == "sand" and [c.label for c in odo.changes] == ["sand"]
+
+
+def test_measured_rows_on_booleans_follow_the_public_rule():
+    """The pose path's rows on Python booleans equal ``measured_rows`` for every pattern."""
+    from itertools import product
+
+    from terrain_odom.estimation.online import _measured_rows
+    from terrain_odom.estimation.pose_measurement import measured_rows
+
+    for finite in product([False, True], repeat=3):
+        z = [1.0 if f else float("nan") for f in finite]
+        assert _measured_rows(list(finite)) == tuple(measured_rows(z).tolist())

@@ -96,3 +96,22 @@ def test_cells_floats_or_nan_and_shown():
     assert shown("abc") == "'abc'"
     long = shown("x" * 50)
     assert long.endswith("...'") and len(long) == 42
+
+
+class _Unseekable(io.StringIO):
+    """A stream that cannot seek (a pipe, standard input)."""
+
+    def seekable(self) -> bool:
+        return False
+
+
+@pytest.mark.parametrize(
+    "text", ["t,v\n1,2\n3,4\n", 't,v\n\n1,"a\nb"\n\n3,4\n'], ids=["one-pass", "second-pass"]
+)
+def test_file_and_unseekable_stream_read_alike(tmp_path: Path, text: str):
+    """Parsed in place (a file, seeking back for line numbers) or from its text: same table."""
+    path = tmp_path / "t.csv"
+    path.write_text(text, newline="")
+    from_file, from_pipe = read_csv(path), read_csv(_Unseekable(text, newline=""))
+    assert from_file.rows == from_pipe.rows and list(from_file.lines) == list(from_pipe.lines)
+    assert list(from_file.lines) == ([2, 3] if text.count("\n") == 3 else [3, 6])

@@ -411,6 +411,7 @@ def run(
     priors: str | Path | None = None,
     overwrite: bool = False,
     record: bool = False,
+    plots: bool = True,
 ) -> RunSummary:
     """Run the terrain-adaptive ICR EKF (or slip EKF) over a wheel log; write the results.
 
@@ -477,6 +478,9 @@ def run(
         (:func:`~terrain_odom.app.record.write_recording`); ``ConfigError``
         before anything is read if ``rerun-sdk`` (the ``[viz]`` extra) is
         not installed.
+    plots : bool
+        Draw the plots (default); false skips them (matplotlib's import and
+        drawing are most of a short run's time).
 
     Returns
     -------
@@ -517,10 +521,10 @@ def run(
         frames = records if pipeline is not None else None
         scored = _score(inputs, inputs.gt, report, frames, use_roi)
         report["inputs"]["groundtruth"] = str(Path(groundtruth).resolve())
-    plots = write_run_plots(
+    drawn = write_run_plots(
         out, log, result, inputs.cfg, truth=inputs.gt, scored=scored, records=records,
         images=root, classifier=inputs.classifier,
-    )  # fmt: skip
+    ) if plots else []  # fmt: skip
     recording = None
     if record:
         from terrain_odom.app.record import write_recording  # OpenCV, rerun: with record only
@@ -528,7 +532,7 @@ def run(
         recording = write_recording(out, log, result, inputs.cfg, records=records, images=root,
                                     classifier=inputs.classifier)  # fmt: skip
         report["outputs"]["recording"] = recording.name
-    report_path, md_path = _write_reports(out, report, plots)
+    report_path, md_path = _write_reports(out, report, drawn)
     return RunSummary(
         out / TRAJECTORY_CSV,
         tum_path,
@@ -538,7 +542,7 @@ def run(
         md_path,
         inputs.timing,
         frames_csv=None if pipeline is None else out / FRAMES_CSV,
-        plots=tuple(out / name for name in plots),
+        plots=tuple(out / name for name in drawn),
         config_yaml=config_yaml,
         frames=_frame_counts(result, pipeline),
         unused_priors=_unused_priors(inputs),

@@ -70,6 +70,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "groundtruth.csv): scores the run and writes report.md and plots/*.png",
     )
     p.add_argument(
+        "--no-plots", action="store_true", help="do not draw the plots (a faster start-up)"
+    )
+    p.add_argument(
         "--reset-at",
         choices=("arrival", "immediate"),
         help="when a camera-confirmed terrain change resets the filter (default: the "
@@ -157,6 +160,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
         priors=find_input(args.priors, "params_*.yaml", "parameter file"),
         overwrite=args.overwrite,
         record=args.record,
+        plots=not args.no_plots,
     )
     print_pose_delay(summary.time_calibration)
     if summary.heading is not None:

@@ -1,4 +1,4 @@
-"""Compiled steps of the ICR EKF (numba, cached on disk): one wheel sample in ~1 us.
+"""Steps of the ICR EKF, compiled by numba (cached on disk): one wheel sample in ~1 us.
 
 The predict and update of :class:`~terrain_odom.estimation.icr_ekf.IcrEkf`
 work in place on its state ``x`` (n,) and covariance ``P`` (n, n), n = 6 or 7.
@@ -10,34 +10,39 @@ by term; the tests compare both (and a filterpy filter) to 1e-12.
 
 ``cache=True`` keeps the machine code in ``__pycache__``, so only the first
 process after an install (or a change of this file) compiles (~2-4 s); later
-ones load it in milliseconds.
+ones load it. Importing numba and loading the kernels still costs a process
+~0.5-0.9 s, more than a short log takes in plain Python: the first
+:data:`PURE_CALLS` calls run these same functions as Python (~0.1-0.3 ms a
+call, numpy's errors off like numba's ``error_model="numpy"``), and only then
+are they compiled (:func:`compile_kernels`), so a short run never imports
+numba. The tests hold both modes to the filterpy reference.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
-from numba import njit
 
-# error_model="numpy": a division by zero gives inf/NaN (caught as a non-finite state), no exception
+__all__ = ["PURE_CALLS", "compile_kernels", "constrain", "icr_predict", "icr_update", "std"]
 
-__all__ = ["constrain", "icr_predict", "icr_update", "std"]
+PURE_CALLS = 2000
+"""Kernel calls run as Python before the kernels are compiled (about 700-1000 log rows)."""
 
 _SERIES_LIMIT = 1e-2  # as terrain_odom.kinematics.integration._SERIES_LIMIT
 _TWO_PI = 2.0 * math.pi
 
 
-@njit(cache=True, error_model="numpy")
-def _wrap(angle: float) -> float:  # pragma: no cover - compiled
+def _wrap(angle: float) -> float:
     """:func:`~terrain_odom.kinematics.wrap_angle` of one angle."""
     if -math.pi < angle <= math.pi:
         return angle
     return math.pi - np.mod(math.pi - angle, _TWO_PI)
 
 
-@njit(cache=True, error_model="numpy")
-def _arc(phi: float) -> tuple[float, float, float, float]:  # pragma: no cover - compiled
+def _arc(phi: float) -> tuple[float, float, float, float]:
     """Return ``A, B, dA/dphi, dB/dphi`` of the arc integration (as ``_arc_coefficients``)."""
     if abs(phi) < _SERIES_LIMIT:
         p2 = phi * phi
@@ -53,10 +58,7 @@ def _arc(phi: float) -> tuple[float, float, float, float]:  # pragma: no cover -
     )
 
 
-@njit(cache=True, error_model="numpy")
-def _step_jacobian(
-    x: np.ndarray, v_l: float, v_r: float, dt: float, jac: np.ndarray
-) -> None:  # pragma: no cover - compiled
+def _step_jacobian(x: np.ndarray, v_l: float, v_r: float, dt: float, jac: np.ndarray) -> None:
     """Advance ``x`` in place over one wheel sample; write ``F`` into ``jac`` (n, n)."""
     n = x.shape[0]
     y_l, y_r, x_icr = x[3], x[4], x[5]
@@ -103,8 +105,7 @@ def _step_jacobian(
     x[2] = _wrap(x[2] + phi)
 
 
-@njit(cache=True, error_model="numpy")
-def _matmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:  # pragma: no cover - compiled
+def _matmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Return ``a @ b`` of small square matrices, in loops (numba's ``@`` loads SciPy's BLAS)."""
     n = a.shape[0]
     out = np.zeros((n, n))
@@ -116,8 +117,7 @@ def _matmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:  # pragma: no cover - c
     return out
 
 
-@njit(cache=True, error_model="numpy")
-def _symmetrise(p: np.ndarray) -> None:  # pragma: no cover - compiled
+def _symmetrise(p: np.ndarray) -> None:
     """``P = (P + P^T) / 2`` in place."""
     n = p.shape[0]
     for i in range(n):
@@ -127,10 +127,9 @@ def _symmetrise(p: np.ndarray) -> None:  # pragma: no cover - compiled
             p[j, i] = m
 
 
-@njit(cache=True, error_model="numpy")
-def icr_predict(
+def _icr_predict(
     x: np.ndarray, p: np.ndarray, q_density: np.ndarray, v_l: float, v_r: float, dt: float
-) -> None:  # pragma: no cover - compiled
+) -> None:
     """Predict over one wheel sample in place: the ICR step, ``P = F P F^T + Q dt``, symmetrised.
 
     Parameters
@@ -160,8 +159,7 @@ def icr_predict(
     _symmetrise(p)
 
 
-@njit(cache=True, error_model="numpy")
-def _inverse(s: np.ndarray) -> np.ndarray:  # pragma: no cover - compiled
+def _inverse(s: np.ndarray) -> np.ndarray:
     """Inverse of a small non-singular matrix (Gauss-Jordan, partial pivoting)."""
     m = s.shape[0]
     a = s.copy()
@@ -187,10 +185,7 @@ def _inverse(s: np.ndarray) -> np.ndarray:  # pragma: no cover - compiled
     return inv
 
 
-@njit(cache=True, error_model="numpy")
-def _sensor(
-    x: np.ndarray, rows: np.ndarray, mounting: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:  # pragma: no cover - compiled
+def _sensor(x: np.ndarray, rows: np.ndarray, mounting: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Return ``h`` and ``H`` of :func:`~terrain_odom.estimation.pose_measurement.measurement`."""
     n, m = x.shape[0], rows.size
     arm_x, arm_y, offset = mounting[0], mounting[1], mounting[2]
@@ -209,15 +204,14 @@ def _sensor(
     return h, jac
 
 
-@njit(cache=True, error_model="numpy")
-def icr_update(
+def _icr_update(
     x: np.ndarray,
     p: np.ndarray,
     z: np.ndarray,
     r: np.ndarray,
     mounting: np.ndarray,
     limits: np.ndarray,
-) -> tuple[float, bool]:  # pragma: no cover - compiled
+) -> tuple[float, bool]:
     """Fuse the measured components of a pose row in place; return the NIS.
 
     filterpy's Joseph-form update with the pose sensors' measurement (the
@@ -290,13 +284,12 @@ def icr_update(
         for j in range(m):
             nis += y[i] * si[i, j] * y[j]
     _joseph(p, k_gain, jac, rows, r)
-    return nis, constrain(x, p, limits)
+    return nis, _constrain(x, p, limits)
 
 
-@njit(cache=True, error_model="numpy")
 def _joseph(
     p: np.ndarray, k_gain: np.ndarray, jac: np.ndarray, rows: np.ndarray, r: np.ndarray
-) -> None:  # pragma: no cover - compiled
+) -> None:
     """Set ``P = (I - K H) P (I - K H)^T + K R K^T`` in place (``R`` of ``rows``)."""
     n, m = k_gain.shape
     i_kh = np.eye(n)
@@ -321,8 +314,7 @@ def _joseph(
             p[i, j] = acc + noise
 
 
-@njit(cache=True, error_model="numpy")
-def constrain(x: np.ndarray, p: np.ndarray, limits: np.ndarray) -> bool:  # pragma: no cover
+def _constrain(x: np.ndarray, p: np.ndarray, limits: np.ndarray) -> bool:
     """Wrap yaw, clip the ICR state into ``limits`` (see :func:`icr_update`), symmetrise ``P``.
 
     Returns
@@ -340,11 +332,63 @@ def constrain(x: np.ndarray, p: np.ndarray, limits: np.ndarray) -> bool:  # prag
     return bool(np.all(np.isfinite(x))) and bool(np.all(np.isfinite(p)))
 
 
-@njit(cache=True, error_model="numpy")
-def std(p: np.ndarray) -> np.ndarray:  # pragma: no cover - compiled
+def _std(p: np.ndarray) -> np.ndarray:
     """Return the standard deviations ``sqrt(max(diag(P), 0))``, shape (n,)."""
     n = p.shape[0]
     out = np.empty(n)
     for i in range(n):
         out[i] = math.sqrt(max(p[i, i], 0.0))
     return out
+
+
+_PURE: dict[str, Callable[..., Any]] = {
+    name: globals()[name]
+    for name in ("_wrap", "_arc", "_step_jacobian", "_matmul", "_symmetrise", "_inverse")
+    + ("_sensor", "_joseph", "_icr_predict", "_icr_update", "_constrain", "_std")
+}
+_PUBLIC = ("icr_predict", "icr_update", "constrain", "std")
+_calls = 0  # kernel calls run as Python so far
+_compiled = False
+
+
+def compile_kernels() -> None:
+    """Replace every kernel of this module by its numba version (loaded from the disk cache).
+
+    ``error_model="numpy"``: a division by zero gives inf/NaN (caught as a
+    non-finite state), no exception.
+    """
+    global _compiled
+    if _compiled:
+        return
+    from numba import njit  # ~0.5 s and ~60 MiB: only once a run is long enough to pay
+
+    for name, function in _PURE.items():
+        globals()[name] = njit(cache=True, error_model="numpy")(function)
+    for name in _PUBLIC:  # callers looking the kernels up here get no wrapper any more
+        globals()[name] = globals()[f"_{name}"]
+    _compiled = True
+
+
+def _python_first(name: str) -> Callable[..., Any]:
+    """Return kernel ``name`` run as Python for the first :data:`PURE_CALLS` calls, then compiled."""
+    function = _PURE[f"_{name}"]
+
+    def call(*args: Any) -> Any:
+        global _calls
+        if not _compiled:
+            _calls += 1
+            if _calls <= PURE_CALLS:
+                with np.errstate(all="ignore"):  # as numba's error_model="numpy"
+                    return function(*args)
+            compile_kernels()
+        return globals()[f"_{name}"](*args)
+
+    call.__name__, call.__doc__ = name, function.__doc__
+    return call
+
+
+_WRAPPERS = {name: _python_first(name) for name in _PUBLIC}
+icr_predict = _WRAPPERS["icr_predict"]
+icr_update = _WRAPPERS["icr_update"]
+constrain = _WRAPPERS["constrain"]
+std = _WRAPPERS["std"]

@@ -10,7 +10,7 @@ so a robot feeding it live gets what a log run gets.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from typing import Protocol
 
@@ -222,16 +222,12 @@ def run_odometry(
     # frames observed after row k: those with t[k] <= t_f < t[k + 1] (t_f <= t[-1] for the last)
     bounds = np.searchsorted(frame_t, log.t, side="left")
     n_after = int(frame_t.size - np.searchsorted(frame_t, log.t[-1], side="right")) if n_rows else 0
-    new_segment = np.zeros(n_rows, dtype=bool)
-    new_segment[log.run_starts()] = True
-    has_pose = np.isfinite(log.pose).any(axis=1)
-    for k in range(n_rows):
-        t = float(log.t[k])
+    for k, t, v_l, v_r, new, has_pose in _rows(log):
         if labels is not None and (k == 0 or labels[k] != labels[k - 1]):
             odometry.terrain(t, str(labels[k]))
-        odometry.wheels(t, float(log.v_l[k]), float(log.v_r[k]), new_segment=new_segment[k])
-        if has_pose[k]:
-            odometry.pose(t, *map(float, log.pose[k]))
+        odometry.wheels(t, v_l, v_r, new_segment=new)
+        if has_pose:
+            odometry.pose(t, *log.pose[k].tolist())
         if frames is not None:
             stop = int(bounds[k + 1]) if k + 1 < n_rows else frame_t.size - n_after
             for i in range(int(bounds[k]), stop):
@@ -250,3 +246,28 @@ def run_odometry(
         frames_before=int(bounds[0]) if n_rows else int(frame_t.size),
         frames_after=n_after,
     )
+
+
+_CHUNK = 4096  # rows converted to Python numbers at a time
+
+
+def _rows(log: WheelLog) -> Iterator[tuple[int, float, float, float, bool, bool]]:
+    """Yield ``k, t, v_l, v_r, new segment, has a pose`` per row, as Python numbers.
+
+    Indexing numpy per row costs more than the row's filter step; the
+    columns are converted a chunk at a time, so memory does not grow with the log.
+    """
+    new_segment = np.zeros(len(log), dtype=bool)
+    new_segment[log.run_starts()] = True
+    has_pose = np.isfinite(log.pose).any(axis=1)
+    for start in range(0, len(log), _CHUNK):
+        chunk = slice(start, min(start + _CHUNK, len(log)))
+        yield from zip(
+            range(chunk.start, chunk.stop),
+            log.t[chunk].tolist(),
+            log.v_l[chunk].tolist(),
+            log.v_r[chunk].tolist(),
+            new_segment[chunk].tolist(),
+            has_pose[chunk].tolist(),
+            strict=True,
+        )

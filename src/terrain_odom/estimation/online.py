@@ -45,7 +45,6 @@ from terrain_odom.estimation.icr_ekf import IcrEkf, IcrPriors
 from terrain_odom.estimation.pose_measurement import (
     Mounting,
     PoseUse,
-    measured_rows,
     robot_pose,
     sensor_pose,
 )
@@ -159,7 +158,7 @@ class OnlineOdometry:
         self._t: float | None = None  # time of the latest wheel sample, s
         self._speeds = (float("nan"), float("nan"))  # held track speeds, m/s
         self._labels: list[tuple[float, str]] = []  # labels not yet reached, by time
-        self._label: str | None = None  # the label source's current label
+        self._label: Sighting | None = None  # the label source's current label
         self.n_updates = 0
         self.n_frames = 0
         self.pose_use = PoseUse()
@@ -232,12 +231,12 @@ class OnlineOdometry:
         self._t, self._speeds = t, speeds
         steps.sample(t, *speeds)
         self._flow.apply_reached()
-        reached = bisect.bisect_right(self._labels, t, key=lambda item: item[0])
-        if reached:
-            self._label = self._labels[reached - 1][1]
+        if self._labels and self._labels[0][0] <= t:  # a label reached: the rare case
+            reached = bisect.bisect_right(self._labels, t, key=lambda item: item[0])
+            self._label = Sighting(self._labels[reached - 1][1])
             del self._labels[:reached]
         if self._label is not None:
-            self._flow.observe(Sighting(self._label))
+            self._flow.observe(self._label)
 
     def pose(self, t: float, x: float = np.nan, y: float = np.nan, yaw: float = np.nan) -> bool:
         """Fuse a pose measurement taken at the latest wheel sample's time ``t``.
@@ -266,14 +265,15 @@ class OnlineOdometry:
             ``t`` is not the latest wheel sample's time.
         """
         z = np.array([x, y, yaw], dtype=float)
-        if not np.any(np.isfinite(z)):
+        finite = [math.isfinite(c) for c in z.tolist()]  # floats: cheaper than numpy per row
+        if not any(finite):
             raise ValueError(f"pose at t={t!r} s: no finite component in x={x}, y={y}, yaw={yaw}")
         if self._check_time(t, "pose") != self._t:
             raise EstimationError(
                 f"pose at t={t!r} s: the filter is at t={self._t!r} s (the latest wheel "
                 "sample); call wheels(t, v_l, v_r) at the pose's time first"
             )
-        rows = measured_rows(z)
+        rows = _measured_rows(finite)
         self.pose_use.measured(rows, z)
         updated = self._steps.measure(z, rows, self.pose_use)
         self.n_updates += updated
@@ -388,6 +388,16 @@ def _mounting(config: Config) -> Mounting:
     return Mounting(sensor.antenna_x, sensor.antenna_y, sensor.heading_offset)
 
 
+def _measured_rows(finite: list[bool]) -> tuple[int, ...]:
+    """Return the measured components (indices into ``x, y, yaw``) given which are finite.
+
+    The rule of :func:`~terrain_odom.estimation.pose_measurement.measured_rows`
+    (a position only as a pair), on Python booleans: a pose row costs less.
+    """
+    pair = (0, 1) if finite[0] and finite[1] else ()
+    return (*pair, _YAW) if finite[_YAW] else pair
+
+
 def _finite(value: float, what: str, name: str, t: float | None = None) -> float:
     """Return ``value`` as a float, or raise naming it if it is not finite."""
     number = float(value)
@@ -452,15 +462,14 @@ class _IcrSteps:
     def sample(self, t: float, v_l: float, v_r: float) -> None:
         """Nothing to keep: the ICR EKF predicts sample by sample."""
 
-    def measure(self, z: np.ndarray, rows: np.ndarray, use: PoseUse) -> bool:
-        fuse = np.zeros(3, dtype=bool)
-        fuse[rows] = True
-        if fuse[_YAW] and not self._heading:
+    def measure(self, z: np.ndarray, rows: tuple[int, ...], use: PoseUse) -> bool:
+        position, heading = 0 in rows, _YAW in rows  # components left to fuse
+        if heading and not self._heading:
             self._anchor(z, heading=True)
-            fuse[_YAW] = False
+            heading = False
             use.used(_HEADING)
-        if fuse[0] and not self._position:
-            fuse[:2] = False
+        if position and not self._position:
+            position = False
             if self._heading:
                 self._anchor(z, heading=False)
                 use.used(_POSITION)
@@ -468,12 +477,16 @@ class _IcrSteps:
                 use.used(_POSITION)
             else:
                 use.drop(_POSITION, _BEFORE_HEADING)
-        if not fuse.any():
+        if not (position or heading):
             return False
-        self.filter.update(np.where(fuse, z, np.nan))
-        for what, measured in ((_POSITION, fuse[0]), (_HEADING, fuse[_YAW])):
-            if measured:
-                use.used(what)
+        nan = math.nan
+        x, y, yaw = z.tolist()
+        self.filter.update(np.array([x if position else nan, y if position else nan,
+                                     yaw if heading else nan]))  # fmt: skip
+        if position:
+            use.used(_POSITION)
+        if heading:
+            use.used(_HEADING)
         return True
 
     def _anchor(self, z: np.ndarray, *, heading: bool) -> None:
@@ -650,7 +663,7 @@ class _SlipSteps:
             self._samples.popleft()
             self._first += 1
 
-    def measure(self, z: np.ndarray, rows: np.ndarray, use: PoseUse) -> bool:
+    def measure(self, z: np.ndarray, rows: tuple[int, ...], use: PoseUse) -> bool:
         has_position, has_heading = 0 in rows, _YAW in rows
         t = self._samples[-1][0]
         if has_heading:

@@ -23,6 +23,7 @@ became of each measured component.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -259,11 +260,11 @@ class PoseUse:
     used_heading: int = 0
     dropped: dict[str, int] = field(default_factory=dict)
 
-    def measured(self, rows: np.ndarray, z: np.ndarray) -> None:
+    def measured(self, rows: Sequence[int] | np.ndarray, z: np.ndarray) -> None:
         """Count the components of one measurement ``z`` (``rows``: its usable ones)."""
         self.position += int(0 in rows)
         self.heading += int(_YAW in rows)
-        if np.isfinite(z[:2]).any() and 0 not in rows:
+        if 0 not in rows and np.isfinite(z[:2]).any():
             self.drop("position", "x without y (or y without x)")
 
     def used(self, what: str) -> None:

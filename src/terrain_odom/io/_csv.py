@@ -146,14 +146,17 @@ def _records(handle: TextIO) -> tuple[list[list[str]], Sequence[int]]:
 
     The common case, one record per line and no empty line, is parsed in one
     pass without per-row Python code; otherwise the text is parsed again while
-    tracking line numbers.
+    tracking line numbers. A file is parsed where it lies (a second pass seeks
+    back), so its whole text is never held beside its cells.
     """
-    text = handle.read()
-    reader = csv.reader(io.StringIO(text, newline=""))
+    source = handle if handle.seekable() else io.StringIO(handle.read(), newline="")
+    start = source.tell()
+    reader = csv.reader(source)
     rows = list(reader)
     if reader.line_num == len(rows) and all(rows):
         return rows, range(1, len(rows) + 1)
-    reader = csv.reader(io.StringIO(text, newline=""))
+    source.seek(start)
+    reader = csv.reader(source)
     rows, lines = [], []
     start = 1
     for row in reader:
