@@ -56,7 +56,9 @@ def random_crops(image: np.ndarray, count: int, size: int, rng: np.random.Genera
     if rows < size or cols < size:
         raise ValueError(f"image of {cols}x{rows} px is smaller than a {size} px patch")
     corners = zip(
-        rng.integers(0, rows - size + 1, count), rng.integers(0, cols - size + 1, count), strict=True
+        rng.integers(0, rows - size + 1, count),
+        rng.integers(0, cols - size + 1, count),
+        strict=True,
     )
     return [image[r : r + size, c : c + size] for r, c in corners]
 
@@ -135,7 +137,9 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--source", choices=("indoor", "skimage"), default="indoor")
     parser.add_argument("--photos", type=int, default=240, help="indoor photos per class")
-    parser.add_argument("--crops", type=int, default=1, help="patches per photo (skimage: per class)")
+    parser.add_argument(
+        "--crops", type=int, default=1, help="patches per photo (skimage: per class)"
+    )
     parser.add_argument("--size", type=int, default=64, help="patch side, px")
     parser.add_argument("--grid", type=Path, help="grid YAML (default: the default grid)")
     parser.add_argument("--out", type=Path, help="patch folder (default: temporary)")
@@ -149,7 +153,9 @@ def main() -> None:
         print(f"{sum(counts.values())} patches of {args.size} px in {out}: {counts}")
         print(f"load average before: {os.getloadavg()[0]:.1f}")
         begin = time.perf_counter()
-        report = report_accuracy(out, tune=True, grid_path=args.grid, jobs=args.jobs, progress=False)
+        report = report_accuracy(
+            out, tune=True, grid_path=args.grid, jobs=args.jobs, progress=False
+        )
         elapsed = time.perf_counter() - begin
     print_report(report)
     print(f"report accuracy --tune: {elapsed:.0f} s; load average after: {os.getloadavg()[0]:.1f}")
