@@ -11,6 +11,9 @@ import numpy as np
 import pytest
 from skimage import data
 
+from terrain_odom.app.tune import load_grid
+from terrain_odom.config.classifier import ClassifierConfig
+
 BENCH = Path(__file__).resolve().parents[2] / "bench" / "small_patches.py"
 
 
@@ -24,6 +27,20 @@ def _load_bench() -> ModuleType:
 
 
 bench = _load_bench()
+
+
+def test_shipped_grid_files_are_valid_grids() -> None:
+    config = BENCH.parents[1] / "config"
+    for path in sorted(config.glob("grid_*.yaml")):
+        assert load_grid(path, ClassifierConfig()), path  # raises ConfigError if invalid
+    assert load_grid(config / "grid_small_patches.yaml", ClassifierConfig()) == [
+        {
+            "features": ["sfta+lab", "sfta+hsv"],
+            "n_t": [2, 4],
+            "min_tile_size": [16, 32],
+            "k": [5, 9],
+        }
+    ]
 
 
 def _files(folder: Path) -> dict[str, list[Path]]:
