@@ -153,7 +153,9 @@ class SlipModel:
         )
         lo = (lim.half_width_min, -lim.half_width_max, -lim.x_icr_max, lim.alpha_min)
         hi = (lim.half_width_max, -lim.half_width_min, lim.x_icr_max, lim.alpha_max)
-        y_l, y_r, x_icr, alpha = (np.minimum(np.maximum(r, lo[i]), hi[i]) for i, r in enumerate(raw))
+        y_l, y_r, x_icr, alpha = (
+            np.minimum(np.maximum(r, lo[i]), hi[i]) for i, r in enumerate(raw)
+        )
         return y_l, y_r, x_icr, alpha
 
     def icrs(self, params: ArrayLike, a: ArrayLike, k: ArrayLike) -> tuple[np.ndarray, ...]:
