@@ -305,6 +305,53 @@ def memory(data: Path, copies: int, path: Path, rows: int, work: Path) -> None:
             f"   growth per row: {1024 * (rss[1] - rss[0]) / extra:.0f} B resident, "
             f"{(traced[1] - traced[0]) / extra:.0f} B traced"
         )
+    memory_steps(one, path, extra, work)
+
+
+STEPS = ("read the log, checks, pose delay", "filter loop and trajectory.csv", "trajectory.tum")
+
+
+def traced_steps(log: Path, out: Path) -> list[tuple[int, int]]:
+    """Run ``run`` in-process (``--no-plots``) under ``tracemalloc``; per step of :data:`STEPS`.
+
+    Returns the traced (peak during the step, current after it) in bytes.
+    """
+    import tracemalloc
+
+    from terrain_odom.app import run as app_run
+
+    marks: list[tuple[int, int]] = []
+
+    def timed(fn: Callable[..., object]) -> Callable[..., object]:
+        def wrapper(*args: object, **kwargs: object) -> object:
+            tracemalloc.reset_peak()
+            value = fn(*args, **kwargs)
+            current, peak = tracemalloc.get_traced_memory()
+            marks.append((peak, current))
+            return value
+
+        return wrapper
+
+    saved = {name: getattr(app_run, name) for name in ("_read_inputs", "_stream", "write_tum")}
+    for name, fn in saved.items():
+        setattr(app_run, name, timed(fn))
+    tracemalloc.start()
+    try:
+        app_run.run(log, out, config_path=CONFIG, overwrite=True, plots=False, progress=False)
+    finally:
+        tracemalloc.stop()
+        for name, fn in saved.items():
+            setattr(app_run, name, fn)
+    return marks
+
+
+def memory_steps(one: Path, path: Path, extra: int, work: Path) -> None:
+    """Print the traced peak and held memory per step, B per extra row of the long log."""
+    traced_steps(one, work / "steps1")  # warm-up: imports and caches are not the log's
+    small, large = traced_steps(one, work / "steps1"), traced_steps(path, work / "steps")
+    print("   per step (in-process, --no-plots), B per extra row: peak during / held after")
+    for name, a, b in zip(STEPS, small, large, strict=True):
+        print(f"   {name:<36} {(b[0] - a[0]) / extra:5.0f} / {(b[1] - a[1]) / extra:5.0f}")
 
 
 def main() -> None:
