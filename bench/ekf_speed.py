@@ -23,7 +23,9 @@ the repository), then prints, each figure with the baseline it is divided by:
    on ``--copies`` copies, and the growth per row; the same with
    ``--no-plots``; and each run's peak of traced allocations (``tracemalloc``:
    Python objects and numpy buffers), which grows with the log's rows alone
-   (the resident peak also holds the libraries, and varies by some MiB).
+   (the resident peak also holds the libraries, and varies by some MiB);
+   then the traced peak during and memory held after each step of the run
+   (reading, loop, ``trajectory.tum``), per extra row (about 3 min in all).
 
 Usage::
 
