@@ -20,7 +20,12 @@ the repository), then prints, each figure with the baseline it is divided by:
    processes each), and whether scikit-learn, ``scipy.stats`` or filterpy
    were imported;
 4. **memory**: peak resident memory of ``terrain-odom run`` on one copy and
-   on ``--copies`` copies, and the growth per row.
+   on ``--copies`` copies, and the growth per row; the same with
+   ``--no-plots``; and each run's peak of traced allocations (``tracemalloc``:
+   Python objects and numpy buffers), which grows with the log's rows alone
+   (the resident peak also holds the libraries, and varies by some MiB);
+   then the traced peak during and memory held after each step of the run
+   (reading, loop, ``trajectory.tum``), per extra row (about 3 min in all).
 
 Usage::
 
@@ -151,22 +156,29 @@ def per_sample(log: WheelLog, cfg: Config, rows: int) -> None:
 
 
 # ------------------------------------------------------------ 2. whole run
-def run_cli(log: Path, out: Path, *options: str, stats: bool = False) -> tuple[float, int]:
+def run_cli(
+    log: Path, out: Path, *options: str, stats: bool = False, traced: list[int] | None = None
+) -> tuple[float, int]:
     """Run ``terrain-odom run`` (with ``options``) in a fresh process; return (wall s, peak RSS KiB).
 
     The peak is the process's ``VmHWM`` (``ru_maxrss`` would carry over the
-    bench's own peak through fork and exec).
+    bench's own peak through fork and exec). With a list ``traced``, the run
+    is traced by ``tracemalloc`` (Python objects and numpy buffers, not the
+    libraries' own C memory) and its peak in bytes is appended to the list.
     """
+    trace = traced is not None
     code = (
-        "import re, sys, runpy\n"
-        f"sys.argv = ['terrain-odom', 'run', '--wheels', {str(log)!r}, '--out', {str(out)!r}, "
+        "import re, sys, runpy, tracemalloc\n"
+        + ("tracemalloc.start()\n" if trace else "")
+        + f"sys.argv = ['terrain-odom', 'run', '--wheels', {str(log)!r}, '--out', {str(out)!r}, "
         f"'--config', {str(CONFIG)!r}, '--overwrite', *{list(options)!r}]\n"
         "try:\n    runpy.run_module('terrain_odom', run_name='__main__')\n"
         "except SystemExit as exc:\n    assert not exc.code, exc.code\n"
         "heavy = [m for m in ('sklearn', 'scipy.stats', 'filterpy', 'numba', 'matplotlib')"
         " if m in sys.modules]\n"
         "status = open('/proc/self/status').read()  # VmHWM: this process's own peak\n"
-        "print('@@', re.search(r'VmHWM:\\s+(\\d+)', status)[1], ','.join(heavy))\n"
+        "print('@@', re.search(r'VmHWM:\\s+(\\d+)', status)[1], ','.join(heavy) or '-',"
+        " tracemalloc.get_traced_memory()[1])\n"
     )
     started = time.perf_counter()
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
@@ -174,9 +186,11 @@ def run_cli(log: Path, out: Path, *options: str, stats: bool = False) -> tuple[f
     marker = [line for line in done.stdout.splitlines() if line.startswith("@@")][0].split()
     if stats:
         print(
-            f"   modules imported by the run: {marker[2] if len(marker) > 2 else 'none of'} "
+            f"   modules imported by the run: {marker[2] if marker[2] != '-' else 'none of'} "
             "(scikit-learn, scipy.stats, filterpy, numba, matplotlib)"
         )
+    if traced is not None:
+        traced.append(int(marker[3]))
     return seconds, int(marker[1])
 
 
@@ -278,12 +292,68 @@ def memory(data: Path, copies: int, path: Path, rows: int, work: Path) -> None:
     """Section 4: peak memory on one copy and on ``copies`` copies of the drive logs."""
     one = work / "one_copy.csv"
     rows_one = long_log(data, 1, one)
-    _, rss_one = run_cli(one, work / "mem1")
-    _, rss_all = run_cli(path, work / "mem")
-    growth = 1024 * (rss_all - rss_one) / (rows - rows_one)
-    print("4. peak resident memory of terrain-odom run")
-    print(f"   {rows_one:7d} rows  {rss_one / 1024:6.1f} MiB")
-    print(f"   {rows:7d} rows  {rss_all / 1024:6.1f} MiB: {growth:.0f} B more per row")
+    extra = rows - rows_one
+    print("4. peak memory of terrain-odom run: resident (VmHWM), then traced (tracemalloc)")
+    for options in ((), ("--no-plots",)):
+        rss = [run_cli(log, work / "mem", *options)[1] for log in (one, path)]
+        traced: list[int] = []
+        for log in (one, path):
+            run_cli(log, work / "mem", *options, traced=traced)
+        name = " ".join(options) or "with plots"
+        print(f"   {name}:")
+        for n, kib, peak in zip((rows_one, rows), rss, traced, strict=True):
+            print(f"   {n:7d} rows  {kib / 1024:6.1f} MiB resident  {peak / 2**20:6.1f} MiB traced")
+        print(
+            f"   growth per row: {1024 * (rss[1] - rss[0]) / extra:.0f} B resident, "
+            f"{(traced[1] - traced[0]) / extra:.0f} B traced"
+        )
+    memory_steps(one, path, extra, work)
+
+
+STEPS = ("read the log, checks, pose delay", "filter loop and trajectory.csv", "trajectory.tum")
+
+
+def traced_steps(log: Path, out: Path) -> list[tuple[int, int]]:
+    """Run ``run`` in-process (``--no-plots``) under ``tracemalloc``; per step of :data:`STEPS`.
+
+    Returns the traced (peak during the step, current after it) in bytes.
+    """
+    import tracemalloc
+
+    from terrain_odom.app import run as app_run
+
+    marks: list[tuple[int, int]] = []
+
+    def timed(fn: Callable[..., object]) -> Callable[..., object]:
+        def wrapper(*args: object, **kwargs: object) -> object:
+            tracemalloc.reset_peak()
+            value = fn(*args, **kwargs)
+            current, peak = tracemalloc.get_traced_memory()
+            marks.append((peak, current))
+            return value
+
+        return wrapper
+
+    saved = {name: getattr(app_run, name) for name in ("_read_inputs", "_stream", "write_tum")}
+    for name, fn in saved.items():
+        setattr(app_run, name, timed(fn))
+    tracemalloc.start()
+    try:
+        app_run.run(log, out, config_path=CONFIG, overwrite=True, plots=False, progress=False)
+    finally:
+        tracemalloc.stop()
+        for name, fn in saved.items():
+            setattr(app_run, name, fn)
+    return marks
+
+
+def memory_steps(one: Path, path: Path, extra: int, work: Path) -> None:
+    """Print the traced peak and held memory per step, B per extra row of the long log."""
+    traced_steps(one, work / "steps1")  # warm-up: imports and caches are not the log's
+    small, large = traced_steps(one, work / "steps1"), traced_steps(path, work / "steps")
+    print("   per step (in-process, --no-plots), B per extra row: peak during / held after")
+    for name, a, b in zip(STEPS, small, large, strict=True):
+        print(f"   {name:<36} {(b[0] - a[0]) / extra:5.0f} / {(b[1] - a[1]) / extra:5.0f}")
 
 
 def main() -> None:

@@ -17,17 +17,24 @@
    (``terrain_odom.estimation.time_offset``, estimated on the full-rate log:
    ``--pose-delay auto``) and the same figures with it applied: the wheel
    speeds delayed by it, for the filters' input and the windows alike.
+4. ``--speed`` (alone, ~1 min): ``run_slip_ekf`` over the grass log, us per
+   row, best of 3, against the same run with the pose-change Jacobian summed
+   by the former unoptimised 4-operand ``einsum`` (the baseline, patched in,
+   timed alternately); the states of both must agree to 1e-12.
 
 Usage::
 
-    python bench/slip_ekf.py [--data ../shared/data/drive]
+    python bench/slip_ekf.py [--data ../shared/data/drive] [--speed]
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import dataclasses
+import time
 from pathlib import Path
+from unittest import mock
 
 import numpy as np
 from scipy.optimize import least_squares
@@ -56,7 +63,15 @@ from terrain_odom.fitting import (
     training_windows,
 )
 from terrain_odom.io import read_wheel_log
-from terrain_odom.kinematics import get_model, integrate, relative_pose, twist_icr, wrap_angle
+from terrain_odom.kinematics import (
+    get_model,
+    integrate,
+    relative_pose,
+    twist_icr,
+    twist_icr_jacobian,
+    wrap_angle,
+)
+from terrain_odom.kinematics.integration import arc_increment_with_jacobian
 from terrain_odom.kinematics.slip import SlipModel
 from terrain_odom.sim.slip_scenario import TRACK_WIDTH, feature_slip_scenario, icr_switch_scenario
 from terrain_odom.sim.slip_tuning import SEC41_SLIP_EKF, sec41_config
@@ -416,6 +431,47 @@ def real(data: Path):
     calibrated_table(logs, cfg)
 
 
+# ---------------------------------------------------------------- 4. speed
+def einsum_pose_change_with_jacobian(model: SlipModel, params, v_l, v_r, dt):
+    """Return what the former ``SlipModel.pose_change_with_jacobian`` did: one plain einsum."""
+    v_l, v_r, dt = (np.atleast_1d(np.asarray(x, dtype=float)) for x in (v_l, v_r, dt))
+    values, j_icr = model.icrs_with_jacobian(params, *model.features(v_l, v_r))
+    twist = twist_icr(v_l, v_r, *values)
+    _, j_arc = arc_increment_with_jacobian(*twist, dt)
+    poses = integrate(*twist, dt)
+    c, s = np.cos(poses[:-1, 2]), np.sin(poses[:-1, 2])
+    j_comp = np.zeros((dt.size, 3, 3))
+    j_comp[:, 0, 0], j_comp[:, 0, 1], j_comp[:, 1, 0], j_comp[:, 1, 1] = c, -s, s, c
+    j_comp[:, 0, 2] = -(poses[-1, 1] - poses[1:, 1])
+    j_comp[:, 1, 2] = poses[-1, 0] - poses[1:, 0]
+    j_comp[:, 2, 2] = 1.0
+    j_twist = twist_icr_jacobian(v_l, v_r, *values)
+    return poses[-1], np.einsum("kab,kbc,kcd,kde->ae", j_comp, j_arc, j_twist, j_icr)
+
+
+def speed(data: Path, repeats: int = 3):
+    """Print us per row of ``run_slip_ekf`` on the grass log, against the einsum baseline."""
+    cfg = load_config(REPO / "config" / "warthog.yaml")
+    log = read_wheel_log(data / "warthog_wheels_grass.csv", wheel_radius=cfg.robot.wheel_radius)
+    patch = mock.patch.object(
+        SlipModel, "pose_change_with_jacobian", einsum_pose_change_with_jacobian
+    )
+    best = {"einsum (baseline)": np.inf, "this code": np.inf}
+    states = {}
+    for _ in range(repeats):
+        for name in best:
+            with patch if name.startswith("einsum") else contextlib.nullcontext():
+                start = time.perf_counter()
+                states[name] = run_slip_ekf(log, cfg).states
+                best[name] = min(best[name], time.perf_counter() - start)
+    a, b = states.values()
+    print(f"4. run_slip_ekf, grass log ({log.t.size} rows), best of {repeats}, us per row:")
+    for name, sec in best.items():
+        print(f"   {name:<18} {1e6 * sec / log.t.size:8.1f}")
+    ratio = best["einsum (baseline)"] / best["this code"]
+    print(f"   ratio {ratio:.2f}x; states differ by at most {np.nanmax(np.abs(a - b)):.1e}")
+
+
 def line(name, n, idd, slip, ho, icr):
     def red(e):
         return f"{100 * (1 - e[0] / idd[0]):5.0f} {100 * (1 - e[1] / idd[1]):5.0f}"
@@ -429,7 +485,11 @@ def line(name, n, idd, slip, ho, icr):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--data", type=Path, default=REPO.parent / "shared" / "data" / "drive")
+    parser.add_argument("--speed", action="store_true", help="only section 4 (timing)")
     args = parser.parse_args()
+    if args.speed:
+        speed(args.data)
+        return
     sim_settling()
     sim_one_hz()
     if args.data.is_dir():

@@ -21,7 +21,8 @@ from terrain_odom.errors import ConfigError
 from terrain_odom.estimation.odometry import run_slip_ekf
 from terrain_odom.estimation.slip_ekf import SlipEkf
 from terrain_odom.evaluation import settling_time
-from terrain_odom.kinematics import integrate, twist_idd, wrap_angle
+from terrain_odom.kinematics import integrate, twist_icr, twist_icr_jacobian, twist_idd, wrap_angle
+from terrain_odom.kinematics.integration import arc_increment_with_jacobian
 from terrain_odom.kinematics.slip import SlipModel
 from terrain_odom.records import WheelLog
 from terrain_odom.sim.slip_scenario import (
@@ -97,6 +98,52 @@ def test_pose_change_jacobian_matches_finite_differences(params):
         diff[2] = wrap_angle(diff[2])
         numeric[:, i] = diff / 2e-6
     np.testing.assert_allclose(jac, numeric, rtol=1e-6, atol=1e-8)
+
+
+def _einsum_pose_jacobian(p, v_l, v_r, dt):
+    """Return the chain rule per sample summed by a plain einsum (the former code)."""
+    values, j_icr = MODEL.icrs_with_jacobian(p, *MODEL.features(v_l, v_r))
+    twist = twist_icr(v_l, v_r, *values)
+    _, j_arc = arc_increment_with_jacobian(*twist, dt)
+    poses = integrate(*twist, dt)
+    c, s = np.cos(poses[:-1, 2]), np.sin(poses[:-1, 2])
+    j_comp = np.zeros((dt.size, 3, 3))
+    j_comp[:, 0, 0], j_comp[:, 0, 1], j_comp[:, 1, 0], j_comp[:, 1, 1] = c, -s, s, c
+    j_comp[:, 0, 2] = poses[1:, 1] - poses[-1, 1]
+    j_comp[:, 1, 2] = poses[-1, 0] - poses[1:, 0]
+    j_comp[:, 2, 2] = 1.0
+    j_twist = twist_icr_jacobian(v_l, v_r, *values)
+    return np.einsum("kab,kbc,kcd,kde->ae", j_comp, j_arc, j_twist, j_icr)
+
+
+@pytest.mark.parametrize("n", [6, 7])
+@pytest.mark.parametrize("samples", [1, 12, 400])
+def test_pose_change_jacobian_equals_the_einsum_chain(n, samples):
+    rng = np.random.default_rng(samples)
+    v_l, v_r = rng.uniform(-1, 2, (2, samples))
+    dt = rng.uniform(0.02, 0.1, samples)
+    p = np.array([0.3, 0.5, -0.2, 0.4, 0.1, -0.3, 0.95])[:n]
+    _, jac = MODEL.pose_change_with_jacobian(p, v_l, v_r, dt)
+    reference = _einsum_pose_jacobian(p, v_l, v_r, dt)
+    assert jac.shape == (3, n)
+    np.testing.assert_allclose(jac, reference, rtol=1e-12, atol=1e-12)
+
+
+def test_icrs_and_twist_equal_the_clipped_jacobian_values():
+    """``icrs``/``twist`` (values only) = the values of ``icrs_with_jacobian``, clipped or not."""
+    p = np.array([[10.0, 0.0, -10.0, 0.0, 5.0, 0.0, 1.7], [0.1, 0.2, 0.1, 0.2, 0.0, 0.1, 0.9]])
+    a, k = np.array([[0.0, 1.0, 5.0]]).T, np.array([[0.0, 0.5, 1.0]]).T
+    values, _ = MODEL.icrs_with_jacobian(p, a, k)
+    for got, want in zip(MODEL.icrs(p, a, k), values[:3], strict=True):
+        np.testing.assert_array_equal(got, want)
+    lim = IcrLimits()
+    assert values[0].max() == lim.half_width_max and values[1].max() == -lim.half_width_min
+    assert values[3].max() == lim.alpha_max and values[2].max() == lim.x_icr_max
+    v_l, v_r = np.array([0.5, 1.0, 2.0]), np.array([1.5, 1.0, -1.0])
+    twist = MODEL.twist(v_l, v_r, p[1])
+    want = twist_icr(v_l, v_r, *MODEL.icrs_with_jacobian(p[1], *MODEL.features(v_l, v_r))[0])
+    for got, ref in zip(twist, want, strict=True):
+        np.testing.assert_array_equal(got, ref)
 
 
 def test_pose_change_is_the_integrated_twist():

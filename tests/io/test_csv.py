@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from terrain_odom.errors import InputFileError
-from terrain_odom.io._csv import floats_or_nan, read_csv, shown
+from terrain_odom.io._csv import floats_or_nan, read_csv, read_csv_chunks, shown
 
 
 def _table(text: str):
@@ -115,3 +115,31 @@ def test_file_and_unseekable_stream_read_alike(tmp_path: Path, text: str):
     from_file, from_pipe = read_csv(path), read_csv(_Unseekable(text, newline=""))
     assert from_file.rows == from_pipe.rows and list(from_file.lines) == list(from_pipe.lines)
     assert list(from_file.lines) == ([2, 3] if text.count("\n") == 3 else [3, 6])
+
+
+@pytest.mark.parametrize(
+    "text",
+    [
+        "a,b\n1,2\n3,4\n5,6\n7,8\n9,10\n",  # simple lines: chunks of 2 rows
+        "a,b\n1,2\n3,4\n\n5,6\n7,8\n\n9,10\n",  # an empty line in the third chunk
+        'a,b\n1,2\n3,"x\ny"\n5,6\n',  # a multi-line record in the first chunk
+        "\na,b\n1,2\n",  # an empty line before the header
+        "a,b\n",  # header only: one table without rows
+    ],
+)
+def test_chunks_hold_the_rows_and_lines_of_the_whole_read(text: str):
+    whole = read_csv(io.StringIO(text))
+    chunks = list(read_csv_chunks(io.StringIO(text), 2))
+    assert all(c.header == whole.header for c in chunks)
+    assert [r for c in chunks for r in c.rows] == whole.rows
+    assert [n for c in chunks for n in c.lines] == list(whole.lines)
+    assert all(len(c.rows) <= 2 for c in chunks[:-1]) and len(chunks) >= 1
+
+
+def test_chunks_report_a_ragged_row_of_a_later_chunk_with_its_file_line():
+    chunks = read_csv_chunks(io.StringIO("a,b\n1,2\n3,4\n5\n"), 2)
+    assert len(next(chunks).rows) == 2
+    with pytest.raises(InputFileError, match=r"line 4, column 'b': row has 1 cells"):
+        next(chunks)
+    with pytest.raises(InputFileError, match="file is empty"):
+        list(read_csv_chunks(io.StringIO("\n\n"), 2))

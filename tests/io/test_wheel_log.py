@@ -546,3 +546,52 @@ def test_drive_stitched_log_switches_from_grass_to_asphalt_at_113_9_s(drive_dir:
     assert log.terrain[switch[0]] == "grass" and log.terrain[switch[0] + 1] == "asphalt"
     assert log.t[switch[0] + 1] == pytest.approx(113.9, abs=0.01)
     assert not log.segment.any()
+
+
+CHUNKED = (
+    "t,v_l,v_r,x,y,yaw,terrain,segment\n"
+    "0.0,1,1,,,,grass,0\n0.1,1,1,0.5,0.2,0.1,grass,0\n0.2,1,1,,,,sand,0\n"
+    "0.0,2,2,,,,sand,1\n0.1,2,2,,,0.3,sand,1\n"
+)
+
+
+@pytest.mark.parametrize("rows", [1, 2, 3])
+def test_a_log_read_in_chunks_equals_the_log_read_at_once(monkeypatch, rows):
+    whole = read_wheel_log(io.StringIO(CHUNKED))
+    monkeypatch.setattr("terrain_odom.io.wheel_log._CHUNK_ROWS", rows)
+    chunked = read_wheel_log(io.StringIO(CHUNKED))
+    for name in ("t", "v_l", "v_r", "pose", "terrain", "segment"):
+        np.testing.assert_array_equal(getattr(chunked, name), getattr(whole, name))
+    assert chunked.terrain.dtype == whole.terrain.dtype
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [  # the fault lies across the boundary of chunks of 2 rows
+        (
+            "t,v_l,v_r,segment\n0.0,1,1,0\n0.1,1,1,0\n0.1,1,1,0\n",
+            r"line 4, column 't': time 0.1 s is not after 0.1 s on line 3;.*\(segment 0\)",
+        ),
+        (
+            "t,v_l,v_r,segment\n0.0,1,1,0\n0.1,1,1,1\n0.2,1,1,0\n",
+            r"line 4, column 'segment': segment 0 starts again after other segments",
+        ),
+        ("t,v_l,v_r\n0.0,1,1\n0.1,1,1\n0.2,1,inf\n", r"line 4, column 'v_r': 'inf' is not a"),
+    ],
+)
+def test_chunked_faults_across_a_boundary_name_their_line(monkeypatch, text, message):
+    monkeypatch.setattr("terrain_odom.io.wheel_log._CHUNK_ROWS", 2)
+    with pytest.raises(InputFileError, match=message):
+        read_wheel_log(io.StringIO(text))
+    monkeypatch.setattr("terrain_odom.io.wheel_log._CHUNK_ROWS", 100)
+    with pytest.raises(InputFileError, match=message):  # the same message read at once
+        read_wheel_log(io.StringIO(text))
+
+
+def test_a_real_log_reads_alike_in_small_chunks(drive_dir, monkeypatch):
+    path = drive_dir / "warthog_wheels_grass.csv"
+    whole = read_wheel_log(path, wheel_radius=0.3)
+    monkeypatch.setattr("terrain_odom.io.wheel_log._CHUNK_ROWS", 1000)
+    chunked = read_wheel_log(path, wheel_radius=0.3)
+    for name in ("t", "v_l", "v_r", "pose", "segment"):
+        np.testing.assert_array_equal(getattr(chunked, name), getattr(whole, name))

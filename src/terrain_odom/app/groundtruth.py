@@ -57,7 +57,7 @@ def run_variants(
     log: WheelLog,
     config: Config,
     *,
-    labels: Sequence[str] | None = None,
+    labels: Sequence[str] | np.ndarray | None = None,
     records: list[FrameRecord] | None = None,
     priors: IcrPriors | None = None,
 ) -> dict[str, OdometryResult]:
@@ -148,7 +148,7 @@ def groundtruth_section(
     config: Config,
     gt: GroundTruth,
     *,
-    labels: Sequence[str] | None = None,
+    labels: Sequence[str] | np.ndarray | None = None,
     records: list[FrameRecord] | None = None,
     use_roi: bool = True,
     priors: IcrPriors | None = None,

@@ -267,7 +267,8 @@ def check_plausible(log: WheelLog, cfg: Config) -> None:
         )
 
 
-def _labels(log: WheelLog, source: TerrainSource) -> list[str] | None:
+def _labels(log: WheelLog, source: TerrainSource) -> np.ndarray | None:
+    """Return the log's terrain column when ``source`` asks for it (the log's array, no copy)."""
     if source is TerrainSource.NONE:
         return None
     if log.terrain is None:
@@ -276,7 +277,7 @@ def _labels(log: WheelLog, source: TerrainSource) -> list[str] | None:
                 f"{log.source}: --terrain-from-log needs a 'terrain' column, the log has none"
             )
         return None
-    return [str(label) for label in log.terrain]
+    return log.terrain
 
 
 @dataclass(frozen=True)
@@ -288,7 +289,7 @@ class _Inputs:
     log: WheelLog
     timing: TimeCalibration
     gt: GroundTruth | None
-    labels: list[str] | None
+    labels: np.ndarray | None
     priors: IcrPriors | None
     frames: FrameList | None
     classifier: TerrainClassifier | None

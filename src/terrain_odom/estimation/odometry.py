@@ -222,9 +222,9 @@ def run_odometry(
     # frames observed after row k: those with t[k] <= t_f < t[k + 1] (t_f <= t[-1] for the last)
     bounds = np.searchsorted(frame_t, log.t, side="left")
     n_after = int(frame_t.size - np.searchsorted(frame_t, log.t[-1], side="right")) if n_rows else 0
-    for k, t, v_l, v_r, new, has_pose in _rows(log):
-        if labels is not None and (k == 0 or labels[k] != labels[k - 1]):
-            odometry.terrain(t, str(labels[k]))
+    for k, t, v_l, v_r, new, has_pose, label in _rows(log, labels):
+        if label is not None:
+            odometry.terrain(t, label)
         odometry.wheels(t, v_l, v_r, new_segment=new)
         if has_pose:
             odometry.pose(t, *log.pose[k].tolist())
@@ -251,15 +251,20 @@ def run_odometry(
 _CHUNK = 4096  # rows converted to Python numbers at a time
 
 
-def _rows(log: WheelLog) -> Iterator[tuple[int, float, float, float, bool, bool]]:
-    """Yield ``k, t, v_l, v_r, new segment, has a pose`` per row, as Python numbers.
+def _rows(
+    log: WheelLog, labels: Sequence[str] | np.ndarray | None
+) -> Iterator[tuple[int, float, float, float, bool, bool, str | None]]:
+    """Yield ``k, t, v_l, v_r, new segment, has a pose, new label`` per row, as Python objects.
 
-    Indexing numpy per row costs more than the row's filter step; the
-    columns are converted a chunk at a time, so memory does not grow with the log.
+    The new label is ``str(labels[k])`` where it differs from the previous
+    row's (and on row 0), else None. Indexing numpy per row costs more than
+    the row's filter step; the columns are converted a chunk at a time, so
+    memory does not grow with the log.
     """
     new_segment = np.zeros(len(log), dtype=bool)
     new_segment[log.run_starts()] = True
     has_pose = np.isfinite(log.pose).any(axis=1)
+    events = _label_changes(labels)
     for start in range(0, len(log), _CHUNK):
         chunk = slice(start, min(start + _CHUNK, len(log)))
         yield from zip(
@@ -269,5 +274,15 @@ def _rows(log: WheelLog) -> Iterator[tuple[int, float, float, float, bool, bool]
             log.v_r[chunk].tolist(),
             new_segment[chunk].tolist(),
             has_pose[chunk].tolist(),
+            map(events.get, range(chunk.start, chunk.stop)),
             strict=True,
         )
+
+
+def _label_changes(labels: Sequence[str] | np.ndarray | None) -> dict[int, str]:
+    """Row -> ``str`` label of every row whose label differs from the previous row's."""
+    if labels is None or len(labels) == 0:
+        return {}
+    values = np.asarray(labels)
+    rows = np.flatnonzero(np.r_[True, values[1:] != values[:-1]])
+    return dict(zip(rows.tolist(), map(str, values[rows].tolist()), strict=True))

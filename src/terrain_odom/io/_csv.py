@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import csv
 import io
+import itertools
 import os
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
@@ -108,19 +109,77 @@ def read_csv(source: Source) -> CsvTable:
         If the file cannot be read, is empty, or a row's cell count differs
         from the header's.
     """
+    (table,) = read_csv_chunks(source)
+    return table
+
+
+def read_csv_chunks(source: Source, size: int | None = None) -> Iterator[CsvTable]:
+    """Read a CSV file with a header as tables of at most ``size`` data rows (all if None).
+
+    Every table has the header and the file lines of its rows; at least one
+    table is yielded (without rows if the file has none). A reader converting
+    each table before the next is read holds one table's cells at a time,
+    not the whole file's. A file with empty lines or multi-line records is
+    read at once: the rows not yet yielded come as one last table.
+
+    Raises
+    ------
+    InputFileError
+        As :func:`read_csv` (for a table's cell counts, when it is reached).
+    """
     with _open_text(source) as (handle, name):
         try:
-            rows, lines = _records(handle)
+            for header, rows, lines in _chunks(handle, size):
+                table = CsvTable(name, [cell.strip() for cell in header], rows, lines)
+                _check_ragged(table)
+                yield table
         except UnicodeDecodeError as exc:
             raise InputFileError(f"{name}: not a UTF-8 text file ({exc.reason})") from None
         except csv.Error as exc:
             raise InputFileError(f"{name}: not a valid CSV file ({exc})") from None
-    if not rows:
-        raise InputFileError(f"{name}: file is empty; expected a header line naming the columns")
-    header = [cell.strip() for cell in rows[0]]
-    table = CsvTable(name=name, header=header, rows=rows[1:], lines=lines[1:])
-    _check_ragged(table)
-    return table
+        except _EmptyFile:
+            raise InputFileError(
+                f"{name}: file is empty; expected a header line naming the columns"
+            ) from None
+
+
+class _EmptyFile(Exception):
+    """The file has no record at all."""
+
+
+_Chunk = tuple[list[str], list[list[str]], Sequence[int]]
+
+
+def _chunks(handle: TextIO, size: int | None) -> Iterator[_Chunk]:
+    """Yield ``header, rows, lines`` of at most ``size`` rows each (:func:`read_csv_chunks`).
+
+    The common case, one record per line and no empty line, is parsed without
+    per-row Python code; at the first chunk breaking it the text is parsed
+    again from the start while tracking line numbers (:func:`_records`), and
+    the records not yet yielded come at once. A file is parsed where it lies
+    (a second pass seeks back), so its whole text is never held beside its cells.
+    """
+    source = handle if handle.seekable() else io.StringIO(handle.read(), newline="")
+    start = source.tell()
+    reader = csv.reader(source)
+    header = next(reader, [])
+    done = 1 if header and reader.line_num == 1 else 0  # records read, all simple
+    first = True
+    while done:
+        rows = list(itertools.islice(reader, size))
+        if reader.line_num != done + len(rows) or not all(rows):
+            break
+        if rows or first:
+            yield header, rows, range(done + 1, done + 1 + len(rows))
+        first, done = False, done + len(rows)
+        if size is None or len(rows) < size:
+            return
+    source.seek(start)
+    records, lines = _records(source)
+    if not records:
+        raise _EmptyFile
+    skip = max(done, 1)
+    yield records[0], records[skip:], lines[skip:]
 
 
 @contextmanager
@@ -141,21 +200,8 @@ def _open_text(source: Source) -> Iterator[tuple[TextIO, str]]:
         yield handle, name
 
 
-def _records(handle: TextIO) -> tuple[list[list[str]], Sequence[int]]:
-    """Non-empty CSV records of ``handle`` and the 1-based file line each starts on.
-
-    The common case, one record per line and no empty line, is parsed in one
-    pass without per-row Python code; otherwise the text is parsed again while
-    tracking line numbers. A file is parsed where it lies (a second pass seeks
-    back), so its whole text is never held beside its cells.
-    """
-    source = handle if handle.seekable() else io.StringIO(handle.read(), newline="")
-    start = source.tell()
-    reader = csv.reader(source)
-    rows = list(reader)
-    if reader.line_num == len(rows) and all(rows):
-        return rows, range(1, len(rows) + 1)
-    source.seek(start)
+def _records(source: TextIO) -> tuple[list[list[str]], Sequence[int]]:
+    """Non-empty CSV records of ``source`` and the 1-based file line each starts on."""
     reader = csv.reader(source)
     rows, lines = [], []
     start = 1

@@ -32,10 +32,11 @@ from __future__ import annotations
 import math
 import os
 from collections.abc import Sequence
+from typing import NamedTuple
 
 import numpy as np
 
-from terrain_odom.io._csv import CsvTable, Source, floats_or_nan, read_csv, shown
+from terrain_odom.io._csv import CsvTable, Source, floats_or_nan, read_csv_chunks, shown
 from terrain_odom.io.atomic import write_text_atomic
 from terrain_odom.kinematics.integration import wrap_angle
 from terrain_odom.records import WheelLog, change_runs, run_starts
@@ -82,27 +83,73 @@ def read_wheel_log(source: Source, *, wheel_radius: float | None = None) -> Whee
     >>> round(float(log.pose[1, 2]), 4)  # wrapped to (-pi, pi]
     -2.7832
     """
-    table = read_csv(source)
-    if not table.rows:
+    parts: list[_Columns] = []
+    last: _Last | None = None
+    seen: set[int] = set()
+    for table in read_csv_chunks(source, _CHUNK_ROWS):
+        if not parts:
+            _check_known_columns_unique(table)
+            table.require_columns("t", reason="time, s")
+            speeds = _wheel_speed_columns(table, wheel_radius)
+            pose_columns = _pose_columns(table)
+        if not table.rows:
+            continue
+        part = _read_chunk(table, speeds, pose_columns, last, seen)
+        parts.append(part)
+        last = _Last(float(part.t[-1]), int(part.segment[-1]), table.lines[-1])
+    if not parts:
         raise table.error("no data rows after the header")
-    _check_known_columns_unique(table)
-    table.require_columns("t", reason="time, s")
-    speeds = _wheel_speed_columns(table, wheel_radius)
-    pose_columns = _pose_columns(table)
-    segment = _segments(table)
-    t = _times(table, segment)
-    v_l, v_r = (_finite_floats(table, column) for column in speeds)
+    v_l, v_r = (np.concatenate([getattr(p, name) for p in parts]) for name in ("v_l", "v_r"))
     if speeds == _SPEED_PAIRS[1]:
         v_l, v_r = v_l * wheel_radius, v_r * wheel_radius
+    terrain = None if parts[0].terrain is None else np.concatenate([p.terrain for p in parts])
     return WheelLog(
-        t=t,
+        t=np.concatenate([p.t for p in parts]),
         v_l=v_l,
         v_r=v_r,
-        pose=_pose(table, pose_columns),
-        terrain=_terrain(table),
-        segment=segment,
+        pose=np.concatenate([p.pose for p in parts]),
+        terrain=terrain,
+        segment=np.concatenate([p.segment for p in parts]),
         source=table.name,
     )
+
+
+_CHUNK_ROWS = 16384
+"""Rows converted at a time: a chunk's raw cells (~600 B a row) are all the
+reader holds beside the log's own arrays."""
+
+
+class _Columns(NamedTuple):
+    """The converted columns of one chunk of rows."""
+
+    t: np.ndarray
+    v_l: np.ndarray
+    v_r: np.ndarray
+    pose: np.ndarray
+    terrain: np.ndarray | None
+    segment: np.ndarray
+
+
+class _Last(NamedTuple):
+    """Time (s), segment and file line of the last row of the previous chunk."""
+
+    t: float
+    segment: int
+    line: int
+
+
+def _read_chunk(
+    table: CsvTable,
+    speeds: tuple[str, str],
+    pose_columns: tuple[str, ...],
+    last: _Last | None,
+    seen: set[int],
+) -> _Columns:
+    """Convert and check one chunk of rows; ``last`` and ``seen`` carry the earlier chunks."""
+    segment = _segments(table, last, seen)
+    t = _times(table, segment, last)
+    v_l, v_r = (_finite_floats(table, column) for column in speeds)
+    return _Columns(t, v_l, v_r, _pose(table, pose_columns), _terrain(table), segment)
 
 
 def write_wheel_log(path: str | os.PathLike[str], log: WheelLog) -> None:
@@ -185,18 +232,23 @@ def _pose_columns(table: CsvTable) -> tuple[str, ...]:
     )
 
 
-def _times(table: CsvTable, segment: np.ndarray) -> np.ndarray:
-    """Column ``t``, s; finite and strictly increasing within each segment."""
+def _times(table: CsvTable, segment: np.ndarray, last: _Last | None) -> np.ndarray:
+    """Column ``t``, s; finite and strictly increasing within each segment (from ``last`` on)."""
     t = _finite_floats(table, "t")
-    runs = change_runs(segment)
-    bad = np.flatnonzero((runs[1:] == runs[:-1]) & ~(t[1:] > t[:-1]))
+    before = 0 if last is None else 1
+    t_all = t if last is None else np.r_[last.t, t]
+    segment_all = segment if last is None else np.r_[last.segment, segment]
+    runs = change_runs(segment_all)
+    bad = np.flatnonzero((runs[1:] == runs[:-1]) & ~(t_all[1:] > t_all[:-1]))
     if bad.size:
         k = int(bad[0])
+        row = k - before  # in this chunk; -1 is the previous chunk's last row
+        line = table.lines[row] if row >= 0 or last is None else last.line
         raise table.error(
-            f"time {float(t[k + 1])!r} s is not after {float(t[k])!r} s on line "
-            f"{table.lines[k]}; time must strictly increase within a segment "
-            f"(segment {int(segment[k])})",
-            row=k + 1,
+            f"time {float(t_all[k + 1])!r} s is not after {float(t_all[k])!r} s on line "
+            f"{line}; time must strictly increase within a segment "
+            f"(segment {int(segment_all[k])})",
+            row=row + 1,
             column="t",
         )
     return t
@@ -242,21 +294,27 @@ def _terrain(table: CsvTable) -> np.ndarray | None:
     return labels
 
 
-def _segments(table: CsvTable) -> np.ndarray:
-    """Column ``segment`` as int64 (zeros if absent); each id forms one contiguous run."""
+def _segments(table: CsvTable, last: _Last | None, seen: set[int]) -> np.ndarray:
+    """Column ``segment`` as int64 (zeros if absent); each id forms one contiguous run.
+
+    ``seen`` holds the ids of the earlier chunks (updated), ``last`` their last row.
+    """
     if "segment" not in table.header:
-        return np.zeros(len(table), dtype=np.int64)
-    segment = table.convert("segment", int, np.int64, _not_an_integer)
+        segment = np.zeros(len(table), dtype=np.int64)
+    else:
+        segment = table.convert("segment", int, np.int64, _not_an_integer)
     starts = run_starts(segment)
-    _, first = np.unique(segment[starts], return_index=True)
-    if first.size < starts.size:
-        repeat = int(starts[np.setdiff1d(np.arange(starts.size), first)[0]])
-        raise table.error(
-            f"segment {int(segment[repeat])} starts again after other segments; "
-            "rows of a segment must be consecutive",
-            row=repeat,
-            column="segment",
-        )
+    if last is not None and segment[0] == last.segment:
+        starts = starts[1:]  # the previous chunk's segment goes on
+    for start, value in zip(starts.tolist(), segment[starts].tolist(), strict=True):
+        if value in seen:
+            raise table.error(
+                f"segment {value} starts again after other segments; "
+                "rows of a segment must be consecutive",
+                row=start,
+                column="segment",
+            )
+        seen.add(value)
     return segment
 
 
