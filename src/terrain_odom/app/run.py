@@ -522,16 +522,8 @@ def run(
         frames = records if pipeline is not None else None
         scored = _score(inputs, inputs.gt, report, frames, use_roi)
         report["inputs"]["groundtruth"] = str(Path(groundtruth).resolve())
-    drawn = write_run_plots(
-        out, log, result, inputs.cfg, truth=inputs.gt, scored=scored, records=records,
-        images=root, classifier=inputs.classifier,
-    ) if plots else []  # fmt: skip
-    recording = None
-    if record:
-        from terrain_odom.app.record import write_recording  # OpenCV, rerun: with record only
-
-        recording = write_recording(out, log, result, inputs.cfg, records=records, images=root,
-                                    classifier=inputs.classifier)  # fmt: skip
+    drawn, recording = _pictures(out, inputs, result, scored, records, root, plots, record)
+    if recording is not None:
         report["outputs"]["recording"] = recording.name
     report_path, md_path = _write_reports(out, report, drawn)
     return RunSummary(
@@ -554,6 +546,35 @@ def run(
         warnings=tuple(report["warnings"]),
         recording=recording,
     )
+
+
+def _pictures(
+    out: Path,
+    inputs: _Inputs,
+    result: OdometryResult,
+    scored: GroundTruthReport | None,
+    records: list[FrameRecord],
+    root: Path | None,
+    plots: bool,
+    record: bool,
+) -> tuple[list[str], Path | None]:
+    """Draw the run's plots (if ``plots``) and write ``run.rrd`` (if ``record``).
+
+    Returns the plots' paths relative to ``out`` and the recording's path (or None).
+    """
+    drawn = write_run_plots(
+        out, inputs.log, result, inputs.cfg, truth=inputs.gt, scored=scored, records=records,
+        images=root, classifier=inputs.classifier,
+    ) if plots else []  # fmt: skip
+    if not record:
+        return drawn, None
+    from terrain_odom.app.record import write_recording  # OpenCV, rerun: with record only
+
+    recording = write_recording(
+        out, inputs.log, result, inputs.cfg, records=records, images=root,
+        classifier=inputs.classifier,
+    )  # fmt: skip
+    return drawn, recording
 
 
 def _start(
