@@ -8,6 +8,7 @@ import functools
 import numpy as np
 import pytest
 
+from bench.slip_ekf import einsum_pose_change_with_jacobian
 from terrain_odom.config import (
     Config,
     IcrLimits,
@@ -21,8 +22,7 @@ from terrain_odom.errors import ConfigError
 from terrain_odom.estimation.odometry import run_slip_ekf
 from terrain_odom.estimation.slip_ekf import SlipEkf
 from terrain_odom.evaluation import settling_time
-from terrain_odom.kinematics import integrate, twist_icr, twist_icr_jacobian, twist_idd, wrap_angle
-from terrain_odom.kinematics.integration import arc_increment_with_jacobian
+from terrain_odom.kinematics import integrate, twist_icr, twist_idd, wrap_angle
 from terrain_odom.kinematics.slip import SlipModel
 from terrain_odom.records import WheelLog
 from terrain_odom.sim.slip_scenario import (
@@ -100,22 +100,6 @@ def test_pose_change_jacobian_matches_finite_differences(params):
     np.testing.assert_allclose(jac, numeric, rtol=1e-6, atol=1e-8)
 
 
-def _einsum_pose_jacobian(p, v_l, v_r, dt):
-    """Return the chain rule per sample summed by a plain einsum (the former code)."""
-    values, j_icr = MODEL.icrs_with_jacobian(p, *MODEL.features(v_l, v_r))
-    twist = twist_icr(v_l, v_r, *values)
-    _, j_arc = arc_increment_with_jacobian(*twist, dt)
-    poses = integrate(*twist, dt)
-    c, s = np.cos(poses[:-1, 2]), np.sin(poses[:-1, 2])
-    j_comp = np.zeros((dt.size, 3, 3))
-    j_comp[:, 0, 0], j_comp[:, 0, 1], j_comp[:, 1, 0], j_comp[:, 1, 1] = c, -s, s, c
-    j_comp[:, 0, 2] = poses[1:, 1] - poses[-1, 1]
-    j_comp[:, 1, 2] = poses[-1, 0] - poses[1:, 0]
-    j_comp[:, 2, 2] = 1.0
-    j_twist = twist_icr_jacobian(v_l, v_r, *values)
-    return np.einsum("kab,kbc,kcd,kde->ae", j_comp, j_arc, j_twist, j_icr)
-
-
 @pytest.mark.parametrize("n", [6, 7])
 @pytest.mark.parametrize("samples", [1, 12, 400])
 def test_pose_change_jacobian_equals_the_einsum_chain(n, samples):
@@ -124,7 +108,7 @@ def test_pose_change_jacobian_equals_the_einsum_chain(n, samples):
     dt = rng.uniform(0.02, 0.1, samples)
     p = np.array([0.3, 0.5, -0.2, 0.4, 0.1, -0.3, 0.95])[:n]
     _, jac = MODEL.pose_change_with_jacobian(p, v_l, v_r, dt)
-    reference = _einsum_pose_jacobian(p, v_l, v_r, dt)
+    _, reference = einsum_pose_change_with_jacobian(MODEL, p, v_l, v_r, dt)  # bench baseline
     assert jac.shape == (3, n)
     np.testing.assert_allclose(jac, reference, rtol=1e-12, atol=1e-12)
 

@@ -2,28 +2,13 @@
 
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
-from types import ModuleType
-
 import numpy as np
 import pytest
 
+from bench.fit import former_arc_coefficients
 from terrain_odom.kinematics.integration import _SERIES_LIMIT, _arc_coefficients
 
-BENCH_FIT = Path(__file__).resolve().parents[2] / "bench" / "fit.py"
-
-
-def _load_bench() -> ModuleType:
-    """Return ``bench/fit.py`` as a module: it keeps the former formulation, its speed baseline."""
-    spec = importlib.util.spec_from_file_location("bench_fit", BENCH_FIT)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-_former = _load_bench().former_arc_coefficients
+_former = former_arc_coefficients  # the speed baseline of bench/fit.py
 
 
 ANGLES = [

@@ -2,31 +2,18 @@
 
 from __future__ import annotations
 
-import importlib.util
 from pathlib import Path
-from types import ModuleType
 
 import cv2
 import numpy as np
 import pytest
 from skimage import data
 
+import bench.small_patches as bench
 from terrain_odom.app.tune import load_grid
 from terrain_odom.config.classifier import ClassifierConfig
 
 BENCH = Path(__file__).resolve().parents[2] / "bench" / "small_patches.py"
-
-
-def _load_bench() -> ModuleType:
-    """Return ``bench/small_patches.py`` as a module."""
-    spec = importlib.util.spec_from_file_location("bench_small_patches", BENCH)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-bench = _load_bench()
 
 
 def test_shipped_grid_files_are_valid_grids() -> None:
