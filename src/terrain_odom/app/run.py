@@ -418,70 +418,50 @@ def run(
 
     The log is streamed row by row through
     :class:`~terrain_odom.estimation.online.OnlineOdometry`
-    (:func:`~terrain_odom.estimation.odometry.run_odometry`).
+    (:func:`~terrain_odom.estimation.odometry.run_odometry`). Each option is
+    the ``terrain-odom run`` option of that name (docs/cli.md).
 
     Parameters
     ----------
     wheels : str or Path
-        Wheel log (CSV, see docs/formats.md); its wheel speeds are
-        delayed by ``config.time.pose_delay`` (:func:`read_calibrated_log`),
-        recorded in ``report.json`` ``time_calibration``.
+        Wheel log (docs/formats.md), its wheel speeds delayed by
+        ``config.time.pose_delay`` (:func:`read_calibrated_log`).
     out_dir : str or Path
-        Output directory (created): ``trajectory.csv`` (streamed row by row),
-        ``trajectory.tum`` and ``report.json`` (its ``status`` is
-        ``running``, then ``complete``, or ``interrupted`` if the run
-        stopped; :mod:`~terrain_odom.app.run_folder`); ``InputFileError`` if
-        a file to write is one of the inputs
-        (:func:`~terrain_odom.io.paths.check_outputs`) or the folder already
-        holds a run and ``overwrite`` is false.
-    config : Config, optional
-        Configuration; loaded from ``config_path`` (or the defaults) if omitted.
-    config_path : str or Path, optional
-        YAML configuration file. If neither ``config`` nor ``config_path`` is
-        given and ``images/config.yaml`` exists, that file is used; else the
-        built-in defaults.
+        Output folder, one run per folder (:mod:`~terrain_odom.app.run_folder`:
+        ``report.json`` says ``running``, ``complete`` or ``interrupted``);
+        ``InputFileError`` if a file to write is an input
+        (:func:`~terrain_odom.io.paths.check_outputs`) or the folder holds a
+        run and ``overwrite`` is false.
+    config, config_path : optional
+        Configuration, or its YAML file; without either, ``images/config.yaml``
+        if it exists, else the built-in defaults.
     terrain : TerrainSource
         Source of the labels driving the covariance reset.
     progress : bool, optional
-        Show a progress bar; ``None`` shows it only on a terminal.
+        Show a progress bar (``None``: only on a terminal).
     images : str or Path, optional
-        Folder of camera frames (see :mod:`terrain_odom.io.frames`): their
-        classified terrain drives the covariance reset instead of the log's
-        terrain column, and ``frames.csv`` is written. Ignored (frames not
-        read) when ``terrain`` is ``NONE``.
+        Folder of camera frames (:mod:`terrain_odom.io.frames`): their
+        classified terrain drives the reset; ``frames.csv`` is written.
+        Not read when ``terrain`` is ``NONE``.
     model : str or Path, optional
-        Terrain classifier model file; the packaged default model
-        (:func:`terrain_odom.io.classifier_file.default_model`) if omitted.
+        Classifier model file (default: the packaged model).
     use_roi : bool
-        Classify the region of interest (default) or the whole frame.
+        Classify the region of interest (default), or whole frames.
     groundtruth : str or Path, optional
-        Ground truth of the run (``groundtruth.csv`` of a simulated run):
-        scores the run and its filter variants against it in ``report.json``
-        (section ``groundtruth``), ``report.md`` and the plots (drawn
-        against it, with the frame labels); also times classification on
-        whole frames.
+        Ground truth (a simulated run's ``groundtruth.csv``): the run and its
+        filter variants scored in ``report.json``, ``report.md`` and the plots.
     estimator : {"icr-ekf", "slip-ekf"}
-        The ICR EKF over pose and ICRs, or the slip-parameter EKF
-        (:mod:`terrain_odom.estimation.slip_ekf`), whose ``x, y, yaw`` columns
-        are dead reckoning reset to every measured pose component and whose
-        ``y_l, y_r, x_icr`` are the ICRs at the row's track speeds, followed
-        by the parameters ``l1 .. l6(, alpha)``.
+        The ICR EKF, or the slip-parameter EKF
+        (:mod:`terrain_odom.estimation.slip_ekf`: dead reckoning reset to
+        every measured pose component, the ICRs at the row's track speeds,
+        then ``l1 .. l6(, alpha)``).
     priors : str or Path, optional
-        Parameter file of ``terrain-odom fit --model icr|icr-slip``
-        (:func:`read_priors`): the ICR EKF starts from it and, per terrain
-        (``--by-terrain``), takes a terrain's set on each confirmed change
-        to it (see :class:`~terrain_odom.estimation.icr_ekf.IcrEkf`).
-        Not for ``slip-ekf``.
-    overwrite : bool
-        Replace a run already in ``out_dir``: its files are removed first.
-    record : bool
-        Also write ``run.rrd``, the run as a Rerun recording
-        (:func:`~terrain_odom.app.record.write_recording`); ``ConfigError``
-        before anything is read if ``rerun-sdk`` (the ``[viz]`` extra) is
-        not installed.
-    plots : bool
-        Draw the plots (default); false skips them (matplotlib's import and
-        drawing are most of a short run's time).
+        Parameter file of ``fit --model icr|icr-slip`` (:func:`read_priors`),
+        per terrain with ``--by-terrain`` (ICR EKF only).
+    overwrite, record, plots : bool
+        Replace a run already in ``out_dir`` (its files removed first); also
+        write ``run.rrd`` (:func:`~terrain_odom.app.record.write_recording`;
+        ``ConfigError`` at once without ``rerun-sdk``); draw the plots.
 
     Returns
     -------
@@ -512,28 +492,13 @@ def run(
     seconds = time.perf_counter() - started
     report = _report(inputs, result, wheels, estimator, terrain, priors, seconds)
     report["counts"]["pose_components"] = asdict(odometry.pose_use)
-    report["warnings"] = _lever_arm_warning(result, inputs.cfg)
-    if inputs.heading is not None:
-        report["heading_calibration"] = asdict(inputs.heading)
-    if root is not None:
-        _add_frames_report(report, root, inputs, result, pipeline, use_roi)
-    scored = None
-    if inputs.gt is not None and groundtruth is not None:
-        frames = records if pipeline is not None else None
-        scored = _score(inputs, inputs.gt, report, frames, use_roi)
-        report["inputs"]["groundtruth"] = str(Path(groundtruth).resolve())
+    scored = _add_sections(report, inputs, result, (pipeline, records, root), groundtruth, use_roi)
     drawn, recording = _pictures(out, inputs, result, scored, records, root, plots, record)
     if recording is not None:
         report["outputs"]["recording"] = recording.name
     report_path, md_path = _write_reports(out, report, drawn)
     return RunSummary(
-        out / TRAJECTORY_CSV,
-        tum_path,
-        report_path,
-        len(log),
-        seconds,
-        md_path,
-        inputs.timing,
+        out / TRAJECTORY_CSV, tum_path, report_path, len(log), seconds, md_path, inputs.timing,
         frames_csv=None if pipeline is None else out / FRAMES_CSV,
         plots=tuple(out / name for name in drawn),
         config_yaml=config_yaml,
@@ -545,7 +510,34 @@ def run(
         heading=inputs.heading,
         warnings=tuple(report["warnings"]),
         recording=recording,
-    )
+    )  # fmt: skip
+
+
+def _add_sections(
+    report: dict[str, Any],
+    inputs: _Inputs,
+    result: OdometryResult,
+    camera: tuple[FramePipeline | None, list[FrameRecord], Path | None],
+    groundtruth: str | Path | None,
+    use_roi: bool,
+) -> GroundTruthReport | None:
+    """Add the warnings, heading, frames and ground-truth sections to ``report``.
+
+    ``camera`` is the frame pipeline, its records and the frames' folder.
+    Returns the run scored against its ground truth, if one was given.
+    """
+    pipeline, records, root = camera
+    report["warnings"] = _lever_arm_warning(result, inputs.cfg)
+    if inputs.heading is not None:
+        report["heading_calibration"] = asdict(inputs.heading)
+    if root is not None:
+        _add_frames_report(report, root, inputs, result, pipeline, use_roi)
+    if inputs.gt is None or groundtruth is None:
+        return None
+    frames = records if pipeline is not None else None
+    scored = _score(inputs, inputs.gt, report, frames, use_roi)
+    report["inputs"]["groundtruth"] = str(Path(groundtruth).resolve())
+    return scored
 
 
 def _pictures(
