@@ -55,21 +55,19 @@ def write_bag(path: str | os.PathLike[str], kind: str, records: Iterable[Record]
     """
     store = get_typestore(Stores.ROS2_HUMBLE)
     path = Path(path)
+    writer: Any  # rosbags' two writers share the calls used here
     if kind == "ros1":
-        with Writer1(path) as writer1:
-            conns1: dict[str, Any] = {}
-            for topic, msgtype, ns, msg in records:
-                if topic not in conns1:
-                    conns1[topic] = writer1.add_connection(topic, msgtype, typestore=store)
-                writer1.write(conns1[topic], ns, store.serialize_ros1(msg, msgtype))
-        return path
-    plugin = StoragePlugin.MCAP if kind == "mcap" else StoragePlugin.SQLITE3
-    with Writer2(path, version=9, storage_plugin=plugin) as writer2:
-        conns2: dict[str, Any] = {}
+        writer, serialize = Writer1(path), store.serialize_ros1
+    else:
+        plugin = StoragePlugin.MCAP if kind == "mcap" else StoragePlugin.SQLITE3
+        writer = Writer2(path, version=9, storage_plugin=plugin)
+        serialize = store.serialize_cdr
+    with writer:
+        connections: dict[str, Any] = {}
         for topic, msgtype, ns, msg in records:
-            if topic not in conns2:
-                conns2[topic] = writer2.add_connection(topic, msgtype, typestore=store)
-            writer2.write(conns2[topic], ns, store.serialize_cdr(msg, msgtype))
+            if topic not in connections:
+                connections[topic] = writer.add_connection(topic, msgtype, typestore=store)
+            writer.write(connections[topic], ns, serialize(msg, msgtype))
     return path
 
 
