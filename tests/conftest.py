@@ -7,6 +7,7 @@ skipped, with the reason, where it is absent.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -50,3 +51,16 @@ def drive_dir() -> Path:
 def indoor_dir() -> Path:
     """Return ``../shared/data/indoor_surface``: 1,774 real floor photos (carpet, tiles, wood)."""
     return _shared("indoor_surface")
+
+
+@pytest.fixture(scope="module")
+def scheduler() -> Iterator[str]:
+    """Return the address of a Dask scheduler with 2 single-thread workers (threads of this process).
+
+    Skipped where dask.distributed (the ``[dask]`` extra) is not installed.
+    """
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=False, dashboard_address=":0"
+    ) as local:
+        yield local.scheduler_address

@@ -14,7 +14,6 @@ import dataclasses
 import math
 import os
 import sys
-from collections.abc import Iterator
 from pathlib import Path
 
 import cv2
@@ -42,15 +41,6 @@ distributed = pytest.importorskip("distributed")
 
 FAST = FitOptions(popsize=6, maxiter=8, seed=1)
 GRID = "k: [1, 3]\nweights: [uniform, distance]\n"
-
-
-@pytest.fixture(scope="module")
-def scheduler() -> Iterator[str]:
-    """Return the address of a scheduler with 2 single-thread workers (threads of this process)."""
-    with distributed.LocalCluster(
-        n_workers=2, threads_per_worker=1, processes=False, dashboard_address=":0"
-    ) as local:
-        yield local.scheduler_address
 
 
 def _pid(_: int) -> int:
