@@ -29,6 +29,7 @@ from typing import Any
 import numpy as np
 import yaml
 
+from terrain_odom.app.locate import output_folder
 from terrain_odom.config import load_config
 from terrain_odom.config.loader import read_yaml
 from terrain_odom.errors import ConfigError, InputFileError
@@ -216,9 +217,7 @@ def import_bag(
     check_outputs([bag, options.config], paths.values())
     if Path(bag).is_dir() and out.resolve().is_relative_to(Path(bag).resolve()):
         raise InputFileError(f"{out}: --out is inside the bag folder {bag}; choose another folder")
-    if out.exists() and not out.is_dir():
-        raise InputFileError(f"{out}: --out must be a directory, but a file of that name exists")
-    out.mkdir(parents=True, exist_ok=True)
+    output_folder(out).mkdir(parents=True, exist_ok=True)
     collect, merged = _read(bag, options, robot, out, progress)
     write_wheel_log(paths["log"], merged.log)
     frames_csv = _write_frames(collect, merged, paths["frames"]) if options.image_topic else None

@@ -16,7 +16,14 @@ from pathlib import Path
 
 from terrain_odom.errors import InputFileError
 
-__all__ = ["names_a_file", "output_file", "check_out", "create_folder", "find_input"]
+__all__ = [
+    "names_a_file",
+    "output_file",
+    "output_folder",
+    "check_out",
+    "create_folder",
+    "find_input",
+]
 
 
 def names_a_file(out: str | Path, suffixes: Sequence[str]) -> bool:
@@ -42,6 +49,20 @@ def output_file(out: str | Path, name: str, suffixes: Sequence[str]) -> Path:
     'grass.yaml'
     """
     return Path(out) if names_a_file(out, suffixes) else Path(out) / name
+
+
+def output_folder(out: str | Path) -> Path:
+    """Return the output folder ``out`` (not created); refuse a file of that name.
+
+    Raises
+    ------
+    InputFileError
+        A file named ``out`` exists.
+    """
+    path = Path(out)
+    if path.exists() and not path.is_dir():
+        raise InputFileError(f"{path}: --out must be a directory, but a file of that name exists")
+    return path
 
 
 def check_out(out: str | Path, suffixes: Sequence[str]) -> None:

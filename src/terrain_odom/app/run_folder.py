@@ -16,6 +16,7 @@ import json
 from pathlib import Path
 from typing import Any
 
+from terrain_odom.app.locate import output_folder
 from terrain_odom.app.plots import EVALUATION_PLOTS, PLOT_FILES, PLOTS_DIR
 from terrain_odom.errors import InputFileError
 from terrain_odom.io.frames import FRAMES_CSV
@@ -91,9 +92,7 @@ def prepare_folder(out_dir: str | Path, *, overwrite: bool = False) -> Path:
     InputFileError
         ``out_dir`` is a file, or holds a run and ``overwrite`` is false.
     """
-    out = Path(out_dir)
-    if out.exists() and not out.is_dir():
-        raise InputFileError(f"{out}: --out must be a directory, but a file of that name exists")
+    out = output_folder(out_dir)
     found = [name for name in _MARKS if (out / name).exists()]
     if found and not overwrite:
         raise InputFileError(
