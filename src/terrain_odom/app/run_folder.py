@@ -110,10 +110,19 @@ def prepare_folder(out_dir: str | Path, *, overwrite: bool = False) -> Path:
 def _which_run(out: Path) -> str:
     """Return "a run", or "an interrupted run" etc. as ``out/report.json`` says."""
     try:
-        status = json.loads((out / REPORT_JSON).read_text(encoding="utf-8")).get("status")
+        status = _status(out / REPORT_JSON)
     except (OSError, ValueError, AttributeError):
         status = None
     return f"an {status} run" if status in (RUNNING, INTERRUPTED) else "a run"
+
+
+def _status(path: Path) -> object:
+    """Return the ``status`` of the run report ``path`` (:data:`COMPLETE` if it has none).
+
+    Raises ``OSError``, or ``ValueError`` / ``AttributeError`` if it is not a
+    JSON object.
+    """
+    return json.loads(path.read_text(encoding="utf-8")).get("status", COMPLETE)
 
 
 def mark_running(out: Path, inputs: dict[str, Any]) -> None:
@@ -150,7 +159,7 @@ def check_complete(run_dir: str | Path) -> None:
     if not path.is_file():
         return
     try:
-        status = json.loads(path.read_text(encoding="utf-8")).get("status", COMPLETE)
+        status = _status(path)
     except (ValueError, AttributeError) as exc:
         raise InputFileError(f"{path}: not a run report ({exc})") from None
     if status != COMPLETE:
