@@ -38,19 +38,19 @@ from terrain_odom.app.run_folder import (
 from terrain_odom.config import Config, TimeConfig, config_to_dict, dump_config, load_config
 from terrain_odom.errors import ConfigError, InputFileError
 from terrain_odom.estimation.icr_ekf import IcrPriors
-from terrain_odom.estimation.odometry import OdometryResult, OdometryRow, run_odometry
+from terrain_odom.estimation.odometry import OdometryBlock, OdometryResult, run_odometry
 from terrain_odom.estimation.online import ESTIMATORS, Estimator, OnlineOdometry
 from terrain_odom.estimation.pose_measurement import PoseUse
 from terrain_odom.estimation.time_offset import TimeCalibration, calibrate_pose_delay
 from terrain_odom.evaluation import check_log
 from terrain_odom.evaluation.mounting import MountingLimits, fit_mounting, x_icr_limit
-from terrain_odom.io import TrajectoryWriter, read_wheel_log, write_tum
+from terrain_odom.io import TrajectoryWriter, read_wheel_log
 from terrain_odom.io.atomic import write_text_atomic
 from terrain_odom.io.groundtruth import read_groundtruth
 from terrain_odom.io.params import read_priors
 from terrain_odom.io.paths import check_outputs
 from terrain_odom.io.report import path_or_none, report_header, to_jsonable, write_json
-from terrain_odom.io.trajectory import TrajectoryBlocks, trajectory_columns
+from terrain_odom.io.trajectory import TrajectoryBlocks, TumWriter, trajectory_columns
 from terrain_odom.records import GroundTruth, WheelLog
 from terrain_odom.reporting import run_markdown
 
@@ -486,9 +486,7 @@ def run(
     )
     root = None if images is None else Path(images)
     result, pipeline, records = _stream(inputs, odometry, out, root, progress, read)
-    log, states = inputs.log, result.states
-    tum_path = out / TRAJECTORY_TUM
-    write_tum(tum_path, log.t, *states[:, :3].T)
+    log, tum_path = inputs.log, out / TRAJECTORY_TUM
     seconds = time.perf_counter() - started
     report = _report(inputs, result, wheels, estimator, terrain, priors, seconds)
     report["counts"]["pose_components"] = asdict(odometry.pose_use)
@@ -650,6 +648,7 @@ def _stream(
         writer = stack.enter_context(
             TrajectoryWriter(out / TRAJECTORY_CSV, trajectory_columns(names))
         )
+        tum = stack.enter_context(TumWriter(out / TRAJECTORY_TUM))  # in place when complete
         stack.enter_context(bar)
         stack.enter_context(one_thread())  # camera-rate work on one core (see one_thread)
         pipeline = None
@@ -667,19 +666,19 @@ def _stream(
                 names=lambda path: _relative(path, root),
             )
 
-        blocks = TrajectoryBlocks(writer, names)
-        stack.callback(blocks.flush)  # before the writer closes, also when interrupted
+        blocks = TrajectoryBlocks(writer, names, tum)
 
-        def on_row(row: OdometryRow) -> None:
-            blocks.add(row.t, row.state, row.std, row.terrain)
-            bar.update(1)
-            written[0] += 1
+        def on_block(block: OdometryBlock) -> None:
+            blocks.write(block.t, block.states, block.stds, block.terrain)
+            bar.update(block.t.size)
+            written[0] += block.t.size
 
         try:
             result = run_odometry(
-                log, odometry, labels=inputs.labels, on_row=on_row, frames=pipeline
+                log, odometry, labels=inputs.labels, on_block=on_block, frames=pipeline
             )
         except BaseException as exc:
+            tum.discard()  # no TUM file of an incomplete run
             stack.close()  # flush the rows streamed so far before saying how many
             reason = "interrupted by the user" if isinstance(exc, KeyboardInterrupt) else repr(exc)
             mark_interrupted(out, read, written[0], reason)

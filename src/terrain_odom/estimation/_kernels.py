@@ -26,7 +26,15 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["PURE_CALLS", "compile_kernels", "constrain", "icr_predict", "icr_update", "std"]
+__all__ = [
+    "PURE_CALLS",
+    "compile_kernels",
+    "constrain",
+    "icr_predict",
+    "icr_rows",
+    "icr_update",
+    "std",
+]
 
 PURE_CALLS = 2000
 """Kernel calls run as Python before the kernels are compiled (about 700-1000 log rows)."""
@@ -341,12 +349,79 @@ def _std(p: np.ndarray) -> np.ndarray:
     return out
 
 
+def _icr_rows(
+    x: np.ndarray,
+    p: np.ndarray,
+    noise: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+    rows: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+    held: np.ndarray,
+    states: np.ndarray,
+    stds: np.ndarray,
+) -> tuple[int, float, int]:
+    """Run log rows through the filter in place: per row a predict, an update, the estimate.
+
+    Row ``i`` predicts from the previous row's time with the speeds held
+    since (:func:`icr_predict`), holds its own speeds, fuses its pose
+    components if it has any (:func:`icr_update`), then writes the state and
+    its standard deviations into ``states[i]`` and ``stds[i]``: what
+    :meth:`~terrain_odom.estimation.online.OnlineOdometry.wheels`,
+    :meth:`~terrain_odom.estimation.online.OnlineOdometry.pose` and
+    :meth:`~terrain_odom.estimation.online.OnlineOdometry.estimate` do per
+    row on an anchored filter, in one call.
+
+    Parameters
+    ----------
+    x, p : ndarray, shapes (n,), (n, n)
+        State and covariance.
+    noise : tuple of ndarray
+        ``q_density`` (n,), ``r`` (3, 3), ``mounting`` (3,), ``limits`` (5,)
+        as for :func:`icr_predict` and :func:`icr_update`.
+    rows : tuple of ndarray
+        ``t`` (B,), s, increasing; ``v_l``, ``v_r`` (B,), m/s; ``z`` (B, 3),
+        the measured pose (NaN where not measured).
+    held : ndarray, shape (4,)
+        ``t, v_l, v_r`` of the previous wheel sample and the filter's clock
+        (its sum of steps, s); advanced in place to the last row.
+    states, stds : ndarray, shape (B, n)
+        Filled with the estimate after each row.
+
+    Returns
+    -------
+    updates : int
+        Rows whose pose updated the filter.
+    nis : float
+        Normalised innovation squared of the last update (NaN if none).
+    bad : int
+        The row after which the state was not finite (the rows after it are
+        not run), or -1.
+    """
+    q_density, r, mounting, limits = noise
+    t, v_l, v_r, z = rows
+    n = x.shape[0]
+    updates, last_nis = 0, math.nan
+    for i in range(t.shape[0]):
+        dt = t[i] - held[0]
+        _icr_predict(x, p, q_density, held[1], held[2], dt)
+        held[3] += dt
+        held[0], held[1], held[2] = t[i], v_l[i], v_r[i]
+        nis, finite = _icr_update(x, p, z[i], r, mounting, limits)
+        if not finite:
+            return updates, last_nis, i
+        if not math.isnan(nis):
+            updates += 1
+            last_nis = nis
+        for j in range(n):
+            states[i, j] = x[j]
+            stds[i, j] = math.sqrt(max(p[j, j], 0.0))
+    return updates, last_nis, -1
+
+
 _PURE: dict[str, Callable[..., Any]] = {
     name: globals()[name]
     for name in ("_wrap", "_arc", "_step_jacobian", "_matmul", "_symmetrise", "_inverse")
-    + ("_sensor", "_joseph", "_icr_predict", "_icr_update", "_constrain", "_std")
+    + ("_sensor", "_joseph", "_icr_predict", "_icr_update", "_constrain", "_std", "_icr_rows")
 }
-_PUBLIC = ("icr_predict", "icr_update", "constrain", "std")
+_PUBLIC = ("icr_predict", "icr_update", "constrain", "std", "icr_rows")
 _calls = 0  # kernel calls run as Python so far
 _compiled = False
 
@@ -370,13 +445,16 @@ def compile_kernels() -> None:
 
 
 def _python_first(name: str) -> Callable[..., Any]:
-    """Return kernel ``name`` run as Python for the first :data:`PURE_CALLS` calls, then compiled."""
+    """Return kernel ``name`` run as Python for the first :data:`PURE_CALLS` calls, then compiled.
+
+    A call of :func:`icr_rows` counts as two calls per row (a predict and an update).
+    """
     function = _PURE[f"_{name}"]
 
     def call(*args: Any) -> Any:
         global _calls
         if not _compiled:
-            _calls += 1
+            _calls += 2 * len(args[3][0]) if name == "icr_rows" else 1
             if _calls <= PURE_CALLS:
                 with np.errstate(all="ignore"):  # as numba's error_model="numpy"
                     return function(*args)
@@ -390,5 +468,6 @@ def _python_first(name: str) -> Callable[..., Any]:
 _WRAPPERS = {name: _python_first(name) for name in _PUBLIC}
 icr_predict = _WRAPPERS["icr_predict"]
 icr_update = _WRAPPERS["icr_update"]
+icr_rows = _WRAPPERS["icr_rows"]
 constrain = _WRAPPERS["constrain"]
 std = _WRAPPERS["std"]

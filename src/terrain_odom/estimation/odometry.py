@@ -23,7 +23,7 @@ from terrain_odom.records import TerrainChange, WheelLog
 
 __all__ = [
     "FrameObserver",
-    "OdometryRow",
+    "OdometryBlock",
     "OdometryResult",
     "run_icr_ekf",
     "run_odometry",
@@ -32,28 +32,27 @@ __all__ = [
 
 
 @dataclass(frozen=True)
-class OdometryRow:
-    """The filter's estimate after processing one log row.
+class OdometryBlock:
+    """The filter's estimates after a block of consecutive log rows.
 
     Attributes
     ----------
-    index : int
-        Row of the log.
-    t : float
-        Time, s.
-    state : ndarray, shape (n,)
-        ``x, y, yaw, y_l, y_r, x_icr(, alpha)``.
-    std : ndarray, shape (n,)
-        Standard deviation of each state.
-    terrain : str
-        Confirmed terrain label, ``""`` if none.
+    start : int
+        Log row of the block's first row.
+    t : ndarray, shape (B,)
+        Times, s.
+    states, stds : ndarray, shape (B, n)
+        Estimate ``x, y, yaw, y_l, y_r, x_icr(, alpha)`` (or the slip EKF's
+        values) and standard deviations after each row.
+    terrain : ndarray of str, shape (B,)
+        Confirmed terrain per row, ``""`` if none.
     """
 
-    index: int
-    t: float
-    state: np.ndarray
-    std: np.ndarray
-    terrain: str
+    start: int
+    t: np.ndarray
+    states: np.ndarray
+    stds: np.ndarray
+    terrain: np.ndarray
 
 
 class FrameObserver(Protocol):
@@ -111,7 +110,7 @@ def run_icr_ekf(
     config: Config,
     *,
     labels: Sequence[str] | np.ndarray | None = None,
-    on_row: Callable[[OdometryRow], None] | None = None,
+    on_block: Callable[[OdometryBlock], None] | None = None,
     frames: FrameObserver | None = None,
     priors: IcrPriors | None = None,
 ) -> OdometryResult:
@@ -127,8 +126,9 @@ def run_icr_ekf(
     labels : sequence of str, shape (N,), optional
         Terrain label observed at each row (e.g. ``log.terrain``); ``None``
         runs without terrain information.
-    on_row : callable, optional
-        Called with an :class:`OdometryRow` after every row (to stream output).
+    on_block : callable, optional
+        Called with each :class:`OdometryBlock` of rows done (to stream
+        output; see :func:`run_odometry`).
     frames : FrameObserver, optional
         Camera frames supplying the terrain labels (instead of ``labels``);
         see :func:`run_odometry`. Frames fed as images need an
@@ -143,7 +143,7 @@ def run_icr_ekf(
     OdometryResult
     """
     odometry = OnlineOdometry(config, priors=priors)
-    return run_odometry(log, odometry, labels=labels, on_row=on_row, frames=frames)
+    return run_odometry(log, odometry, labels=labels, on_block=on_block, frames=frames)
 
 
 def run_slip_ekf(
@@ -151,7 +151,7 @@ def run_slip_ekf(
     config: Config,
     *,
     labels: Sequence[str] | np.ndarray | None = None,
-    on_row: Callable[[OdometryRow], None] | None = None,
+    on_block: Callable[[OdometryBlock], None] | None = None,
     frames: FrameObserver | None = None,
 ) -> OdometryResult:
     """Estimate the slip parameters over a whole log (:mod:`~terrain_odom.estimation.slip_ekf`).
@@ -165,7 +165,7 @@ def run_slip_ekf(
         consecutive chords between the fixes).
     config : Config
         ``config.slip_ekf``, ``config.robot.track_width`` and ``config.terrain``.
-    labels, on_row, frames
+    labels, on_block, frames
         As for :func:`run_icr_ekf`.
 
     Returns
@@ -177,7 +177,7 @@ def run_slip_ekf(
         hold NaN for the pose.
     """
     odometry = OnlineOdometry(config, estimator="slip-ekf")
-    return run_odometry(log, odometry, labels=labels, on_row=on_row, frames=frames)
+    return run_odometry(log, odometry, labels=labels, on_block=on_block, frames=frames)
 
 
 def run_odometry(
@@ -185,7 +185,7 @@ def run_odometry(
     odometry: OnlineOdometry,
     *,
     labels: Sequence[str] | np.ndarray | None = None,
-    on_row: Callable[[OdometryRow], None] | None = None,
+    on_block: Callable[[OdometryBlock], None] | None = None,
     frames: FrameObserver | None = None,
 ) -> OdometryResult:
     """Stream a log through :class:`~terrain_odom.estimation.online.OnlineOdometry`, row by row.
@@ -196,15 +196,22 @@ def run_odometry(
     changes), ``pose(t[k], ...)`` when the row has a measured component,
     then the frames with ``t[k] <= t_f < t[k + 1]`` (``t_f <= t[-1]`` for
     the last row; frames before the first row or after the last are
-    skipped), then the estimate is recorded.
+    skipped), then the estimate is recorded. The rows between a label, a
+    segment start and a frame go in one
+    :meth:`~terrain_odom.estimation.online.OnlineOdometry.rows` call (the
+    same results, compiled once the filter is anchored).
 
     Parameters
     ----------
     log : WheelLog
     odometry : OnlineOdometry
         A fresh estimator (no sample given yet).
-    labels, on_row, frames
+    labels, frames
         As for :func:`run_icr_ekf`; ``labels`` and ``frames`` exclude each other.
+    on_block : callable, optional
+        Called with each :class:`OdometryBlock` of rows done, in order (about
+        4096 rows each; on an error or interrupt, with the rows done so far,
+        before the exception goes on).
 
     Returns
     -------
@@ -222,20 +229,48 @@ def run_odometry(
     # frames observed after row k: those with t[k] <= t_f < t[k + 1] (t_f <= t[-1] for the last)
     bounds = np.searchsorted(frame_t, log.t, side="left")
     n_after = int(frame_t.size - np.searchsorted(frame_t, log.t[-1], side="right")) if n_rows else 0
-    for k, t, v_l, v_r, new, has_pose, label in _rows(log, labels):
-        if label is not None:
-            odometry.terrain(t, label)
-        odometry.wheels(t, v_l, v_r, new_segment=new)
-        if has_pose:
-            odometry.pose(t, *log.pose[k].tolist())
-        if frames is not None:
-            stop = int(bounds[k + 1]) if k + 1 < n_rows else frame_t.size - n_after
-            for i in range(int(bounds[k]), stop):
-                frames.feed(i, odometry)
-        states[k], stds[k] = odometry.estimate()
-        terrain[k] = odometry.current_terrain
-        if on_row is not None:
-            on_row(OdometryRow(k, t, states[k], stds[k], terrain[k]))
+    ends = np.append(bounds[1:], frame_t.size - n_after)[
+        :n_rows
+    ]  # frames after row k: bounds[k]:ends[k]
+    done = 0  # rows done
+    emitted = 0  # rows handed to on_block
+
+    def emit(stop: int) -> None:
+        nonlocal emitted
+        if on_block is not None and stop > emitted:
+            rows = slice(emitted, stop)
+            on_block(OdometryBlock(emitted, log.t[rows], states[rows], stds[rows], terrain[rows]))
+        emitted = stop
+
+    try:
+        for rows, new, label in _stretches(log, labels, ends > bounds):
+            if label is not None:
+                odometry.terrain(float(log.t[rows.start]), label)
+            if new:
+                k = rows.start
+                odometry.wheels(
+                    float(log.t[k]), float(log.v_l[k]), float(log.v_r[k]), new_segment=True
+                )
+                _pose(odometry, log, k)
+                states[rows.start], stds[rows.start] = odometry.estimate()
+                terrain[rows.start] = odometry.current_terrain
+            else:
+                states[rows], stds[rows], terrain[rows] = odometry.rows(
+                    log.t[rows], log.v_l[rows], log.v_r[rows], log.pose[rows]
+                )
+            last = rows.stop - 1
+            if frames is not None and ends[last] > bounds[last]:
+                for i in range(int(bounds[last]), int(ends[last])):
+                    frames.feed(i, odometry)
+                states[last], stds[last] = odometry.estimate()  # a frame may apply a change
+                terrain[last] = odometry.current_terrain
+            done = rows.stop
+            if done - emitted >= _CHUNK:
+                emit(done)
+    except BaseException:
+        emit(done)
+        raise
+    emit(done)
     return OdometryResult(
         odometry.names,
         states,
@@ -248,35 +283,44 @@ def run_odometry(
     )
 
 
-_CHUNK = 4096  # rows converted to Python numbers at a time
+_CHUNK = 4096  # rows per stretch at most, and per block handed on
 
 
-def _rows(
-    log: WheelLog, labels: Sequence[str] | np.ndarray | None
-) -> Iterator[tuple[int, float, float, float, bool, bool, str | None]]:
-    """Yield ``k, t, v_l, v_r, new segment, has a pose, new label`` per row, as Python objects.
+def _pose(odometry: OnlineOdometry, log: WheelLog, k: int) -> None:
+    """Give row ``k``'s pose measurement to ``odometry``, if it has a finite component."""
+    pose = log.pose[k]
+    if np.isfinite(pose).any():
+        odometry.pose(float(log.t[k]), *pose.tolist())
 
-    The new label is ``str(labels[k])`` where it differs from the previous
-    row's (and on row 0), else None. Indexing numpy per row costs more than
-    the row's filter step; the columns are converted a chunk at a time, so
-    memory does not grow with the log.
+
+def _stretches(
+    log: WheelLog, labels: Sequence[str] | np.ndarray | None, frames_after: np.ndarray
+) -> Iterator[tuple[slice, bool, str | None]]:
+    """Yield ``rows, new segment, new label`` for the stretches of rows run in one go.
+
+    A stretch starts at a new label (``str(labels[k])`` where it differs
+    from the previous row's, and on row 0; else None) and at a segment
+    start (a stretch of that one row, ``new segment`` True), and ends after
+    a row with frames after it, or after :data:`_CHUNK` rows.
     """
-    new_segment = np.zeros(len(log), dtype=bool)
+    n_rows = len(log)
+    new_segment = np.zeros(n_rows, dtype=bool)
     new_segment[log.run_starts()] = True
-    has_pose = np.isfinite(log.pose).any(axis=1)
-    events = _label_changes(labels)
-    for start in range(0, len(log), _CHUNK):
-        chunk = slice(start, min(start + _CHUNK, len(log)))
-        yield from zip(
-            range(chunk.start, chunk.stop),
-            log.t[chunk].tolist(),
-            log.v_l[chunk].tolist(),
-            log.v_r[chunk].tolist(),
-            new_segment[chunk].tolist(),
-            has_pose[chunk].tolist(),
-            map(events.get, range(chunk.start, chunk.stop)),
-            strict=True,
-        )
+    changes = _label_changes(labels)
+    starts = new_segment.copy()
+    starts[list(changes)] = True
+    ends = frames_after | np.append(starts[1:], True)  # a stretch ends before a start
+    cuts = np.flatnonzero(ends).tolist()
+    start = 0
+    for cut in cuts:
+        while start <= cut:
+            if new_segment[start]:
+                yield slice(start, start + 1), True, changes.get(start)
+                start += 1
+                continue
+            stop = min(cut + 1, start + _CHUNK)
+            yield slice(start, stop), False, changes.get(start)
+            start = stop
 
 
 def _label_changes(labels: Sequence[str] | np.ndarray | None) -> dict[int, str]:

@@ -23,16 +23,16 @@ import os
 import time
 from collections.abc import Mapping, Sequence
 from types import TracebackType
-from typing import BinaryIO
 
 import numpy as np
 
 from terrain_odom.io._csv import CsvTable, floats_or_nan, read_csv
-from terrain_odom.io.atomic import write_atomic
+from terrain_odom.io.atomic import AtomicFile
 
 __all__ = [
     "TrajectoryBlocks",
     "TrajectoryWriter",
+    "TumWriter",
     "read_trajectory_csv",
     "trajectory_columns",
     "write_tum",
@@ -42,7 +42,7 @@ StrPath = str | os.PathLike[str]
 """A file path."""
 
 _BLOCK_ROWS = 4096
-"""Rows formatted at once (by :class:`TrajectoryBlocks` and :func:`write_tum`)."""
+"""Rows formatted at once by :func:`write_tum`."""
 
 Cell = str | float | np.floating | np.integer
 """A value of one CSV cell: text, or a real number (Python or numpy)."""
@@ -168,7 +168,22 @@ class TrajectoryWriter:
             If a value is neither a str nor a real number.
         """
         self._check_keys(block)
-        cells = [_format_column(block[column]) for column in self._columns]
+        self.write_cells({column: _format_column(block[column]) for column in self._columns})
+
+    def write_cells(self, block: Mapping[str, list[str]]) -> None:
+        """Append a block of rows given as the cells' text, column by column.
+
+        The cells are written as they are (see :meth:`write_block`, which
+        formats them first).
+
+        Raises
+        ------
+        ValueError
+            If the writer is closed, the keys differ from the columns or the
+            lengths differ.
+        """
+        self._check_keys(block)
+        cells = [block[column] for column in self._columns]
         lengths = {len(column) for column in cells}
         if len(lengths) > 1:
             raise ValueError(f"columns of a block differ in length: {sorted(lengths)}")
@@ -223,21 +238,22 @@ class TrajectoryWriter:
 
 
 class TrajectoryBlocks:
-    """Rows of a filter run (``t``, state, std, terrain) into ``trajectory.csv``, in blocks.
+    """Blocks of a filter run (``t``, states, stds, terrain) into ``trajectory.csv`` and a TUM file.
 
-    Rows are copied into preallocated arrays and written with
-    :meth:`TrajectoryWriter.write_block` every ``size`` rows and on
-    :meth:`flush` (call it when the run ends or is interrupted), so memory
-    stays at one block whatever the log's length.
+    Each block is formatted column by column and written at once
+    (:meth:`TrajectoryWriter.write_block`); with a :class:`TumWriter`, the
+    same block's TUM lines are written from the same text of ``t, x, y``
+    (formatted once for both files).
 
     Parameters
     ----------
     writer : TrajectoryWriter
         Opened with :func:`trajectory_columns` of ``names``.
     names : tuple of str, shape (n,)
-        State names, in the order of the state vectors given to :meth:`add`.
-    size : int, optional
-        Rows per block (default 4096).
+        State names, in the column order of the states given to :meth:`write`
+        (``x, y, yaw`` first for a TUM file).
+    tum : TumWriter, optional
+        Also write the pose of every row in the TUM format.
 
     Examples
     --------
@@ -247,47 +263,96 @@ class TrajectoryBlocks:
     >>> names = ("x", "y", "yaw", "y_l", "y_r", "x_icr")
     >>> with TrajectoryWriter(path, trajectory_columns(names)) as writer:
     ...     blocks = TrajectoryBlocks(writer, names)
-    ...     blocks.add(0.5, np.arange(6.0), np.full(6, np.nan), "grass")
-    ...     blocks.flush()
+    ...     blocks.write(np.array([0.5]), np.arange(6.0)[None], np.full((1, 6), np.nan), ["grass"])
     >>> path.read_text().splitlines()[1]
     '0.5,0.0,1.0,2.0,3.0,4.0,5.0,grass,,,,,,'
     >>> folder.cleanup()
     """
 
     def __init__(
-        self, writer: TrajectoryWriter, names: tuple[str, ...], size: int = _BLOCK_ROWS
+        self, writer: TrajectoryWriter, names: tuple[str, ...], tum: TumWriter | None = None
     ) -> None:
         self._writer = writer
         self._names = names
-        self._t = np.empty(size)
-        self._states = np.empty((size, len(names)))
-        self._stds = np.empty((size, len(names)))
-        self._terrain: list[str] = []
+        self._tum = tum
 
-    def add(self, t: float, state: np.ndarray, std: np.ndarray, terrain: str) -> None:
-        """Append one row; write the block when it is full."""
-        row = len(self._terrain)
-        self._t[row] = t
-        self._states[row] = state
-        self._stds[row] = std
-        self._terrain.append(terrain)
-        if row + 1 == self._t.size:
-            self.flush()
+    def write(
+        self,
+        t: np.ndarray,
+        states: np.ndarray,
+        stds: np.ndarray,
+        terrain: np.ndarray | Sequence[str],
+    ) -> None:
+        """Write a block of ``B`` rows: ``t`` (B,), ``states`` and ``stds`` (B, n), ``terrain`` (B,).
 
-    def flush(self) -> None:
-        """Write the rows added since the last block."""
-        rows = len(self._terrain)
-        if not rows:
-            return
-        block: dict[str, np.ndarray | Sequence[Cell]] = {
-            "t": self._t[:rows],
-            "terrain": self._terrain,
-        }
-        for column, name in enumerate(self._names):
-            block[name] = self._states[:rows, column]
-            block[f"std_{name}"] = self._stds[:rows, column]
-        self._writer.write_block(block)
-        self._terrain = []
+        Raises
+        ------
+        ValueError
+            As :meth:`TrajectoryWriter.write_block`, or for the TUM file as
+            :func:`write_tum` (a non-finite pose).
+        """
+        if self._tum is not None:
+            _tum_columns(t, *states[:, :3].T)  # check before any file gets the block
+        cells = {name: _format_column(states[:, k]) for k, name in enumerate(self._names)}
+        cells["t"] = _format_column(t)
+        cells["terrain"] = _format_column(np.asarray(terrain))
+        cells.update(
+            (f"std_{name}", _format_column(stds[:, k])) for k, name in enumerate(self._names)
+        )
+        self._writer.write_cells(cells)
+        if self._tum is not None:
+            self._tum.write_cells(cells["t"], cells["x"], cells["y"], states[:, 2])
+
+
+class TumWriter:
+    """Stream a planar trajectory in the TUM format, block by block; atomic on close.
+
+    The lines go to a temporary file that replaces ``path`` when the writer
+    is closed without an error (:class:`~terrain_odom.io.atomic.AtomicFile`):
+    an interrupted run leaves no partial TUM file. See :func:`write_tum` for
+    the format.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Output file; created or replaced. Its directory must exist.
+    """
+
+    def __init__(self, path: StrPath) -> None:
+        self._file = AtomicFile(path)
+        self._file.handle.write(b"# timestamp tx ty tz qx qy qz qw\n")
+
+    def write(self, t: np.ndarray, x: np.ndarray, y: np.ndarray, yaw: np.ndarray) -> None:
+        """Append rows (1-D arrays of one length: s, m, m, rad); ``ValueError`` if not finite."""
+        t, x, y, yaw = _tum_columns(t, x, y, yaw)
+        texts = [list(map(float.__repr__, a.tolist())) for a in (t, x, y)]
+        self.write_cells(texts[0], texts[1], texts[2], yaw)
+
+    def write_cells(self, t: list[str], x: list[str], y: list[str], yaw: np.ndarray) -> None:
+        """Append rows whose ``t, x, y`` are already text (``repr``); ``yaw`` in rad."""
+        half = 0.5 * np.asarray(yaw, dtype=np.float64)
+        qz = map(float.__repr__, np.sin(half).tolist())
+        qw = map(float.__repr__, np.cos(half).tolist())
+        lines = [
+            f"{a} {b} {c} 0.0 0.0 0.0 {d} {e}\n"
+            for a, b, c, d, e in zip(t, x, y, qz, qw, strict=True)
+        ]
+        self._file.handle.write("".join(lines).encode("ascii"))
+
+    def discard(self) -> None:
+        """Close without writing ``path`` (the temporary file is removed); then closing does nothing."""
+        self._file.discard()
+
+    def __enter__(self) -> TumWriter:
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        traceback: TracebackType | None,
+    ) -> None:
+        self._file.__exit__(exc_type, exc, traceback)
 
 
 def read_trajectory_csv(path: StrPath) -> dict[str, np.ndarray]:
@@ -358,17 +423,11 @@ def write_tum(path: StrPath, t: np.ndarray, x: np.ndarray, y: np.ndarray, yaw: n
     '0.5 1.0 2.0 0.0 0.0 0.0 1.0 6.123233995736766e-17'
     >>> folder.cleanup()
     """
-    columns = _tum_columns(t, x, y, yaw)
-
-    def write(handle: BinaryIO) -> None:  # a block of rows at a time: memory stays small
-        handle.write(b"# timestamp tx ty tz qx qy qz qw\n")
-        for start in range(0, columns.shape[1], _BLOCK_ROWS):
-            block = columns[:, start : start + _BLOCK_ROWS].tolist()
-            cells = [list(map(float.__repr__, column)) for column in block]
-            lines = "".join(line + "\n" for line in map(" ".join, zip(*cells, strict=True)))
-            handle.write(lines.encode("ascii"))
-
-    write_atomic(path, write)
+    t, x, y, yaw = _tum_columns(t, x, y, yaw)  # check before the file is created
+    with TumWriter(path) as writer:
+        for start in range(0, t.size, _BLOCK_ROWS):
+            block = slice(start, start + _BLOCK_ROWS)
+            writer.write(t[block], x[block], y[block], yaw[block])
 
 
 def _checked_columns(columns: Sequence[str]) -> tuple[str, ...]:
@@ -430,8 +489,10 @@ def _column_array(table: CsvTable, column: str) -> np.ndarray:
         return np.array(cells, dtype=str)
 
 
-def _tum_columns(t: np.ndarray, x: np.ndarray, y: np.ndarray, yaw: np.ndarray) -> np.ndarray:
-    """Rows ``t x y z qx qy qz qw`` of a TUM file as an array of shape (8, N)."""
+def _tum_columns(
+    t: np.ndarray, x: np.ndarray, y: np.ndarray, yaw: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``t, x, y, yaw`` as float64, after checking they are 1-D, of one length and finite."""
     arrays = {
         name: np.asarray(values, dtype=np.float64)
         for name, values in (("t", t), ("x", x), ("y", y), ("yaw", yaw))
@@ -446,11 +507,7 @@ def _tum_columns(t: np.ndarray, x: np.ndarray, y: np.ndarray, yaw: np.ndarray) -
         bad = np.flatnonzero(~np.isfinite(array))
         if bad.size:
             raise ValueError(f"{name}[{bad[0]}] is {array[bad[0]]}, not a finite number")
-    half = 0.5 * arrays["yaw"]
-    zero = np.zeros_like(half)
-    return np.stack(
-        [arrays["t"], arrays["x"], arrays["y"], zero, zero, zero, np.sin(half), np.cos(half)]
-    )
+    return arrays["t"], arrays["x"], arrays["y"], arrays["yaw"]
 
 
 def trajectory_columns(names: tuple[str, ...]) -> list[str]:
