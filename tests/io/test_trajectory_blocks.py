@@ -6,9 +6,16 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from terrain_odom.io import TrajectoryWriter, read_trajectory_csv, write_tum
-from terrain_odom.io.trajectory import TrajectoryBlocks, TumWriter, trajectory_columns
+from terrain_odom.io.trajectory import (
+    TrajectoryBlocks,
+    TumWriter,
+    _float_texts,
+    trajectory_columns,
+)
 
 TRICKY_FLOATS = [0.1, 1.0 / 3.0, -2.5e-300, 1.7e9 + 0.123456789, 5e-324, 1e308, -0.0, np.inf]
 LABELS = ["grass", "asphalt, wet", 'say "hi"', " padded ", "", "two\nlines", "é", "gravel"]
@@ -161,3 +168,37 @@ def test_write_tum_over_several_blocks_writes_every_row(tmp_path: Path) -> None:
         half = 0.5 * yaw[k]
         values = [t[k], x[k], y[k], 0.0, 0.0, 0.0, np.sin(half), np.cos(half)]
         assert lines[k + 1] == " ".join(repr(float(v)) for v in values)
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    st.lists(
+        st.floats(allow_nan=True, allow_infinity=True, allow_subnormal=True),
+        min_size=1,
+        max_size=40,
+    )
+)
+def test_floats_are_written_exactly_whatever_their_magnitude(values: list[float]) -> None:
+    """Every float's text reads back to the same float (sign of zero included); NaN is empty."""
+    cells = _float_texts(np.array(values))
+    assert len(cells) == len(values)
+    for value, cell in zip(values, cells, strict=True):
+        if np.isnan(value):
+            assert cell == ""
+        else:
+            back = float(cell)
+            assert back == value and np.signbit(back) == np.signbit(value), (value, cell)
+            assert len(cell) <= len(repr(value)) + 8  # no padding digits: at most the notation
+
+
+def test_a_block_writes_what_row_by_row_writing_writes_for_extreme_floats(tmp_path: Path) -> None:
+    """Subnormals, huge values, negative zero, infinities: the same text either way."""
+    floats = np.array([5e-324, -2.5e-300, 1.7976931348623157e308, -0.0, np.inf, -np.inf, 4.35e-7])
+    rows, block = tmp_path / "rows.csv", tmp_path / "block.csv"
+    with TrajectoryWriter(rows, ["x"]) as writer:
+        for value in floats:
+            writer.write({"x": value})
+    with TrajectoryWriter(block, ["x"]) as writer:
+        writer.write_block({"x": floats})
+    assert rows.read_bytes() == block.read_bytes()
+    assert read_trajectory_csv(block)["x"].tolist() == floats.tolist()

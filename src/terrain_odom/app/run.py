@@ -650,9 +650,9 @@ def _stream(
         )
         tum = stack.enter_context(TumWriter(out / TRAJECTORY_TUM))  # in place when complete
         stack.enter_context(bar)
-        stack.enter_context(one_thread())  # camera-rate work on one core (see one_thread)
         pipeline = None
         if inputs.frames is not None and images is not None:
+            stack.enter_context(one_thread())  # camera-rate work on one core (see one_thread)
             frame_writer = stack.enter_context(TrajectoryWriter(out / FRAMES_CSV, FRAME_COLUMNS))
 
             def on_frame(record: FrameRecord) -> None:

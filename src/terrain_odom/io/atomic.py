@@ -8,7 +8,7 @@ import secrets
 from collections.abc import Callable
 from pathlib import Path
 from types import TracebackType
-from typing import BinaryIO
+from typing import BinaryIO, TypeVar
 
 from terrain_odom.errors import TerrainOdomError
 
@@ -20,6 +20,9 @@ class OutputFileError(TerrainOdomError, OSError):
 
     def __str__(self) -> str:
         return f"{self.filename}: cannot write ({self.strerror})"
+
+
+_Atomic = TypeVar("_Atomic", bound="AtomicFile")
 
 
 class AtomicFile:
@@ -61,7 +64,7 @@ class AtomicFile:
         self.handle.close()
         self._temporary.unlink(missing_ok=True)
 
-    def __enter__(self) -> AtomicFile:
+    def __enter__(self: _Atomic) -> _Atomic:
         return self
 
     def __exit__(

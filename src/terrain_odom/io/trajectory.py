@@ -9,22 +9,26 @@ Two formats:
 * the TUM format (``timestamp tx ty tz qx qy qz qw``, space separated) of the
   trajectory-evaluation tools (e.g. ``evo``), written by :func:`write_tum`.
 
-Floats are written with the shortest text that reads back to the same float
-(``repr``); NaN is written as an empty cell, as in the wheel-log format.
+Floats are written exactly: the shortest digits that read back to the same
+float (Ryu's, formatted by ``orjson`` in C, ~10x faster than ``repr``; the
+notation can differ from ``repr``: ``0.00001`` for ``1e-05``); NaN is
+written as an empty cell, as in the wheel-log format, infinities as
+``inf``/``-inf``.
 """
 
 from __future__ import annotations
 
 import csv
 import io
-import math
 import numbers
 import os
 import time
 from collections.abc import Mapping, Sequence
+from itertools import repeat
 from types import TracebackType
 
 import numpy as np
+import orjson
 
 from terrain_odom.io._csv import CsvTable, floats_or_nan, read_csv
 from terrain_odom.io.atomic import AtomicFile
@@ -80,7 +84,7 @@ class TrajectoryWriter:
     -----
     Cell values: a ``str`` is written as is (quoted by the CSV rules if
     needed); an integer as an integer; any other real number with
-    ``repr(float(value))``, which round-trips exactly, except NaN, written as
+    its exact text (see the module's docstring), except NaN, written as
     an empty cell.
 
     Examples
@@ -149,7 +153,7 @@ class TrajectoryWriter:
     def write_block(self, block: Mapping[str, np.ndarray | Sequence[Cell]]) -> None:
         """Append a block of rows given column by column (the fast way to stream many rows).
 
-        Each column is formatted at once (floats with ``repr``, NaN empty, as
+        Each column is formatted at once (floats exactly, NaN empty, as
         :meth:`write`): a 22-column row costs about 3 us, against ~27 us
         through :meth:`write`.
 
@@ -304,12 +308,13 @@ class TrajectoryBlocks:
             self._tum.write_cells(cells["t"], cells["x"], cells["y"], states[:, 2])
 
 
-class TumWriter:
+class TumWriter(AtomicFile):
     """Stream a planar trajectory in the TUM format, block by block; atomic on close.
 
     The lines go to a temporary file that replaces ``path`` when the writer
-    is closed without an error (:class:`~terrain_odom.io.atomic.AtomicFile`):
-    an interrupted run leaves no partial TUM file. See :func:`write_tum` for
+    is closed without an error (:class:`~terrain_odom.io.atomic.AtomicFile`,
+    also for :meth:`~terrain_odom.io.atomic.AtomicFile.discard`): an
+    interrupted run leaves no partial TUM file. See :func:`write_tum` for
     the format.
 
     Parameters
@@ -319,40 +324,21 @@ class TumWriter:
     """
 
     def __init__(self, path: StrPath) -> None:
-        self._file = AtomicFile(path)
-        self._file.handle.write(b"# timestamp tx ty tz qx qy qz qw\n")
+        super().__init__(path)
+        self.handle.write(b"# timestamp tx ty tz qx qy qz qw\n")
 
     def write(self, t: np.ndarray, x: np.ndarray, y: np.ndarray, yaw: np.ndarray) -> None:
         """Append rows (1-D arrays of one length: s, m, m, rad); ``ValueError`` if not finite."""
         t, x, y, yaw = _tum_columns(t, x, y, yaw)
-        texts = [list(map(float.__repr__, a.tolist())) for a in (t, x, y)]
-        self.write_cells(texts[0], texts[1], texts[2], yaw)
+        self.write_cells(_float_texts(t), _float_texts(x), _float_texts(y), yaw)
 
     def write_cells(self, t: list[str], x: list[str], y: list[str], yaw: np.ndarray) -> None:
-        """Append rows whose ``t, x, y`` are already text (``repr``); ``yaw`` in rad."""
+        """Append rows whose ``t, x, y`` are already text (exact, finite); ``yaw`` in rad."""
         half = 0.5 * np.asarray(yaw, dtype=np.float64)
-        qz = map(float.__repr__, np.sin(half).tolist())
-        qw = map(float.__repr__, np.cos(half).tolist())
-        lines = [
-            f"{a} {b} {c} 0.0 0.0 0.0 {d} {e}\n"
-            for a, b, c, d, e in zip(t, x, y, qz, qw, strict=True)
-        ]
-        self._file.handle.write("".join(lines).encode("ascii"))
-
-    def discard(self) -> None:
-        """Close without writing ``path`` (the temporary file is removed); then closing does nothing."""
-        self._file.discard()
-
-    def __enter__(self) -> TumWriter:
-        return self
-
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        traceback: TracebackType | None,
-    ) -> None:
-        self._file.__exit__(exc_type, exc, traceback)
+        qz, qw = _float_texts(np.sin(half)), _float_texts(np.cos(half))
+        level = repeat("0.0 0.0 0.0", len(t))  # z, qx, qy
+        lines = map(" ".join, zip(t, x, y, level, qz, qw, strict=True))
+        self.handle.write("".join(line + "\n" for line in lines).encode("ascii"))
 
 
 def read_trajectory_csv(path: StrPath) -> dict[str, np.ndarray]:
@@ -450,9 +436,20 @@ def _format_cell(value: Cell) -> str:
     if isinstance(value, numbers.Integral) and not isinstance(value, bool):
         return str(int(value))
     if isinstance(value, numbers.Real) and not isinstance(value, bool):
-        number = float(value)
-        return "" if math.isnan(number) else repr(number)
+        return _float_texts(np.array([float(value)]))[0]
     raise TypeError(f"cannot write {type(value).__name__} {value!r} to a trajectory cell")
+
+
+def _float_texts(values: np.ndarray) -> list[str]:
+    """Exact texts of floats (see the module's docstring): NaN empty, infinities ``inf``/``-inf``."""
+    array = np.ascontiguousarray(values, dtype=np.float64)
+    if not array.size:
+        return []
+    text = orjson.dumps(array, option=orjson.OPT_SERIALIZE_NUMPY).decode("ascii")
+    cells = text[1:-1].replace("null", "").split(",")  # NaN and infinities are JSON nulls
+    for index in np.flatnonzero(np.isinf(array)).tolist():
+        cells[index] = repr(float(array[index]))
+    return cells
 
 
 def _format_column(values: np.ndarray | Sequence[Cell]) -> list[str]:
@@ -462,10 +459,7 @@ def _format_column(values: np.ndarray | Sequence[Cell]) -> list[str]:
         raise ValueError(f"a block column must be 1-D, got shape {array.shape}")
     kind = array.dtype.kind
     if kind == "f":
-        cells = list(map(float.__repr__, array.astype(float).tolist()))
-        for index in np.flatnonzero(np.isnan(array)).tolist():
-            cells[index] = ""
-        return cells
+        return _float_texts(array)
     if kind in "iu":
         return list(map(str, array.tolist()))
     texts = array.tolist() if kind == "U" else list(map(_format_cell, array.tolist()))
