@@ -25,7 +25,8 @@
    first if there is none); the states of both must agree to 1e-12.
 5. ``--whole-run SRC`` (alone, ~30 s): ``terrain-odom run --estimator
    slip-ekf --no-plots`` over the grass log in fresh processes, this code and
-   the package in ``SRC`` (e.g. a checkout of main's ``src``) alternately,
+   the package in ``SRC`` (e.g. ``git archive main src | tar -x -C /tmp/main``,
+   then ``/tmp/main/src``) alternately,
    best of 3, and the largest difference of their ``trajectory.csv``;
    ``--rows N`` on the log's first ``N`` rows (start-up).
 
@@ -514,7 +515,9 @@ def whole_run(data: Path, other_src: Path, rows: int | None = None, repeats: int
                 command += ["--out", str(Path(tmp) / f"{i}-{j}")]
                 env = {**os.environ, "PYTHONPATH": str(src)}
                 start = time.perf_counter()
-                subprocess.run(command, env=env, check=True, capture_output=True)
+                done = subprocess.run(command, env=env, capture_output=True, text=True)
+                if done.returncode:
+                    raise SystemExit(f"{name}: {' '.join(command)} failed:\n{done.stderr}")
                 best[name] = min(best[name], time.perf_counter() - start)
         a, b = (
             np.genfromtxt(Path(tmp) / f"0-{j}" / "trajectory.csv", delimiter=",", names=True)
