@@ -239,9 +239,9 @@ class SlipEkf:
         self, z: np.ndarray, r: np.ndarray, samples: np.ndarray, split: int, antenna: np.ndarray
     ) -> float:
         """Run :func:`~terrain_odom.estimation._slip_kernels.slip_update`; return the NIS."""
-        c = self.config
+        options = (int(self.config.iterations), bool(self.config.robust))  # one numba signature
         nis, finite = kernels.slip_update(
-            self._x, self._P, z, r, samples, split, self._model, antenna, c.iterations, c.robust
+            self._x, self._P, z, r, samples, split, self._model, antenna, *options
         )
         self.last_nis = float(nis)
         if not finite:
