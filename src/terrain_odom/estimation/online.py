@@ -49,7 +49,7 @@ from terrain_odom.estimation.pose_measurement import (
     sensor_pose,
 )
 from terrain_odom.estimation.terrain import TerrainTracker
-from terrain_odom.kinematics import compose, relative_pose, twist_icr, wrap_angle
+from terrain_odom.kinematics import relative_pose, twist_icr, wrap_angle
 from terrain_odom.records import Sighting, TerrainChange
 
 if TYPE_CHECKING:  # the classifier's modules (scikit-learn) load only with a classifier
@@ -727,8 +727,7 @@ class _SlipSteps:
 
     def predict(self, v_l: float, v_r: float, dt: float) -> None:
         self.filter.predict(dt)
-        inc = self.filter.model.pose_change(self.filter.x, v_l, v_r, dt)
-        self._pose = compose(self._pose, inc)
+        self.filter.dead_reckon(self._pose, v_l, v_r, dt)
 
     def sample(self, t: float, v_l: float, v_r: float) -> None:
         self._samples.append((t, v_l, v_r))
@@ -835,10 +834,7 @@ class _SlipSteps:
         return np.array([*map(float, icr), alpha])
 
     def estimate(self, v_l: float, v_r: float) -> tuple[np.ndarray, np.ndarray]:
-        icr = np.array([float(c) for c in self.filter.icrs(v_l, v_r)])
-        state = np.concatenate([self._pose, icr, self.filter.x])
-        std = np.concatenate([np.full(3, np.nan), self.filter.icr_std(v_l, v_r), self.filter.std])
-        return state, std
+        return self.filter.estimate(self._pose, v_l, v_r)
 
 
 class _TerrainFlow:
