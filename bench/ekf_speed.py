@@ -25,7 +25,7 @@ the repository), then prints, each figure with the baseline it is divided by:
    Python objects and numpy buffers), which grows with the log's rows alone
    (the resident peak also holds the libraries, and varies by some MiB);
    then the traced peak during and memory held after each step of the run
-   (reading, loop, ``trajectory.tum``), per extra row (about 3 min in all).
+   (reading; loop and writing), per extra row (about 3 min in all).
 
 Usage::
 
@@ -332,7 +332,7 @@ def memory(data: Path, copies: int, path: Path, rows: int, work: Path) -> None:
     memory_steps(one, path, extra, work)
 
 
-STEPS = ("read the log, checks, pose delay", "filter loop and trajectory.csv", "trajectory.tum")
+STEPS = ("read the log, checks, pose delay", "filter loop, trajectory.csv and .tum")
 
 
 def traced_steps(log: Path, out: Path) -> list[tuple[int, int]]:
@@ -356,7 +356,7 @@ def traced_steps(log: Path, out: Path) -> list[tuple[int, int]]:
 
         return wrapper
 
-    saved = {name: getattr(app_run, name) for name in ("_read_inputs", "_stream", "write_tum")}
+    saved = {name: getattr(app_run, name) for name in ("_read_inputs", "_stream")}
     for name, fn in saved.items():
         setattr(app_run, name, timed(fn))
     tracemalloc.start()

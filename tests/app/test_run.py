@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import terrain_odom.app.run as workflows
 from terrain_odom.app.evaluate import evaluate
 from terrain_odom.app.run import RunSummary, TerrainSource, run
 from terrain_odom.cli.main import main
@@ -298,3 +299,29 @@ def test_cli_run_interrupted_keeps_rows_and_exits_130(
     err = capsys.readouterr().err.strip()
     assert code == 2 and "\n" not in err
     assert "the run did not complete (status: interrupted)" in err
+
+
+def test_a_long_run_keeps_some_rows_in_memory_and_writes_every_row(
+    log_path: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Past 2 x KEPT_ROWS rows the result keeps every k-th row: the files are those of all rows."""
+    whole = run(log_path, tmp_path / "whole", progress=False)
+    kept_rows = []
+    real = workflows.run_odometry
+
+    def spy(*args, **kwargs):  # type: ignore[no-untyped-def]
+        result = real(*args, **kwargs)
+        kept_rows.append(result.rows)
+        return result
+
+    monkeypatch.setattr(workflows, "KEPT_ROWS", 40)
+    monkeypatch.setattr(workflows, "run_odometry", spy)
+    part = run(log_path, tmp_path / "part", progress=False)
+    np.testing.assert_array_equal(kept_rows[0], np.r_[np.arange(0, N_ROWS, 5), N_ROWS - 1])
+    for name in ("trajectory.csv", "trajectory.tum"):
+        assert (tmp_path / "part" / name).read_bytes() == (tmp_path / "whole" / name).read_bytes()
+    reports = [json.loads(s.report_json.read_text(encoding="utf-8")) for s in (whole, part)]
+    for report in reports:
+        del report["run_time_s"]
+    assert reports[0] == reports[1]
+    assert [p.name for p in part.plots] == ["trajectory.png", "states.png"]

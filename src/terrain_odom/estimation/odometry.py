@@ -84,7 +84,7 @@ class OdometryResult:
     names : tuple of str
         State names, in column order of ``states``.
     states, stds : ndarray, shape (N, n)
-        Estimate and standard deviation after each row.
+        Estimate and standard deviation after each row (each kept row: ``rows``).
     terrain : ndarray of str, shape (N,)
         Confirmed terrain per row (``""`` before any label).
     changes : list of TerrainChange
@@ -93,6 +93,9 @@ class OdometryResult:
         Pose measurements fused.
     frames_before, frames_after : int
         Frames before the first log row or after the last one (skipped).
+    rows : ndarray of int, shape (N,), optional
+        The log rows of ``states``, ``stds`` and ``terrain`` where only some
+        were kept (``run_odometry(keep=...)``); None: one per log row.
     """
 
     names: tuple[str, ...]
@@ -103,6 +106,7 @@ class OdometryResult:
     n_updates: int = 0
     frames_before: int = 0
     frames_after: int = 0
+    rows: np.ndarray | None = None
 
 
 def run_icr_ekf(
@@ -187,6 +191,7 @@ def run_odometry(
     labels: Sequence[str] | np.ndarray | None = None,
     on_block: Callable[[OdometryBlock], None] | None = None,
     frames: FrameObserver | None = None,
+    keep: int = 1,
 ) -> OdometryResult:
     """Stream a log through :class:`~terrain_odom.estimation.online.OnlineOdometry`, row by row.
 
@@ -212,6 +217,10 @@ def run_odometry(
         Called with each :class:`OdometryBlock` of rows done, in order (about
         4096 rows each; on an error or interrupt, with the rows done so far,
         before the exception goes on).
+    keep : int
+        Keep the estimate of every ``keep``-th row (and of the last) in the
+        result (:attr:`OdometryResult.rows`): memory that grows ``keep``
+        times slower with the log, where ``on_block`` takes every row.
 
     Returns
     -------
@@ -221,76 +230,110 @@ def run_odometry(
         raise ValueError(f"labels has {len(labels)} entries for a log of {len(log)} rows")
     if labels is not None and frames is not None:
         raise ValueError("give terrain labels or frames, not both")
-    n_rows, n_state = len(log), len(odometry.names)
-    states = np.empty((n_rows, n_state))
-    stds = np.empty((n_rows, n_state))
-    terrain = np.full(n_rows, "", dtype=object)
+    if keep < 1:
+        raise ValueError(f"keep must be >= 1, got {keep}")
+    done = _Rows(log, len(odometry.names), keep, on_block)
     frame_t = np.empty(0) if frames is None else np.asarray(frames.times, dtype=float)
     # frames observed after row k: those with t[k] <= t_f < t[k + 1] (t_f <= t[-1] for the last)
     bounds = np.searchsorted(frame_t, log.t, side="left")
-    n_after = int(frame_t.size - np.searchsorted(frame_t, log.t[-1], side="right")) if n_rows else 0
-    ends = np.append(bounds[1:], frame_t.size - n_after)[
-        :n_rows
-    ]  # frames after row k: bounds[k]:ends[k]
-    done = 0  # rows done
-    emitted = 0  # rows handed to on_block
-
-    def emit(stop: int) -> None:
-        nonlocal emitted
-        if on_block is not None and stop > emitted:
-            rows = slice(emitted, stop)
-            on_block(OdometryBlock(emitted, log.t[rows], states[rows], stds[rows], terrain[rows]))
-        emitted = stop
-
+    n_after = (
+        int(frame_t.size - np.searchsorted(frame_t, log.t[-1], side="right")) if len(log) else 0
+    )
+    ends = np.append(bounds[1:], frame_t.size - n_after)[: len(log)]  # frames: bounds[k]:ends[k]
     try:
         for rows, new, label in _stretches(log, labels, ends > bounds):
             if label is not None:
                 odometry.terrain(float(log.t[rows.start]), label)
-            if new:
-                k = rows.start
-                odometry.wheels(
-                    float(log.t[k]), float(log.v_l[k]), float(log.v_r[k]), new_segment=True
-                )
-                _pose(odometry, log, k)
-                states[rows.start], stds[rows.start] = odometry.estimate()
-                terrain[rows.start] = odometry.current_terrain
-            else:
-                states[rows], stds[rows], terrain[rows] = odometry.rows(
-                    log.t[rows], log.v_l[rows], log.v_r[rows], log.pose[rows]
-                )
+            stretch = _run_stretch(odometry, log, rows, new)
             last = rows.stop - 1
             if frames is not None and ends[last] > bounds[last]:
                 for i in range(int(bounds[last]), int(ends[last])):
                     frames.feed(i, odometry)
-                states[last], stds[last] = odometry.estimate()  # a frame may apply a change
-                terrain[last] = odometry.current_terrain
-            done = rows.stop
-            if done - emitted >= _CHUNK:
-                emit(done)
-    except BaseException:
-        emit(done)
-        raise
-    emit(done)
+                stretch[0][-1], stretch[1][-1] = odometry.estimate()  # a frame may apply a change
+                stretch[2][-1] = odometry.current_terrain
+            done.add(*stretch)
+    finally:
+        done.flush()
     return OdometryResult(
         odometry.names,
-        states,
-        stds,
-        terrain.astype(str),
+        done.states,
+        done.stds,
+        done.terrain.astype(str),
         odometry.changes,
         odometry.n_updates,
-        frames_before=int(bounds[0]) if n_rows else int(frame_t.size),
+        frames_before=int(bounds[0]) if len(log) else int(frame_t.size),
         frames_after=n_after,
+        rows=None if keep == 1 else done.kept,
     )
 
 
-_CHUNK = 4096  # rows per stretch at most, and per block handed on
+def _run_stretch(
+    odometry: OnlineOdometry, log: WheelLog, rows: slice, new: bool
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Give ``odometry`` the ``rows`` of ``log`` (one, starting a segment, if ``new``).
 
-
-def _pose(odometry: OnlineOdometry, log: WheelLog, k: int) -> None:
-    """Give row ``k``'s pose measurement to ``odometry``, if it has a finite component."""
+    Returns the estimates, standard deviations and terrain after each row.
+    """
+    if not new:
+        return odometry.rows(log.t[rows], log.v_l[rows], log.v_r[rows], log.pose[rows])
+    k = rows.start
+    odometry.wheels(float(log.t[k]), float(log.v_l[k]), float(log.v_r[k]), new_segment=True)
     pose = log.pose[k]
     if np.isfinite(pose).any():
         odometry.pose(float(log.t[k]), *pose.tolist())
+    state, std = odometry.estimate()
+    return state[None], std[None], np.array([odometry.current_terrain], dtype=object)
+
+
+class _Rows:
+    """The rows done: handed on in blocks (``on_block``), every ``keep``-th (and the last) kept."""
+
+    def __init__(
+        self,
+        log: WheelLog,
+        n_state: int,
+        keep: int,
+        on_block: Callable[[OdometryBlock], None] | None,
+    ) -> None:
+        n_rows = len(log)
+        self.kept = (
+            np.unique(np.r_[np.arange(0, n_rows, keep), n_rows - 1]) if n_rows else np.empty(0, int)
+        )
+        self.states = np.empty((self.kept.size, n_state))
+        self.stds = np.empty((self.kept.size, n_state))
+        self.terrain = np.full(self.kept.size, "", dtype=object)
+        self._t = log.t
+        self._on_block = on_block
+        self._pending: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+        self._done = self._flushed = 0
+
+    def add(self, states: np.ndarray, stds: np.ndarray, terrain: np.ndarray) -> None:
+        """Take the next stretch of rows; hand them on once :data:`_CHUNK` rows are pending."""
+        self._pending.append((states, stds, terrain))
+        self._done += len(states)
+        if self._done - self._flushed >= _CHUNK:
+            self.flush()
+
+    def flush(self) -> None:
+        """Hand the pending rows on as one block and keep those to keep."""
+        if not self._pending:
+            return
+        start, stop = self._flushed, self._done
+        states, stds, terrain = (np.concatenate(part) for part in zip(*self._pending, strict=True))
+        self._pending.clear()
+        self._flushed = stop
+        lo, hi = np.searchsorted(self.kept, [start, stop])
+        kept = self.kept[lo:hi] - start
+        self.states[lo:hi], self.stds[lo:hi], self.terrain[lo:hi] = (
+            states[kept],
+            stds[kept],
+            terrain[kept],
+        )
+        if self._on_block is not None:
+            self._on_block(OdometryBlock(start, self._t[start:stop], states, stds, terrain))
+
+
+_CHUNK = 4096  # rows per stretch at most, and per block handed on
 
 
 def _stretches(
