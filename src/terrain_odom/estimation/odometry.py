@@ -296,9 +296,9 @@ class _Rows:
         on_block: Callable[[OdometryBlock], None] | None,
     ) -> None:
         n_rows = len(log)
-        self.kept = (
-            np.unique(np.r_[np.arange(0, n_rows, keep), n_rows - 1]) if n_rows else np.empty(0, int)
-        )
+        self.kept = np.arange(0, n_rows, keep)
+        if n_rows and self.kept[-1] != n_rows - 1:
+            self.kept = np.append(self.kept, n_rows - 1)  # the last row is always kept
         self.states = np.empty((self.kept.size, n_state))
         self.stds = np.empty((self.kept.size, n_state))
         self.terrain = np.full(self.kept.size, "", dtype=object)
