@@ -143,3 +143,57 @@ def test_chunks_report_a_ragged_row_of_a_later_chunk_with_its_file_line():
         next(chunks)
     with pytest.raises(InputFileError, match="file is empty"):
         list(read_csv_chunks(io.StringIO("\n\n"), 2))
+
+
+def test_reading_and_writing_a_long_table_pause_the_garbage_collector(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Parsing and joining rows run no collector passes (dozens without the pause)."""
+    import contextlib
+    import gc
+
+    from terrain_odom.io import TrajectoryWriter, _csv, read_wheel_log, trajectory
+
+    path = tmp_path / "long.csv"
+    rows = "".join(f"{0.01 * k:.2f},0.5,0.6,,,\n" for k in range(30_000))
+    path.write_text("t,v_l,v_r,x,y,yaw\n" + rows)
+
+    def passes() -> int:
+        collections: list[int] = []
+
+        def count(phase: str, info: dict) -> None:
+            collections.append(phase == "start")
+
+        gc.collect()
+        gc.callbacks.append(count)
+        try:
+            log = read_wheel_log(path)
+            with TrajectoryWriter(tmp_path / "out.csv", ["t", "v_l"]) as writer:
+                writer.write_block({"t": log.t, "v_l": log.v_l})
+        finally:
+            gc.callbacks.remove(count)
+        assert len(log) == 30_000 and gc.isenabled()
+        return sum(collections)
+
+    paused = passes()
+    for module in (_csv, trajectory):
+        monkeypatch.setattr(module, "collector_paused", contextlib.nullcontext)
+    assert paused <= 3 < 20 < passes()
+
+
+def test_collector_paused_restores_the_callers_state() -> None:
+    import gc
+
+    from terrain_odom.io._csv import collector_paused
+
+    with pytest.raises(RuntimeError), collector_paused():
+        assert not gc.isenabled()
+        raise RuntimeError
+    assert gc.isenabled()
+    gc.disable()
+    try:
+        with collector_paused():
+            pass
+        assert not gc.isenabled()
+    finally:
+        gc.enable()

@@ -8,6 +8,7 @@ report the first bad cell as ``file, line N, column 'c': problem``.
 from __future__ import annotations
 
 import csv
+import gc
 import io
 import itertools
 import os
@@ -166,7 +167,8 @@ def _chunks(handle: TextIO, size: int | None) -> Iterator[_Chunk]:
     done = 1 if header and reader.line_num == 1 else 0  # records read, all simple
     first = True
     while done:
-        rows = list(itertools.islice(reader, size))
+        with collector_paused():
+            rows = list(itertools.islice(reader, size))
         if reader.line_num != done + len(rows) or not all(rows):
             break
         if rows or first:
@@ -175,11 +177,30 @@ def _chunks(handle: TextIO, size: int | None) -> Iterator[_Chunk]:
         if size is None or len(rows) < size:
             return
     source.seek(start)
-    records, lines = _records(source)
+    with collector_paused():
+        records, lines = _records(source)
     if not records:
         raise _EmptyFile
     skip = max(done, 1)
     yield records[0], records[skip:], lines[skip:]
+
+
+@contextmanager
+def collector_paused() -> Iterator[None]:
+    """Pause Python's cyclic garbage collector in the block (reference counting still frees).
+
+    Parsing or writing a long table makes a list or tuple per row, none in a
+    cycle; in a process holding many objects the collector's passes over
+    them cost more than the parsing (a tenth of a 163k-row run, more under
+    pytest). The previous state is restored on leaving.
+    """
+    enabled = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if enabled:
+            gc.enable()
 
 
 @contextmanager

@@ -30,7 +30,7 @@ from types import TracebackType
 import numpy as np
 import orjson
 
-from terrain_odom.io._csv import CsvTable, floats_or_nan, read_csv
+from terrain_odom.io._csv import CsvTable, collector_paused, floats_or_nan, read_csv
 from terrain_odom.io.atomic import AtomicFile
 
 __all__ = [
@@ -192,10 +192,11 @@ class TrajectoryWriter:
         if len(lengths) > 1:
             raise ValueError(f"columns of a block differ in length: {sorted(lengths)}")
         rows = lengths.pop() if lengths else 0
-        if len(cells) == 1:  # a lone empty cell must be quoted: the csv module's rules
-            self._csv.writerows(zip(*cells, strict=True))
-        elif rows:  # the csv module's writer costs ~6 us a row; joining ~1 us
-            self._file.write("\n".join(map(",".join, zip(*cells, strict=True))) + "\n")
+        with collector_paused():  # a tuple per row
+            if len(cells) == 1:  # a lone empty cell must be quoted: the csv module's rules
+                self._csv.writerows(zip(*cells, strict=True))
+            elif rows:  # the csv module's writer costs ~6 us a row; joining ~1 us
+                self._file.write("\n".join(map(",".join, zip(*cells, strict=True))) + "\n")
         self._written(rows)
 
     def _check_keys(self, row: Mapping[str, object]) -> None:
@@ -337,8 +338,9 @@ class TumWriter(AtomicFile):
         half = 0.5 * np.asarray(yaw, dtype=np.float64)
         qz, qw = _float_texts(np.sin(half)), _float_texts(np.cos(half))
         level = repeat("0.0 0.0 0.0", len(t))  # z, qx, qy
-        lines = map(" ".join, zip(t, x, y, level, qz, qw, strict=True))
-        self.handle.write("".join(line + "\n" for line in lines).encode("ascii"))
+        with collector_paused():  # a tuple per row
+            lines = map(" ".join, zip(t, x, y, level, qz, qw, strict=True))
+            self.handle.write("".join(line + "\n" for line in lines).encode("ascii"))
 
 
 def read_trajectory_csv(path: StrPath) -> dict[str, np.ndarray]:
