@@ -28,7 +28,6 @@ alternately, best of ``--repeat``; the fitted parameters must be bit-identical.
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import time
 from pathlib import Path
 
@@ -48,16 +47,7 @@ REPO = Path(__file__).resolve().parents[1]
 def select_segments(log: WheelLog, parity: int) -> WheelLog:
     """Rows of the windows whose ``segment`` id has the given parity (0 even, 1 odd)."""
     keep = log.segment % 2 == parity
-    return dataclasses.replace(
-        log,
-        t=log.t[keep],
-        v_l=log.v_l[keep],
-        v_r=log.v_r[keep],
-        pose=log.pose[keep],
-        terrain=None if log.terrain is None else log.terrain[keep],
-        segment=log.segment[keep],
-        source=f"{log.source}[{'odd' if parity else 'even'} windows]",
-    )
+    return log.take(keep, f"{log.source}[{'odd' if parity else 'even'} windows]")
 
 
 def held_out(name, params, logs, track_width):

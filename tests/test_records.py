@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
@@ -73,3 +74,20 @@ def test_ground_truth_changes_and_coverage():
     )
     assert gt.changes() == [(2.0, "a", "b")]
     assert gt.covers(np.array([0.0, 4.0])) and not gt.covers(np.array([0.0, 4.5]))
+
+
+def test_take_keeps_the_rows_their_segments_and_the_source():
+    n = 10
+    pose = np.full((n, 3), np.nan)
+    pose[::3] = np.arange(12.0).reshape(4, 3)
+    terrain = np.array(["grass"] * 5 + ["sand"] * 5)
+    log = WheelLog(0.1 * np.arange(n), np.ones(n), 2 * np.ones(n), pose, terrain,
+                   np.repeat([0, 1], 5), "log.csv")  # fmt: skip
+    part = log.take(np.array([0, 3, 4, 6, 9]))
+    assert part.t.tolist() == pytest.approx([0.0, 0.3, 0.4, 0.6, 0.9])
+    assert part.segment.tolist() == [0, 0, 0, 1, 1] and part.n_runs == 2
+    assert part.terrain.tolist() == ["grass", "grass", "grass", "sand", "sand"]
+    np.testing.assert_array_equal(part.pose[[0, 1, 3, 4]], pose[[0, 3, 6, 9]])
+    assert part.source == "log.csv" and log.take(slice(0, 2), "head").source == "head"
+    no_terrain = WheelLog(log.t, log.v_l, log.v_r, log.pose, None, log.segment)
+    assert no_terrain.take(log.segment == 1).terrain is None

@@ -112,6 +112,21 @@ class WheelLog:
         ends = [*starts[1:], len(self)] if starts else []
         return [range(a, b) for a, b in zip(starts, ends, strict=True)]
 
+    def take(self, rows: np.ndarray | slice, source: str | None = None) -> WheelLog:
+        """Return the log of ``rows`` (indices, a mask or a slice), segments kept.
+
+        ``source`` names it (default: this log's).
+        """
+        return WheelLog(
+            self.t[rows],
+            self.v_l[rows],
+            self.v_r[rows],
+            self.pose[rows],
+            None if self.terrain is None else self.terrain[rows],
+            self.segment[rows],
+            self.source if source is None else source,
+        )
+
     @property
     def n_runs(self) -> int:
         """Number of runs (see :meth:`segment_runs`); 0 for an empty log."""

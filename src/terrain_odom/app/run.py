@@ -553,7 +553,7 @@ def _pictures(
 
     Returns the plots' paths relative to ``out`` and the recording's path (or None).
     """
-    log = inputs.log if result.rows is None else _log_rows(inputs.log, result.rows)
+    log = inputs.log if result.rows is None else inputs.log.take(result.rows)
     drawn = write_run_plots(
         out, log, result, inputs.cfg, truth=inputs.gt, scored=scored, records=records,
         images=root, classifier=inputs.classifier,
@@ -708,19 +708,6 @@ def _keep(inputs: _Inputs) -> int:
     if inputs.frames is not None or inputs.gt is not None:
         return 1
     return max(1, len(inputs.log) // KEPT_ROWS)
-
-
-def _log_rows(log: WheelLog, rows: np.ndarray) -> WheelLog:
-    """Return the ``rows`` of ``log`` as a log (its segments kept)."""
-    return dataclasses.replace(
-        log,
-        t=log.t[rows],
-        v_l=log.v_l[rows],
-        v_r=log.v_r[rows],
-        pose=log.pose[rows],
-        terrain=None if log.terrain is None else log.terrain[rows],
-        segment=log.segment[rows],
-    )
 
 
 @dataclass
