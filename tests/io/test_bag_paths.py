@@ -28,4 +28,3 @@ def test_a_folder_is_a_bag_when_it_holds_metadata_yaml(tmp_path: Path) -> None:
     assert not is_bag(folder)
     (folder / "metadata.yaml").write_text("rosbag2_bagfile_information: {}\n")
     assert is_bag(folder)
-

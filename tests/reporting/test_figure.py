@@ -12,7 +12,7 @@ from terrain_odom.reporting.figure import DPI, new_figure, save_png
 
 
 def _figure() -> Any:
-    """A small figure whose layout matters: a legend outside the axes, a title, labels."""
+    """Return a small figure whose layout matters: a legend outside the axes, title, labels."""
     fig = new_figure(5.0, 3.0)
     ax = fig.subplots()
     ax.plot([0.0, 1.0, 2.0], [0.0, -1234.5, 0.5], label="a legend label")
