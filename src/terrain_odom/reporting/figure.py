@@ -9,7 +9,7 @@ matplotlib is imported inside the functions: importing this module stays cheap.
 from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
-from typing import Any, BinaryIO
+from typing import Any, BinaryIO, Literal
 
 import numpy as np
 
@@ -51,7 +51,9 @@ _PALETTE = (
 )
 
 
-def new_figure(width: float, height: float, layout: str = "constrained") -> Any:
+def new_figure(
+    width: float, height: float, layout: Literal["constrained", "tight"] = "constrained"
+) -> Any:
     """Return a matplotlib ``Figure`` on the Agg canvas (no display, no pyplot state).
 
     Parameters
