@@ -46,7 +46,6 @@ import argparse
 import compileall
 import json
 import os
-import resource
 import subprocess
 import sys
 import time
@@ -274,22 +273,6 @@ MATPLOTLIB = "import matplotlib.figure, matplotlib.backends.backend_agg"
 """What drawing a run's plots imports at least (``reporting.figure``: no pyplot)."""
 
 
-def child_cpu(fn: Callable[[], object], spent: list[float]) -> Callable[[], None]:
-    """Return ``fn``, appending to ``spent`` the CPU time (user + system, s) of the processes it ran.
-
-    Unlike the wall time, a process waiting for a core on a busy machine does
-    not count: the figure a loaded machine's wall times scatter around.
-    """
-
-    def call() -> None:
-        before = resource.getrusage(resource.RUSAGE_CHILDREN)
-        fn()
-        after = resource.getrusage(resource.RUSAGE_CHILDREN)
-        spent.append(after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime)
-
-    return call
-
-
 def startup(path: Path, work: Path, repeat: int) -> None:
     """Section 3: a 200-row run against importing numpy (and matplotlib), fresh processes."""
     short = work / "short200.csv"
@@ -306,16 +289,11 @@ def startup(path: Path, work: Path, repeat: int) -> None:
              "terrain-odom run, 200 rows --no-plots", "matplotlib's import alone (*)")  # fmt: skip
     jobs = (python_c("import numpy"), lambda: run_cli(short, work / "short"),
             lambda: run_cli(short, work / "short", "--no-plots"), python_c(MATPLOTLIB))  # fmt: skip
-    cpu: list[list[float]] = [[] for _ in jobs]
-    wall = best_of(rounds, *(child_cpu(job, spent) for job, spent in zip(jobs, cpu, strict=True)))
-    least = [min(spent) for spent in cpu]
-    print(f"3. start-up, best of {rounds} fresh processes, wall and CPU time (goal <= 4x numpy)")
-    for name, seconds, busy in zip(names, wall, least, strict=True):
-        print(
-            f"   {name:38s} {seconds:6.3f} s = {seconds / wall[0]:4.1f}x numpy; "
-            f"CPU {busy:6.3f} s = {busy / least[0]:4.1f}x"
-        )
-    print(f"   the plots: {wall[1] - wall[2]:.3f} s wall, {least[1] - least[2]:.3f} s CPU")
+    wall = best_of(rounds, *jobs)
+    print(f"3. start-up, best of {rounds} fresh processes (goal <= 4x numpy)")
+    for name, seconds in zip(names, wall, strict=True):
+        print(f"   {name:38s} {seconds:6.3f} s = {seconds / wall[0]:4.1f}x numpy")
+    print(f"   the plots: {wall[1] - wall[2]:.3f} s")
     print(f"   (*) python -c '{MATPLOTLIB}': the plots' floor")
     run_cli(short, work / "short", stats=True)
     run_cli(short, work / "short", "--no-plots", stats=True)
