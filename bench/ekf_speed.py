@@ -22,6 +22,8 @@ the repository), then prints, each figure with the baseline it is divided by:
    is short, its minimum needs more rounds), the package byte-compiled
    first as an installed one is (under ``PYTHONDONTWRITEBYTECODE=1`` a
    source checkout would otherwise compile its ~70 modules at every start);
+   then, in one more fresh process, where the plots' time goes (the filter,
+   importing matplotlib, and each figure's build, layout, draw and PNG);
    whether scikit-learn, ``scipy.stats``, filterpy, numba or matplotlib
    were imported;
 4. **memory**: peak resident memory of ``terrain-odom run`` on one copy and
@@ -273,6 +275,40 @@ MATPLOTLIB = "import matplotlib.figure, matplotlib.backends.backend_agg"
 """What drawing a run's plots imports at least (``reporting.figure``: no pyplot)."""
 
 
+PLOT_PARTS = """
+import io, sys, time
+import numpy as np
+from PIL import Image
+from terrain_odom.config import load_config
+from terrain_odom.estimation.odometry import run_icr_ekf
+from terrain_odom.io import read_wheel_log
+cfg = load_config(sys.argv[2])
+log = read_wheel_log(sys.argv[1], wheel_radius=cfg.robot.wheel_radius)
+laps = [time.perf_counter()]
+result = run_icr_ekf(log, cfg, labels=log.terrain)
+def lap():
+    laps.append(time.perf_counter())
+    return f"{1e3 * (laps[-1] - laps[-2]):4.0f} ms"
+print(f"   in one fresh process: the filter over the 200 rows {lap()} (its Python kernels)")
+import matplotlib.figure, matplotlib.backends.backend_agg
+print(f"   importing matplotlib (figure, Agg) {lap()}")
+from terrain_odom.reporting.plots import states_figure, trajectory_figure
+lap()
+for name, draw in (("trajectory", lambda: trajectory_figure(log, result)),
+                   ("states", lambda: states_figure(log.t, result))):
+    fig = draw()
+    build = lap()
+    fig.get_layout_engine().execute(fig)
+    layout = lap()
+    fig.set_layout_engine("none")
+    fig.canvas.draw()
+    render = lap()
+    Image.fromarray(np.asarray(fig.canvas.buffer_rgba())).save(io.BytesIO(), format="png")
+    print(f"   {name:10s} figure: build {build}, layout {layout}, draw {render}, PNG {lap()}")
+"""
+"""Where a 200-row run's plots spend their time, figure by figure (``reporting.plots``)."""
+
+
 def startup(path: Path, work: Path, repeat: int) -> None:
     """Section 3: a 200-row run against importing numpy (and matplotlib), fresh processes."""
     short = work / "short200.csv"
@@ -295,6 +331,8 @@ def startup(path: Path, work: Path, repeat: int) -> None:
         print(f"   {name:38s} {seconds:6.3f} s = {seconds / wall[0]:4.1f}x numpy")
     print(f"   the plots: {wall[1] - wall[2]:.3f} s")
     print(f"   (*) python -c '{MATPLOTLIB}': the plots' floor")
+    print(subprocess.run([sys.executable, "-c", PLOT_PARTS, str(short), str(CONFIG)],
+                         capture_output=True, text=True, check=True).stdout, end="")  # fmt: skip
     run_cli(short, work / "short", stats=True)
     run_cli(short, work / "short", "--no-plots", stats=True)
 
