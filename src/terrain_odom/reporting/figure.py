@@ -64,7 +64,7 @@ def new_figure(
         matplotlib's layout engine, run when the figure is drawn. ``tight``
         (one grid of axes, margins for every label and legend, outside the
         axes too) measures the axes once where ``constrained`` does twice:
-        ~40 % less time to lay out a run's trajectory or states.
+        about a third less time to lay out a run's trajectory or states.
     """
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
