@@ -18,13 +18,21 @@
    ``--pose-delay auto``) and the same figures with it applied: the wheel
    speeds delayed by it, for the filters' input and the windows alike.
 4. ``--speed`` (alone, ~1 min): ``run_slip_ekf`` over the grass log, us per
-   row, best of 3, against the same run with the pose-change Jacobian summed
-   by the former unoptimised 4-operand ``einsum`` (the baseline, patched in,
-   timed alternately); the states of both must agree to 1e-12.
+   row, best of 3, against the reference formulation (numpy and filterpy,
+   ``FilterpySlipEkf``) timed alternately in the same run: first the kernels
+   as plain Python (how a process runs its first ``PURE_CALLS`` kernel
+   calls), then compiled by numba (loaded from its disk cache; compiled
+   first if there is none); the states of both must agree to 1e-12.
+5. ``--whole-run SRC`` (alone, ~30 s): ``terrain-odom run --estimator
+   slip-ekf --no-plots`` over the grass log in fresh processes, this code and
+   the package in ``SRC`` (e.g. ``git archive main src | tar -x -C /tmp/main``,
+   then ``/tmp/main/src``) alternately,
+   best of 3, and the largest difference of their ``trajectory.csv``;
+   ``--rows N`` on the log's first ``N`` rows (start-up).
 
 Usage::
 
-    python bench/slip_ekf.py [--data ../shared/data/drive] [--speed]
+    python bench/slip_ekf.py [--data ../shared/data/drive] [--speed] [--whole-run SRC [--rows N]]
 """
 
 from __future__ import annotations
@@ -32,6 +40,10 @@ from __future__ import annotations
 import argparse
 import contextlib
 import dataclasses
+import os
+import subprocess
+import sys
+import tempfile
 import time
 from pathlib import Path
 from unittest import mock
@@ -40,7 +52,9 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from terrain_odom.config import Config, EkfConfig, IcrState, RobotConfig, load_config
+from terrain_odom.estimation import _kernels, slip_ekf
 from terrain_odom.estimation.odometry import run_icr_ekf, run_slip_ekf
+from terrain_odom.estimation.slip_ekf_reference import FilterpySlipEkf
 from terrain_odom.estimation.time_offset import calibrate_pose_delay
 from terrain_odom.evaluation import (
     Windows,
@@ -450,26 +464,72 @@ def einsum_pose_change_with_jacobian(model: SlipModel, params, v_l, v_r, dt):
 
 
 def speed(data: Path, repeats: int = 3):
-    """Print us per row of ``run_slip_ekf`` on the grass log, against the einsum baseline."""
+    """Print us per row of ``run_slip_ekf`` on the grass log, kernels against the reference."""
     cfg = load_config(REPO / "config" / "warthog.yaml")
     log = read_wheel_log(data / "warthog_wheels_grass.csv", wheel_radius=cfg.robot.wheel_radius)
-    patch = mock.patch.object(
-        SlipModel, "pose_change_with_jacobian", einsum_pose_change_with_jacobian
-    )
-    best = {"einsum (baseline)": np.inf, "this code": np.inf}
+    reference = mock.patch.object(slip_ekf, "SlipEkf", FilterpySlipEkf)
+    print(f"4. run_slip_ekf, grass log ({log.t.size} rows), best of {repeats}, us per row:")
+    with mock.patch.object(_kernels, "PURE_CALLS", 10**12):  # not compiled yet: Python
+        speed_against_reference(log, cfg, reference, "kernels as Python", repeats)
+    _kernels.compile_kernels()
+    run_slip_ekf(log, cfg)  # numba's cache loaded (or compiled) outside the timing
+    speed_against_reference(log, cfg, reference, "compiled kernels", repeats)
+
+
+def speed_against_reference(log, cfg, reference, name: str, repeats: int):
+    """Time ``run_slip_ekf`` as it is and with ``reference`` patched in, alternately."""
+    best = {"reference (numpy, filterpy)": np.inf, name: np.inf}
     states = {}
     for _ in range(repeats):
-        for name in best:
-            with patch if name.startswith("einsum") else contextlib.nullcontext():
+        for key in best:
+            with reference if key.startswith("reference") else contextlib.nullcontext():
                 start = time.perf_counter()
-                states[name] = run_slip_ekf(log, cfg).states
-                best[name] = min(best[name], time.perf_counter() - start)
+                states[key] = run_slip_ekf(log, cfg).states
+                best[key] = min(best[key], time.perf_counter() - start)
+    for key, sec in best.items():
+        print(f"   {key:<28} {1e6 * sec / log.t.size:8.1f}")
     a, b = states.values()
-    print(f"4. run_slip_ekf, grass log ({log.t.size} rows), best of {repeats}, us per row:")
-    for name, sec in best.items():
-        print(f"   {name:<18} {1e6 * sec / log.t.size:8.1f}")
-    ratio = best["einsum (baseline)"] / best["this code"]
+    ratio = best["reference (numpy, filterpy)"] / best[name]
     print(f"   ratio {ratio:.2f}x; states differ by at most {np.nanmax(np.abs(a - b)):.1e}")
+
+
+# ---------------------------------------------------------------- 5. whole run
+def whole_run(data: Path, other_src: Path, rows: int | None = None, repeats: int = 3):
+    """Print the best wall time of ``terrain-odom run`` with this code and with ``other_src``.
+
+    ``rows``: only the log's first rows (a copy in a temporary folder).
+    """
+    best = {str(other_src): np.inf, "this code": np.inf}
+    with tempfile.TemporaryDirectory() as tmp:
+        wheels = data / "warthog_wheels_grass.csv"
+        if rows is not None:
+            lines = wheels.read_text().splitlines(keepends=True)[: rows + 1]
+            wheels = Path(tmp) / "wheels.csv"
+            wheels.write_text("".join(lines))
+        for i in range(repeats):
+            for j, name in enumerate(best):
+                src = REPO / "src" if name == "this code" else Path(name).resolve()
+                command = [sys.executable, "-m", "terrain_odom", "run", "--estimator"]
+                command += ["slip-ekf", "--no-plots", "--config", str(REPO / "config/warthog.yaml")]
+                command += ["--wheels", str(wheels)]
+                command += ["--out", str(Path(tmp) / f"{i}-{j}")]
+                env = {**os.environ, "PYTHONPATH": str(src)}
+                start = time.perf_counter()
+                done = subprocess.run(command, env=env, capture_output=True, text=True)
+                if done.returncode:
+                    raise SystemExit(f"{name}: {' '.join(command)} failed:\n{done.stderr}")
+                best[name] = min(best[name], time.perf_counter() - start)
+        a, b = (
+            np.genfromtxt(Path(tmp) / f"0-{j}" / "trajectory.csv", delimiter=",", names=True)
+            for j in range(2)
+        )
+    diff = max(np.nanmax(np.abs(a[c] - b[c]), initial=0.0) for c in a.dtype.names)
+    what = "grass log" if rows is None else f"first {rows} rows of the grass log"
+    print(f"5. terrain-odom run --estimator slip-ekf --no-plots, {what}, best of {repeats}:")
+    for name, sec in best.items():
+        print(f"   {name:<40} {sec:6.2f} s")
+    ratio = best[str(other_src)] / best["this code"]
+    print(f"   ratio {ratio:.2f}x; trajectory.csv columns differ by at most {diff:.1e}")
 
 
 def line(name, n, idd, slip, ho, icr):
@@ -486,9 +546,14 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--data", type=Path, default=REPO.parent / "shared" / "data" / "drive")
     parser.add_argument("--speed", action="store_true", help="only section 4 (timing)")
+    parser.add_argument("--whole-run", type=Path, metavar="SRC", help="only section 5")
+    parser.add_argument("--rows", type=int, help="section 5 on the log's first rows only")
     args = parser.parse_args()
     if args.speed:
         speed(args.data)
+    if args.whole_run:
+        whole_run(args.data, args.whole_run, args.rows)
+    if args.speed or args.whole_run:
         return
     sim_settling()
     sim_one_hz()

@@ -15,15 +15,15 @@ from terrain_odom.app.run import RunSummary, TerrainSource, run
 from terrain_odom.cli.main import main
 from terrain_odom.config import Config, load_config
 from terrain_odom.errors import ConfigError, InputFileError
-from terrain_odom.estimation.odometry import OdometryRow
+from terrain_odom.estimation.online import OnlineOdometry
 from terrain_odom.io import read_trajectory_csv
 from terrain_odom.kinematics import integrate, twist_icr
 
 N_ROWS = 200
 RATE_HZ = 20.0
 TRUE_ICR = {"y_l": 0.4, "y_r": -0.35, "x_icr": 0.1}
-INTERRUPT_AFTER = 150
-"""The wrapped on_row raises KeyboardInterrupt right after forwarding this many rows."""
+INTERRUPT_AFTER = 100
+"""Rows done before the interrupt: those before the label change (see the interrupt test)."""
 
 
 def synthetic_log(path: Path, *, n: int = N_ROWS) -> dict[str, np.ndarray]:
@@ -98,45 +98,44 @@ def test_run_without_alpha_has_no_alpha_columns(log_path: Path, tmp_path: Path) 
     assert report["config"]["ekf"]["estimate_alpha"] is False
 
 
+def interrupt_second_stretch(monkeypatch: pytest.MonkeyPatch) -> list[int]:
+    """Make Ctrl-C strike at the second stretch of rows; return the stretches' lengths seen."""
+    real = OnlineOdometry.rows
+    stretches: list[int] = []
+
+    def interrupted(self, t, *args):  # type: ignore[no-untyped-def]
+        stretches.append(len(t))
+        if len(stretches) == 2:
+            raise KeyboardInterrupt
+        return real(self, t, *args)
+
+    monkeypatch.setattr(OnlineOdometry, "rows", interrupted)
+    return stretches
+
+
 def test_interrupted_run_keeps_streamed_rows(
     log_path: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """KeyboardInterrupt in the middle: trajectory.csv holds every row written, no report.
+    """KeyboardInterrupt in the middle: trajectory.csv holds every row done, no TUM file.
 
-    The writer only flushes every 1000 rows / 1 s, but ``run`` uses it as a
-    context manager, whose exit flushes and closes: exactly the rows handed to
-    ``on_row`` before the interrupt are on disk.
+    The synthetic log runs as three stretches (row 0, a new segment; rows
+    1-99; rows 100-199 from the label change on): Ctrl-C during the third
+    leaves the first 100 rows, equal to those of an uninterrupted run, and
+    report.json says so.
     """
-    real = workflows.run_odometry
-    seen: list[OdometryRow] = []
-
-    def interrupted(log, odometry, *, on_row=None, **kw):  # type: ignore[no-untyped-def]
-        assert on_row is not None  # run() streams through on_row
-
-        def forward(row: OdometryRow) -> None:
-            on_row(row)
-            seen.append(row)
-            if len(seen) == INTERRUPT_AFTER:
-                raise KeyboardInterrupt
-
-        return real(log, odometry, on_row=forward, **kw)
-
-    monkeypatch.setattr(workflows, "run_odometry", interrupted)
+    complete = run(log_path, tmp_path / "complete", progress=False)
+    whole = read_trajectory_csv(complete.trajectory_csv)
+    stretches = interrupt_second_stretch(monkeypatch)
     out_dir = tmp_path / "out"
 
     with pytest.raises(KeyboardInterrupt):
         run(log_path, out_dir, progress=False)
 
-    assert len(seen) == INTERRUPT_AFTER
+    assert stretches == [INTERRUPT_AFTER - 1, N_ROWS - INTERRUPT_AFTER]
     traj = read_trajectory_csv(out_dir / "trajectory.csv")
     assert len(traj["t"]) == INTERRUPT_AFTER
-    np.testing.assert_array_equal(traj["t"], [row.t for row in seen])
-    np.testing.assert_array_equal(traj["t"], synthetic_log(tmp_path / "again.csv")["t"][:150])
-    for i, name in enumerate(("x", "y", "yaw", "y_l", "y_r", "x_icr", "alpha")):
-        np.testing.assert_array_equal(traj[name], [row.state[i] for row in seen], err_msg=name)
-        np.testing.assert_array_equal(
-            traj[f"std_{name}"], [row.std[i] for row in seen], err_msg=name
-        )
+    for name, column in whole.items():
+        np.testing.assert_array_equal(traj[name], column[:INTERRUPT_AFTER], err_msg=name)
     # the text ends with a complete line: no half-written row
     text = (out_dir / "trajectory.csv").read_text(encoding="utf-8")
     assert text.endswith("\n")
@@ -173,23 +172,13 @@ def test_a_folder_holding_a_run_is_refused_unless_overwrite(
         p.relative_to(out_dir): p.read_bytes() for p in out_dir.rglob("*") if p.is_file()
     } == before
 
-    real = workflows.run_odometry
-
-    def interrupted(log, odometry, *, on_row=None, **kw):  # type: ignore[no-untyped-def]
-        def forward(row: OdometryRow) -> None:
-            on_row(row)
-            if row.index == 9:
-                raise KeyboardInterrupt
-
-        return real(log, odometry, on_row=forward, **kw)
-
-    monkeypatch.setattr(workflows, "run_odometry", interrupted)
+    interrupt_second_stretch(monkeypatch)
     with pytest.raises(KeyboardInterrupt):
         run(log_path, out_dir, progress=False, overwrite=True)
 
     report = json.loads(first.report_json.read_text(encoding="utf-8"))
-    assert report["status"] == "interrupted" and report["rows_written"] == 10
-    assert len(read_trajectory_csv(out_dir / "trajectory.csv")["t"]) == 10
+    assert report["status"] == "interrupted" and report["rows_written"] == INTERRUPT_AFTER
+    assert len(read_trajectory_csv(out_dir / "trajectory.csv")["t"]) == INTERRUPT_AFTER
     # the first run's trajectory.tum and report.md are gone; the user's file is kept
     assert sorted(p.name for p in out_dir.iterdir()) == [
         "config.yaml",
@@ -293,17 +282,7 @@ def test_cli_run_interrupted_keeps_rows_and_exits_130(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     """``terrain-odom run`` interrupted: exit code 130, one line, the streamed rows kept."""
-    real = workflows.run_odometry
-
-    def interrupted(log, odometry, *, on_row=None, **kw):  # type: ignore[no-untyped-def]
-        def forward(row: OdometryRow) -> None:
-            on_row(row)
-            if row.index == 149:
-                raise KeyboardInterrupt
-
-        return real(log, odometry, on_row=forward, **kw)
-
-    monkeypatch.setattr(workflows, "run_odometry", interrupted)
+    interrupt_second_stretch(monkeypatch)
     out_dir = tmp_path / "out"
 
     code = main(["run", "--wheels", str(log_path), "--out", str(out_dir)])
@@ -312,7 +291,7 @@ def test_cli_run_interrupted_keeps_rows_and_exits_130(
     assert code == 130
     assert out == ""
     assert err.splitlines() == ["terrain-odom: interrupted; outputs written so far are kept"]
-    assert len(read_trajectory_csv(out_dir / "trajectory.csv")["t"]) == 150
+    assert len(read_trajectory_csv(out_dir / "trajectory.csv")["t"]) == INTERRUPT_AFTER
     assert json.loads((out_dir / "report.json").read_text())["status"] == "interrupted"
     # evaluate refuses the interrupted run, in one line
     monkeypatch.undo()
@@ -320,3 +299,29 @@ def test_cli_run_interrupted_keeps_rows_and_exits_130(
     err = capsys.readouterr().err.strip()
     assert code == 2 and "\n" not in err
     assert "the run did not complete (status: interrupted)" in err
+
+
+def test_a_long_run_keeps_some_rows_in_memory_and_writes_every_row(
+    log_path: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Past 2 x KEPT_ROWS rows the result keeps every k-th row: the files are those of all rows."""
+    whole = run(log_path, tmp_path / "whole", progress=False)
+    kept_rows = []
+    real = workflows.run_odometry
+
+    def spy(*args, **kwargs):  # type: ignore[no-untyped-def]
+        result = real(*args, **kwargs)
+        kept_rows.append(result.rows)
+        return result
+
+    monkeypatch.setattr(workflows, "KEPT_ROWS", 40)
+    monkeypatch.setattr(workflows, "run_odometry", spy)
+    part = run(log_path, tmp_path / "part", progress=False)
+    np.testing.assert_array_equal(kept_rows[0], np.r_[np.arange(0, N_ROWS, 5), N_ROWS - 1])
+    for name in ("trajectory.csv", "trajectory.tum"):
+        assert (tmp_path / "part" / name).read_bytes() == (tmp_path / "whole" / name).read_bytes()
+    reports = [json.loads(s.report_json.read_text(encoding="utf-8")) for s in (whole, part)]
+    for report in reports:
+        del report["run_time_s"]
+    assert reports[0] == reports[1]
+    assert [p.name for p in part.plots] == ["trajectory.png", "states.png"]

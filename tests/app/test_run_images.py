@@ -287,17 +287,16 @@ def test_image_size_differing_from_the_camera_is_an_error(sim, tmp_path, capsys)
 
 
 class _Recorder:
-    """A frame observer that records how many rows were emitted when it is called."""
+    """A frame observer that records the odometry's time (its latest row) when it is called."""
 
-    def __init__(self, times, rows_seen):
+    def __init__(self, times):
         self.times = np.asarray(times, dtype=float)
-        self.rows_seen = rows_seen
-        self.calls: list[tuple[float, int]] = []
+        self.calls: list[tuple[float, float | None]] = []
         self.confirmed_labels: list[str] = []
 
     def feed(self, index: int, odometry: OnlineOdometry) -> None:
         t = float(self.times[index])
-        self.calls.append((t, len(self.rows_seen)))
+        self.calls.append((t, odometry.t))
         odometry.sighting(t, Sighting("grass" if t < 0.5 else "sand"))
         self.confirmed_labels.append(odometry.seen_terrain)
 
@@ -314,15 +313,12 @@ def test_frames_are_observed_after_the_rows_up_to_their_time(sim):
         terrain=None,
         segment=full.segment[:n],
     )
-    rows_seen: list[float] = []
-    frames = _Recorder([-0.1, 0.0, 0.03, 0.5, 0.51, 0.58, 0.7], rows_seen)
-    result = run_icr_ekf(
-        log, load_config(), on_row=lambda row: rows_seen.append(row.t), frames=frames
-    )
+    frames = _Recorder([-0.1, 0.0, 0.03, 0.5, 0.51, 0.58, 0.7])
+    result = run_icr_ekf(log, load_config(), frames=frames)
     assert result.frames_before == 1 and result.frames_after == 1
-    for t_f, emitted in frames.calls:
-        # observed while row k (the last with t <= t_f) is processed: rows 0 .. k-1 emitted
-        assert emitted == int(np.count_nonzero(log.t <= t_f + 1e-12)) - 1
+    for t_f, t_odometry in frames.calls:
+        # observed right after row k, the last with t <= t_f, and before row k + 1
+        assert t_odometry == log.t[np.count_nonzero(log.t <= t_f + 1e-12) - 1]
     assert [t for t, _ in frames.calls] == [0.0, 0.03, 0.5, 0.51, 0.58]
     assert frames.confirmed_labels == ["grass", "grass", "grass", "sand", "sand"]
     assert [c.label for c in result.changes] == ["sand"]  # confirm = 2

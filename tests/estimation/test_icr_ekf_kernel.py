@@ -20,26 +20,9 @@ from terrain_odom.estimation.icr_ekf_reference import FilterpyIcrEkf
 from terrain_odom.estimation.pose_measurement import Mounting
 from terrain_odom.io import read_wheel_log
 
+from .conftest import python_kernels
+
 TOLERANCE = 1e-12
-
-
-@pytest.fixture
-def kernels(request, monkeypatch):
-    """Run the kernels as Python (as the first calls of a process do), or compiled."""
-    if request.param == "compiled":
-        _kernels.compile_kernels()
-    else:
-        monkeypatch.setattr(_kernels, "PURE_CALLS", 10**12)
-        _python_kernels(monkeypatch)
-    return request.param
-
-
-def _python_kernels(monkeypatch):
-    """Put the kernels back as a fresh process has them: Python, counting calls."""
-    monkeypatch.setattr(_kernels, "_compiled", False)
-    monkeypatch.setattr(_kernels, "_calls", 0)
-    for name, function in {**_kernels._PURE, **_kernels._WRAPPERS}.items():
-        monkeypatch.setattr(_kernels, name, function)
 
 
 def _both(log, cfg, monkeypatch, labels=None):
@@ -87,7 +70,7 @@ def test_switch_to_compiled_kernels_mid_run_changes_no_bit(drive_dir, warthog_ya
     log = read_wheel_log(drive_dir / "stitched_grass_to_asphalt.csv", wheel_radius=0.30)
     _kernels.compile_kernels()
     compiled = odometry.run_icr_ekf(log, cfg, labels=log.terrain)
-    _python_kernels(monkeypatch)
+    python_kernels(monkeypatch)
     monkeypatch.setattr(_kernels, "PURE_CALLS", 300)
     assert _kernels.icr_predict is _kernels._WRAPPERS["icr_predict"]
     switched = odometry.run_icr_ekf(log, cfg, labels=log.terrain)
@@ -154,3 +137,24 @@ def test_kernels_equal_filterpy_with_heading_only_rows_holding_alpha(sample_dir,
     _assert_equal(fast, slow)
     moved = np.flatnonzero(np.diff(fast.states[:, 6]) != 0.0) + 1
     assert moved.size > 100 and np.all(log.has_position[moved])
+
+
+def test_a_stretch_of_rows_counts_two_calls_a_row_towards_compiling(monkeypatch):
+    """A long stretch compiles first (no 4096 rows in Python); a short run never compiles."""
+    python_kernels(monkeypatch)
+    monkeypatch.setattr(_kernels, "PURE_CALLS", 100)
+    ekf, one_by_one = IcrEkf(EkfConfig()), IcrEkf(EkfConfig())
+    t = 0.1 * np.arange(1, 52)
+    v_l, v_r = 0.5 + 0.1 * np.sin(t), 0.6 + 0.1 * np.cos(t)
+    z = np.full((51, 3), np.nan)
+    z[::7] = [[0.1, 0.0, 0.05]]
+    states, _, updates = ekf.run_rows((0.0, 0.5, 0.6), t[:40], (v_l[:40], v_r[:40]), z[:40])
+    assert _kernels._calls == 80 and not _kernels._compiled and updates == 6
+    rest = ekf.run_rows((4.0, v_l[39], v_r[39]), t[40:], (v_l[40:], v_r[40:]), z[40:])[0]
+    assert _kernels._compiled  # 80 + 22 > 100: compiled before the stretch ran
+    held = (0.5, 0.6)
+    for k, row in enumerate(np.vstack([states, rest])):
+        one_by_one.predict(*held, t[k] - (t[k - 1] if k else 0.0))
+        one_by_one.update(z[k])
+        held = (v_l[k], v_r[k])
+        np.testing.assert_array_equal(one_by_one.x, row)

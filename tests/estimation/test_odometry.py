@@ -98,3 +98,33 @@ def test_log_labels_are_applied_at_once_on_arrival():
     result = run_icr_ekf(log, _config("arrival"), labels=labels)
     # the second consecutive "sand" row confirms it
     assert [c.t for c in result.changes] == pytest.approx([3.02], abs=1e-9)
+
+
+def test_kept_rows_are_every_keep_th_and_the_last_and_blocks_hold_every_row(
+    drive_dir, warthog_yaml
+):
+    """keep=7 on a real log (two segments): kept rows equal the whole run's; blocks cover all."""
+    from terrain_odom.config import load_config
+    from terrain_odom.estimation.odometry import run_odometry
+    from terrain_odom.io import read_wheel_log
+
+    cfg = load_config(warthog_yaml)
+    log = read_wheel_log(drive_dir / "stitched_grass_to_asphalt.csv", wheel_radius=0.30)
+    whole = run_icr_ekf(log, cfg, labels=log.terrain)
+    blocks = []
+    kept = run_odometry(
+        log, OnlineOdometry(cfg), labels=log.terrain, on_block=blocks.append, keep=7
+    )
+    rows = np.r_[np.arange(0, len(log), 7), len(log) - 1]
+    assert whole.rows is None and kept.rows is not None
+    np.testing.assert_array_equal(kept.rows, rows)
+    np.testing.assert_array_equal(kept.states, whole.states[rows])
+    np.testing.assert_array_equal(kept.stds, whole.stds[rows])
+    np.testing.assert_array_equal(kept.terrain, whole.terrain[rows])
+    assert kept.changes == whole.changes and kept.n_updates == whole.n_updates
+    assert [b.start for b in blocks] == np.cumsum([0] + [b.t.size for b in blocks])[:-1].tolist()
+    np.testing.assert_array_equal(np.vstack([b.states for b in blocks]), whole.states)
+    np.testing.assert_array_equal(np.concatenate([b.t for b in blocks]), log.t)
+    assert all(b.t.size <= 2 * 4096 for b in blocks)
+    with pytest.raises(ValueError, match="keep must be >= 1"):
+        run_odometry(log, OnlineOdometry(cfg), keep=0)

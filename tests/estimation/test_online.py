@@ -14,7 +14,7 @@ from terrain_odom.app.run import read_calibrated_log
 from terrain_odom.cli.main import main
 from terrain_odom.config import Config, SlipEkfConfig, load_config
 from terrain_odom.errors import ConfigError, EstimationError
-from terrain_odom.estimation.icr_ekf import IcrPriors
+from terrain_odom.estimation.icr_ekf import IcrEkf, IcrPriors
 from terrain_odom.estimation.odometry import run_icr_ekf, run_slip_ekf
 from terrain_odom.io import read_trajectory_csv
 from terrain_odom.io.classifier_file import default_model, load_classifier
@@ -191,3 +191,79 @@ def test_measured_rows_on_booleans_follow_the_public_rule():
     for finite in product([False, True], repeat=3):
         z = [1.0 if f else float("nan") for f in finite]
         assert _measured_rows(list(finite)) == tuple(measured_rows(z).tolist())
+
+
+def _rows_against_calls(log: WheelLog, cfg: Config) -> tuple[OnlineOdometry, OnlineOdometry]:
+    """Feed ``log`` (one segment) through rows() in stretches, and call by call; compare."""
+    by_rows, by_calls = OnlineOdometry(cfg), OnlineOdometry(cfg)
+    by_rows.terrain(float(log.t[0]), "grass")
+    by_calls.terrain(float(log.t[0]), "grass")
+    got = [by_rows.rows(log.t[s], log.v_l[s], log.v_r[s], log.pose[s]) for s in _stretches(log)]
+    states = np.vstack([g[0] for g in got])
+    stds = np.vstack([g[1] for g in got])
+    expected = _stream(log, by_calls, labels=False)
+    n = len(by_rows.names)
+    np.testing.assert_array_equal(states, expected[:, :n])
+    np.testing.assert_array_equal(stds, expected[:, n:])
+    assert {str(label) for g in got for label in g[2]} == {"grass"}
+    return by_rows, by_calls
+
+
+def _stretches(log: WheelLog) -> list[slice]:
+    """Stretches of 1, 7, 300 and the remaining rows."""
+    cuts = [0, 1, 8, 308, len(log)]
+    return [slice(a, b) for a, b in zip(cuts[:-1], cuts[1:], strict=True)]
+
+
+@pytest.mark.parametrize("kernels", ["python", "compiled"], indirect=True)
+def test_rows_equal_the_calls_one_by_one_on_a_real_log(
+    drive_dir, warthog_yaml, kernels, monkeypatch
+):
+    """Stretches in one kernel call (once anchored) give the bits of wheels/pose/estimate."""
+    cfg = load_config(warthog_yaml)
+    log = read_calibrated_log(drive_dir / "warthog_wheels_grass.csv", cfg)[0]
+    log = dataclasses.replace(log, segment=np.zeros(len(log), dtype=log.segment.dtype))
+    in_one_call = []
+    run_rows = IcrEkf.run_rows
+
+    def counted(self, since, t, *args):  # type: ignore[no-untyped-def]
+        in_one_call.append(len(t))
+        return run_rows(self, since, t, *args)
+
+    monkeypatch.setattr(IcrEkf, "run_rows", counted)
+    by_rows, by_calls = _rows_against_calls(log, cfg)
+    assert sum(in_one_call) > 0.99 * len(log)  # all but the rows before the anchoring
+    assert by_rows.n_updates == by_calls.n_updates > 1000
+    assert by_rows.pose_use == by_calls.pose_use
+    assert by_rows._steps.filter.t == by_calls._steps.filter.t
+    assert by_rows._steps.filter.last_nis == by_calls._steps.filter.last_nis
+    assert by_rows.state() == by_calls.state()
+
+
+def test_rows_count_unpaired_positions_and_heading_only_rows_as_the_calls_do():
+    """Unpaired x or y and heading-only rows: the same drops, updates and estimates."""
+    log = _simulated_log()
+    n = 300  # the first segment
+    pose = log.pose[:n].copy()
+    pose[40::25, 1] = np.nan  # x without y
+    pose[45::25, 0] = np.nan  # y without x
+    one = WheelLog(log.t[:n], log.v_l[:n], log.v_r[:n], pose, None, np.zeros(n, int), "sim")
+    by_rows, by_calls = _rows_against_calls(one, Config())
+    assert by_rows.pose_use == by_calls.pose_use
+    assert by_rows.pose_use.dropped["position: x without y (or y without x)"] >= 20
+    assert by_rows.n_updates == by_calls.n_updates
+
+
+def test_rows_at_fault_raise_what_the_calls_raise_at_that_row():
+    log = _simulated_log()
+    odo = OnlineOdometry(Config())
+    odo.rows(log.t[:50], log.v_l[:50], log.v_r[:50], log.pose[:50])  # anchored by now
+    t = log.t[50:100].copy()
+    t[30] = t[29]  # time stands still
+    with pytest.raises(EstimationError, match=r"wheels at t=.* time does not advance"):
+        odo.rows(t, log.v_l[50:100], log.v_r[50:100], log.pose[50:100])
+    assert odo.t == t[29]  # the rows before the fault were taken
+    v_l = log.v_l[100:120].copy()
+    v_l[5] = np.inf
+    with pytest.raises(ValueError, match="v_l=inf is not finite"):
+        odo.rows(log.t[100:120], v_l, log.v_r[100:120], log.pose[100:120])

@@ -17,7 +17,6 @@ from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 
-import cv2
 import numpy as np
 from threadpoolctl import threadpool_limits
 
@@ -67,6 +66,8 @@ def one_thread() -> Iterator[None]:
     are busy with other processes a 0.6 ms query took 100 ms. The previous
     limits are restored on exit.
     """
+    import cv2  # ~0.1 s: loaded by a camera run only
+
     threads = cv2.getNumThreads()
     cv2.setNumThreads(1)
     try:

@@ -38,19 +38,19 @@ from terrain_odom.app.run_folder import (
 from terrain_odom.config import Config, TimeConfig, config_to_dict, dump_config, load_config
 from terrain_odom.errors import ConfigError, InputFileError
 from terrain_odom.estimation.icr_ekf import IcrPriors
-from terrain_odom.estimation.odometry import OdometryResult, OdometryRow, run_odometry
+from terrain_odom.estimation.odometry import OdometryBlock, OdometryResult, run_odometry
 from terrain_odom.estimation.online import ESTIMATORS, Estimator, OnlineOdometry
 from terrain_odom.estimation.pose_measurement import PoseUse
 from terrain_odom.estimation.time_offset import TimeCalibration, calibrate_pose_delay
 from terrain_odom.evaluation import check_log
 from terrain_odom.evaluation.mounting import MountingLimits, fit_mounting, x_icr_limit
-from terrain_odom.io import TrajectoryWriter, read_wheel_log, write_tum
+from terrain_odom.io import TrajectoryWriter, read_wheel_log
 from terrain_odom.io.atomic import write_text_atomic
 from terrain_odom.io.groundtruth import read_groundtruth
 from terrain_odom.io.params import read_priors
 from terrain_odom.io.paths import check_outputs
 from terrain_odom.io.report import path_or_none, report_header, to_jsonable, write_json
-from terrain_odom.io.trajectory import TrajectoryBlocks, trajectory_columns
+from terrain_odom.io.trajectory import TrajectoryBlocks, TumWriter, trajectory_columns
 from terrain_odom.records import GroundTruth, WheelLog
 from terrain_odom.reporting import run_markdown
 
@@ -485,13 +485,13 @@ def run(
         time_full_frame=inputs.gt is not None,
     )
     root = None if images is None else Path(images)
-    result, pipeline, records = _stream(inputs, odometry, out, root, progress, read)
-    log, states = inputs.log, result.states
-    tum_path = out / TRAJECTORY_TUM
-    write_tum(tum_path, log.t, *states[:, :3].T)
+    keep = 1 if record else _keep(inputs)
+    result, pipeline, records, x_icr = _stream(inputs, odometry, out, root, progress, read, keep)
+    log, tum_path = inputs.log, out / TRAJECTORY_TUM
     seconds = time.perf_counter() - started
     report = _report(inputs, result, wheels, estimator, terrain, priors, seconds)
     report["counts"]["pose_components"] = asdict(odometry.pose_use)
+    report["warnings"] = _lever_arm_warning(x_icr, inputs.cfg)
     scored = _add_sections(report, inputs, result, (pipeline, records, root), groundtruth, use_roi)
     drawn, recording = _pictures(out, inputs, result, scored, records, root, plots, record)
     if recording is not None:
@@ -521,13 +521,12 @@ def _add_sections(
     groundtruth: str | Path | None,
     use_roi: bool,
 ) -> GroundTruthReport | None:
-    """Add the warnings, heading, frames and ground-truth sections to ``report``.
+    """Add the heading, frames and ground-truth sections to ``report``.
 
     ``camera`` is the frame pipeline, its records and the frames' folder.
     Returns the run scored against its ground truth, if one was given.
     """
     pipeline, records, root = camera
-    report["warnings"] = _lever_arm_warning(result, inputs.cfg)
     if inputs.heading is not None:
         report["heading_calibration"] = asdict(inputs.heading)
     if root is not None:
@@ -554,8 +553,9 @@ def _pictures(
 
     Returns the plots' paths relative to ``out`` and the recording's path (or None).
     """
+    log = inputs.log if result.rows is None else _log_rows(inputs.log, result.rows)
     drawn = write_run_plots(
-        out, inputs.log, result, inputs.cfg, truth=inputs.gt, scored=scored, records=records,
+        out, log, result, inputs.cfg, truth=inputs.gt, scored=scored, records=records,
         images=root, classifier=inputs.classifier,
     ) if plots else []  # fmt: skip
     if not record:
@@ -635,11 +635,15 @@ def _stream(
     images: Path | None,
     progress: bool | None,
     read: dict[str, str | None],
-) -> tuple[OdometryResult, FramePipeline | None, list[FrameRecord]]:
+    keep: int,
+) -> tuple[OdometryResult, FramePipeline | None, list[FrameRecord], float]:
     """Stream the log through ``odometry``, writing ``trajectory.csv`` (and ``frames.csv``).
 
-    If anything stops the stream, ``report.json`` says the run was
-    interrupted, with the rows written and the files ``read``.
+    The result keeps every ``keep``-th row (:func:`run_odometry`). Returns
+    it, the frames' pipeline and records, and the mean ``x_icr`` over the
+    second half of the rows (all of them). If anything stops the stream,
+    ``report.json`` says the run was interrupted, with the rows written and
+    the files ``read``.
     """
     log = inputs.log
     names = odometry.names
@@ -650,10 +654,11 @@ def _stream(
         writer = stack.enter_context(
             TrajectoryWriter(out / TRAJECTORY_CSV, trajectory_columns(names))
         )
+        tum = stack.enter_context(TumWriter(out / TRAJECTORY_TUM))  # in place when complete
         stack.enter_context(bar)
-        stack.enter_context(one_thread())  # camera-rate work on one core (see one_thread)
         pipeline = None
         if inputs.frames is not None and images is not None:
+            stack.enter_context(one_thread())  # camera-rate work on one core (see one_thread)
             frame_writer = stack.enter_context(TrajectoryWriter(out / FRAMES_CSV, FRAME_COLUMNS))
 
             def on_frame(record: FrameRecord) -> None:
@@ -667,24 +672,76 @@ def _stream(
                 names=lambda path: _relative(path, root),
             )
 
-        blocks = TrajectoryBlocks(writer, names)
-        stack.callback(blocks.flush)  # before the writer closes, also when interrupted
+        blocks = TrajectoryBlocks(writer, names, tum)
+        x_icr = _SecondHalf(len(log), names.index("x_icr"))
 
-        def on_row(row: OdometryRow) -> None:
-            blocks.add(row.t, row.state, row.std, row.terrain)
-            bar.update(1)
-            written[0] += 1
+        def on_block(block: OdometryBlock) -> None:
+            blocks.write(block.t, block.states, block.stds, block.terrain)
+            x_icr.add(block)
+            bar.update(block.t.size)
+            written[0] += block.t.size
 
         try:
             result = run_odometry(
-                log, odometry, labels=inputs.labels, on_row=on_row, frames=pipeline
+                log, odometry, labels=inputs.labels, on_block=on_block, frames=pipeline, keep=keep
             )
         except BaseException as exc:
+            tum.discard()  # no TUM file of an incomplete run
             stack.close()  # flush the rows streamed so far before saying how many
             reason = "interrupted by the user" if isinstance(exc, KeyboardInterrupt) else repr(exc)
             mark_interrupted(out, read, written[0], reason)
             raise
-    return result, pipeline, records
+    return result, pipeline, records, x_icr.mean
+
+
+KEPT_ROWS = 20_000
+"""A run keeps the estimates of at most about twice this many rows in memory (for its plots)."""
+
+
+def _keep(inputs: _Inputs) -> int:
+    """Keep every how many rows' estimates: all with frames or ground truth, else ~:data:`KEPT_ROWS`.
+
+    ``trajectory.csv`` and ``trajectory.tum`` get every row as it is done;
+    the plots draw at most a few thousand points; a camera run's mosaic and
+    a run scored against ground truth look rows up by time.
+    """
+    if inputs.frames is not None or inputs.gt is not None:
+        return 1
+    return max(1, len(inputs.log) // KEPT_ROWS)
+
+
+def _log_rows(log: WheelLog, rows: np.ndarray) -> WheelLog:
+    """Return the ``rows`` of ``log`` as a log (its segments kept)."""
+    return dataclasses.replace(
+        log,
+        t=log.t[rows],
+        v_l=log.v_l[rows],
+        v_r=log.v_r[rows],
+        pose=log.pose[rows],
+        terrain=None if log.terrain is None else log.terrain[rows],
+        segment=log.segment[rows],
+    )
+
+
+@dataclass
+class _SecondHalf:
+    """Mean of one state over the second half of a run's rows, from its blocks."""
+
+    n_rows: int
+    column: int
+    total: float = 0.0
+    count: int = 0
+
+    def add(self, block: OdometryBlock) -> None:
+        first = max(self.n_rows // 2 - block.start, 0)
+        values = block.states[first:, self.column]
+        self.total += float(values.sum())
+        self.count += values.size
+
+    @property
+    def mean(self) -> float:
+        """The mean (0 before any row)."""
+        return self.total / self.count if self.count else 0.0
 
 
 def _report(
@@ -736,17 +793,15 @@ def _report_inputs(
     }
 
 
-def _lever_arm_warning(result: OdometryResult, cfg: Config) -> list[str]:
+def _lever_arm_warning(x_icr: float, cfg: Config) -> list[str]:
     """Warn when ``x_icr`` lies beyond :func:`~terrain_odom.evaluation.mounting.x_icr_limit`.
 
-    The estimate judged is the mean over the second half of the run.
+    The estimate judged is the mean over the second half of the run's rows.
 
     A position antenna ``a`` m ahead of the reference point, left out of
     ``pose_sensor``, moves sideways in turns as ICRs ``a`` m further back do;
     without a heading the log cannot tell the two apart before the run.
     """
-    column = result.states[len(result.states) // 2 :, result.names.index("x_icr")]
-    x_icr = float(np.mean(column)) if column.size else 0.0
     limit = x_icr_limit(cfg.robot.track_width)
     if not abs(x_icr) > limit:
         return []

@@ -15,7 +15,9 @@ ones load it. Importing numba and loading the kernels still costs a process
 :data:`PURE_CALLS` calls run these same functions as Python (~0.1-0.3 ms a
 call, numpy's errors off like numba's ``error_model="numpy"``), and only then
 are they compiled (:func:`compile_kernels`), so a short run never imports
-numba. The tests hold both modes to the filterpy reference.
+numba. The tests hold both modes to the filterpy reference. Other modules'
+kernels (the slip EKF's, :mod:`~terrain_odom.estimation._slip_kernels`) join
+this switch with :func:`register`: one count of calls, one compilation.
 """
 
 from __future__ import annotations
@@ -26,7 +28,16 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["PURE_CALLS", "compile_kernels", "constrain", "icr_predict", "icr_update", "std"]
+__all__ = [
+    "PURE_CALLS",
+    "compile_kernels",
+    "constrain",
+    "icr_predict",
+    "icr_rows",
+    "icr_update",
+    "register",
+    "std",
+]
 
 PURE_CALLS = 2000
 """Kernel calls run as Python before the kernels are compiled (about 700-1000 log rows)."""
@@ -251,6 +262,30 @@ def _icr_update(
     if m == 0:
         return math.nan, True
     h, jac = _sensor(x, rows, mounting)
+    k_gain, si = _gain(p, jac, rows, r)
+    if n > 6 and not pair:  # heading only: alpha not observable, held (Schmidt update)
+        k_gain[6, :] = 0.0
+    y = np.empty(m)
+    for j in range(m):
+        y[j] = z[rows[j]] - h[j]
+        if rows[j] == 2:
+            y[j] = _wrap(y[j])
+    for i in range(n):
+        for j in range(m):
+            x[i] += k_gain[i, j] * y[j]
+    nis = 0.0
+    for i in range(m):
+        for j in range(m):
+            nis += y[i] * si[i, j] * y[j]
+    _joseph(p, k_gain, jac, rows, r)
+    return nis, _constrain(x, p, limits)
+
+
+def _gain(
+    p: np.ndarray, jac: np.ndarray, rows: np.ndarray, r: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Return the Kalman gain ``K = P H^T S^-1`` and ``S^-1``, ``S = H P H^T + R`` (``R`` of ``rows``)."""
+    n, m = p.shape[0], rows.size
     pht = np.zeros((n, m))  # P H^T
     for i in range(n):
         for j in range(m):
@@ -269,22 +304,7 @@ def _icr_update(
         for j in range(m):
             for k in range(m):
                 k_gain[i, j] += pht[i, k] * si[k, j]
-    if n > 6 and not pair:  # heading only: alpha not observable, held (Schmidt update)
-        k_gain[6, :] = 0.0
-    y = np.empty(m)
-    for j in range(m):
-        y[j] = z[rows[j]] - h[j]
-        if rows[j] == 2:
-            y[j] = _wrap(y[j])
-    for i in range(n):
-        for j in range(m):
-            x[i] += k_gain[i, j] * y[j]
-    nis = 0.0
-    for i in range(m):
-        for j in range(m):
-            nis += y[i] * si[i, j] * y[j]
-    _joseph(p, k_gain, jac, rows, r)
-    return nis, _constrain(x, p, limits)
+    return k_gain, si
 
 
 def _joseph(
@@ -341,18 +361,118 @@ def _std(p: np.ndarray) -> np.ndarray:
     return out
 
 
+def _icr_rows(
+    x: np.ndarray,
+    p: np.ndarray,
+    noise: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+    rows: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+    held: np.ndarray,
+    states: np.ndarray,
+    stds: np.ndarray,
+) -> tuple[int, float, int]:
+    """Run log rows through the filter in place: per row a predict, an update, the estimate.
+
+    Row ``i`` predicts from the previous row's time with the speeds held
+    since (:func:`icr_predict`), holds its own speeds, fuses its pose
+    components if it has any (:func:`icr_update`), then writes the state and
+    its standard deviations into ``states[i]`` and ``stds[i]``: what
+    :meth:`~terrain_odom.estimation.online.OnlineOdometry.wheels`,
+    :meth:`~terrain_odom.estimation.online.OnlineOdometry.pose` and
+    :meth:`~terrain_odom.estimation.online.OnlineOdometry.estimate` do per
+    row on an anchored filter, in one call.
+
+    Parameters
+    ----------
+    x, p : ndarray, shapes (n,), (n, n)
+        State and covariance.
+    noise : tuple of ndarray
+        ``q_density`` (n,), ``r`` (3, 3), ``mounting`` (3,), ``limits`` (5,)
+        as for :func:`icr_predict` and :func:`icr_update`.
+    rows : tuple of ndarray
+        ``t`` (B,), s, increasing; ``v_l``, ``v_r`` (B,), m/s; ``z`` (B, 3),
+        the measured pose (NaN where not measured).
+    held : ndarray, shape (4,)
+        ``t, v_l, v_r`` of the previous wheel sample and the filter's clock
+        (its sum of steps, s); advanced in place to the last row.
+    states, stds : ndarray, shape (B, n)
+        Filled with the estimate after each row.
+
+    Returns
+    -------
+    updates : int
+        Rows whose pose updated the filter.
+    nis : float
+        Normalised innovation squared of the last update (NaN if none).
+    bad : int
+        The row after which the state was not finite (the rows after it are
+        not run), or -1.
+    """
+    q_density, r, mounting, limits = noise
+    t, v_l, v_r, z = rows
+    n = x.shape[0]
+    updates, last_nis = 0, math.nan
+    for i in range(t.shape[0]):
+        dt = t[i] - held[0]
+        _icr_predict(x, p, q_density, held[1], held[2], dt)
+        held[3] += dt
+        held[0], held[1], held[2] = t[i], v_l[i], v_r[i]
+        nis, finite = _icr_update(x, p, z[i], r, mounting, limits)
+        if not finite:
+            return updates, last_nis, i
+        if not math.isnan(nis):
+            updates += 1
+            last_nis = nis
+        for j in range(n):
+            states[i, j] = x[j]
+            stds[i, j] = math.sqrt(max(p[j, j], 0.0))
+    return updates, last_nis, -1
+
+
 _PURE: dict[str, Callable[..., Any]] = {
     name: globals()[name]
     for name in ("_wrap", "_arc", "_step_jacobian", "_matmul", "_symmetrise", "_inverse")
-    + ("_sensor", "_joseph", "_icr_predict", "_icr_update", "_constrain", "_std")
+    + ("_sensor", "_gain", "_joseph", "_icr_predict", "_icr_update", "_constrain", "_std")
+    + ("_icr_rows",)
 }
-_PUBLIC = ("icr_predict", "icr_update", "constrain", "std")
-_calls = 0  # kernel calls run as Python so far
+_PUBLIC = ("icr_predict", "icr_update", "constrain", "std", "icr_rows")
+_MODULES: list[tuple[dict[str, Any], dict[str, Callable[..., Any]], tuple[str, ...]]] = []
+"""Every module's kernels: its namespace, its kernels as Python by name, its public names."""
+_DISPATCHERS: dict[Callable[..., Any], Callable[..., Any]] = {}  # Python function -> numba's
+_calls = 0  # kernel calls run as Python so far (all modules)
 _compiled = False
 
 
+def register(
+    namespace: dict[str, Any], pure: dict[str, Callable[..., Any]], public: tuple[str, ...]
+) -> dict[str, Callable[..., Any]]:
+    """Put a module's kernels under the switch of this one; return its public kernels.
+
+    Parameters
+    ----------
+    namespace : dict
+        The module's ``globals()``, whose names :func:`compile_kernels`
+        points at the compiled functions.
+    pure : dict
+        The module's kernels as Python by name (``_name``), with the kernels
+        of other modules it calls (one compiled function each).
+    public : tuple of str
+        Names of the kernels callers use: ``name`` runs ``_name``.
+
+    Returns
+    -------
+    dict
+        ``name`` -> ``_name`` run as Python for the first :data:`PURE_CALLS`
+        kernel calls of the process (all modules counted), then compiled.
+    """
+    _MODULES.append((namespace, pure, public))
+    namespace.update(pure)  # as Python, also those imported from a module already compiled
+    if _compiled:  # a module imported after the switch: compiled at once
+        _compile_module(namespace, pure, public)
+    return {name: _python_first(namespace, pure[f"_{name}"], name) for name in public}
+
+
 def compile_kernels() -> None:
-    """Replace every kernel of this module by its numba version (loaded from the disk cache).
+    """Replace every kernel of every registered module by its numba version (disk cache).
 
     ``error_model="numpy"``: a division by zero gives inf/NaN (caught as a
     non-finite state), no exception.
@@ -360,35 +480,53 @@ def compile_kernels() -> None:
     global _compiled
     if _compiled:
         return
-    from numba import njit  # ~0.5 s and ~60 MiB: only once a run is long enough to pay
-
-    for name, function in _PURE.items():
-        globals()[name] = njit(cache=True, error_model="numpy")(function)
-    for name in _PUBLIC:  # callers looking the kernels up here get no wrapper any more
-        globals()[name] = globals()[f"_{name}"]
+    _DISPATCHERS.clear()
+    for module in _MODULES:
+        _compile_module(*module)
     _compiled = True
 
 
-def _python_first(name: str) -> Callable[..., Any]:
-    """Return kernel ``name`` run as Python for the first :data:`PURE_CALLS` calls, then compiled."""
-    function = _PURE[f"_{name}"]
+def _compile_module(
+    namespace: dict[str, Any], pure: dict[str, Callable[..., Any]], public: tuple[str, ...]
+) -> None:
+    """Point a module's kernel names at their numba versions (one per Python function)."""
+    from numba import njit  # ~0.5 s and ~60 MiB: only once a run is long enough to pay
+
+    for name, function in pure.items():
+        if function not in _DISPATCHERS:
+            _DISPATCHERS[function] = njit(cache=True, error_model="numpy")(function)
+        namespace[name] = _DISPATCHERS[function]
+    for name in public:  # callers looking the kernels up there get no wrapper any more
+        namespace[name] = namespace[f"_{name}"]
+
+
+def _python_first(
+    namespace: dict[str, Any], function: Callable[..., Any], name: str
+) -> Callable[..., Any]:
+    """Return ``function`` run as Python for the first :data:`PURE_CALLS` calls, then compiled.
+
+    A call of :func:`icr_rows` counts as two calls per row (a predict and an update).
+    """
 
     def call(*args: Any) -> Any:
         global _calls
         if not _compiled:
-            _calls += 1
+            _calls += 2 * len(args[3][0]) if name == "icr_rows" else 1
             if _calls <= PURE_CALLS:
                 with np.errstate(all="ignore"):  # as numba's error_model="numpy"
                     return function(*args)
             compile_kernels()
-        return globals()[f"_{name}"](*args)
+        compiled = namespace[f"_{name}"]
+        namespace[name] = compiled  # also if the module bound the wrapper after the switch
+        return compiled(*args)
 
     call.__name__, call.__doc__ = name, function.__doc__
     return call
 
 
-_WRAPPERS = {name: _python_first(name) for name in _PUBLIC}
+_WRAPPERS = register(globals(), _PURE, _PUBLIC)
 icr_predict = _WRAPPERS["icr_predict"]
 icr_update = _WRAPPERS["icr_update"]
+icr_rows = _WRAPPERS["icr_rows"]
 constrain = _WRAPPERS["constrain"]
 std = _WRAPPERS["std"]

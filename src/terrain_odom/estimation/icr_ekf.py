@@ -322,6 +322,63 @@ class IcrEkf:
             self.last_nis = nis
         return nis
 
+    def run_rows(
+        self,
+        since: tuple[float, float, float],
+        t: np.ndarray,
+        speeds: tuple[np.ndarray, np.ndarray],
+        z: np.ndarray,
+    ) -> tuple[np.ndarray, np.ndarray, int]:
+        """Predict and update over a stretch of log rows in one compiled call.
+
+        Row ``i`` is :meth:`predict` from the previous row's time with the
+        speeds held since, then :meth:`update` with ``z[i]`` if it has a
+        measured component: what calling them row by row gives, bit for bit.
+
+        Parameters
+        ----------
+        since : tuple of float
+            Time (s) and track speeds (m/s) of the wheel sample before ``t[0]``.
+        t : ndarray, shape (B,)
+            Row times, s, increasing from ``since[0]`` on.
+        speeds : tuple of ndarray, each of shape (B,)
+            ``v_l, v_r`` of each row, m/s (held until the next row).
+        z : ndarray, shape (B, 3)
+            Measured ``x, y, yaw`` of each row; NaN where not measured.
+
+        Returns
+        -------
+        states, stds : ndarray, shape (B, n)
+            The state and its standard deviations after each row.
+        updates : int
+            Rows whose pose updated the filter.
+
+        Raises
+        ------
+        EstimationError
+            Time does not advance, or the state became non-finite.
+        """
+        steps = np.diff(t, prepend=since[0])
+        if steps.size and not steps.min() > 0.0:
+            raise EstimationError(f"predict needs dt > 0 s, got {steps.min()}")
+        held = np.array([*since, self.t])
+        states, stds = np.empty((t.size, self._x.size)), np.empty((t.size, self._x.size))
+        sensor = self.mounting
+        noise = (
+            self._q_density,
+            self._r,
+            np.array([sensor.antenna_x, sensor.antenna_y, sensor.heading_offset]),
+            self._limits,
+        )
+        rows = (t, *speeds, np.ascontiguousarray(z, dtype=float))
+        updates, nis, bad = _kernels.icr_rows(self._x, self._P, noise, rows, held, states, stds)
+        if bad >= 0:
+            raise EstimationError("EKF state became non-finite; check the noise configuration")
+        self.t = float(held[3])
+        if not math.isnan(nis):
+            self.last_nis = float(nis)
+        return states, stds, int(updates)
+
     def _constrain(self) -> None:
         """Wrap yaw, clip the ICR state into its limits, symmetrise P."""
         if not _kernels.constrain(self._x, self._P, self._limits):

@@ -23,7 +23,7 @@ from terrain_odom.records import TerrainChange, WheelLog
 
 __all__ = [
     "FrameObserver",
-    "OdometryRow",
+    "OdometryBlock",
     "OdometryResult",
     "run_icr_ekf",
     "run_odometry",
@@ -32,28 +32,27 @@ __all__ = [
 
 
 @dataclass(frozen=True)
-class OdometryRow:
-    """The filter's estimate after processing one log row.
+class OdometryBlock:
+    """The filter's estimates after a block of consecutive log rows.
 
     Attributes
     ----------
-    index : int
-        Row of the log.
-    t : float
-        Time, s.
-    state : ndarray, shape (n,)
-        ``x, y, yaw, y_l, y_r, x_icr(, alpha)``.
-    std : ndarray, shape (n,)
-        Standard deviation of each state.
-    terrain : str
-        Confirmed terrain label, ``""`` if none.
+    start : int
+        Log row of the block's first row.
+    t : ndarray, shape (B,)
+        Times, s.
+    states, stds : ndarray, shape (B, n)
+        Estimate ``x, y, yaw, y_l, y_r, x_icr(, alpha)`` (or the slip EKF's
+        values) and standard deviations after each row.
+    terrain : ndarray of str, shape (B,)
+        Confirmed terrain per row, ``""`` if none.
     """
 
-    index: int
-    t: float
-    state: np.ndarray
-    std: np.ndarray
-    terrain: str
+    start: int
+    t: np.ndarray
+    states: np.ndarray
+    stds: np.ndarray
+    terrain: np.ndarray
 
 
 class FrameObserver(Protocol):
@@ -85,7 +84,7 @@ class OdometryResult:
     names : tuple of str
         State names, in column order of ``states``.
     states, stds : ndarray, shape (N, n)
-        Estimate and standard deviation after each row.
+        Estimate and standard deviation after each row (each kept row: ``rows``).
     terrain : ndarray of str, shape (N,)
         Confirmed terrain per row (``""`` before any label).
     changes : list of TerrainChange
@@ -94,6 +93,9 @@ class OdometryResult:
         Pose measurements fused.
     frames_before, frames_after : int
         Frames before the first log row or after the last one (skipped).
+    rows : ndarray of int, shape (N,), optional
+        The log rows of ``states``, ``stds`` and ``terrain`` where only some
+        were kept (``run_odometry(keep=...)``); None: one per log row.
     """
 
     names: tuple[str, ...]
@@ -104,6 +106,7 @@ class OdometryResult:
     n_updates: int = 0
     frames_before: int = 0
     frames_after: int = 0
+    rows: np.ndarray | None = None
 
 
 def run_icr_ekf(
@@ -111,7 +114,7 @@ def run_icr_ekf(
     config: Config,
     *,
     labels: Sequence[str] | np.ndarray | None = None,
-    on_row: Callable[[OdometryRow], None] | None = None,
+    on_block: Callable[[OdometryBlock], None] | None = None,
     frames: FrameObserver | None = None,
     priors: IcrPriors | None = None,
 ) -> OdometryResult:
@@ -127,8 +130,9 @@ def run_icr_ekf(
     labels : sequence of str, shape (N,), optional
         Terrain label observed at each row (e.g. ``log.terrain``); ``None``
         runs without terrain information.
-    on_row : callable, optional
-        Called with an :class:`OdometryRow` after every row (to stream output).
+    on_block : callable, optional
+        Called with each :class:`OdometryBlock` of rows done (to stream
+        output; see :func:`run_odometry`).
     frames : FrameObserver, optional
         Camera frames supplying the terrain labels (instead of ``labels``);
         see :func:`run_odometry`. Frames fed as images need an
@@ -143,7 +147,7 @@ def run_icr_ekf(
     OdometryResult
     """
     odometry = OnlineOdometry(config, priors=priors)
-    return run_odometry(log, odometry, labels=labels, on_row=on_row, frames=frames)
+    return run_odometry(log, odometry, labels=labels, on_block=on_block, frames=frames)
 
 
 def run_slip_ekf(
@@ -151,7 +155,7 @@ def run_slip_ekf(
     config: Config,
     *,
     labels: Sequence[str] | np.ndarray | None = None,
-    on_row: Callable[[OdometryRow], None] | None = None,
+    on_block: Callable[[OdometryBlock], None] | None = None,
     frames: FrameObserver | None = None,
 ) -> OdometryResult:
     """Estimate the slip parameters over a whole log (:mod:`~terrain_odom.estimation.slip_ekf`).
@@ -165,7 +169,7 @@ def run_slip_ekf(
         consecutive chords between the fixes).
     config : Config
         ``config.slip_ekf``, ``config.robot.track_width`` and ``config.terrain``.
-    labels, on_row, frames
+    labels, on_block, frames
         As for :func:`run_icr_ekf`.
 
     Returns
@@ -177,7 +181,7 @@ def run_slip_ekf(
         hold NaN for the pose.
     """
     odometry = OnlineOdometry(config, estimator="slip-ekf")
-    return run_odometry(log, odometry, labels=labels, on_row=on_row, frames=frames)
+    return run_odometry(log, odometry, labels=labels, on_block=on_block, frames=frames)
 
 
 def run_odometry(
@@ -185,8 +189,9 @@ def run_odometry(
     odometry: OnlineOdometry,
     *,
     labels: Sequence[str] | np.ndarray | None = None,
-    on_row: Callable[[OdometryRow], None] | None = None,
+    on_block: Callable[[OdometryBlock], None] | None = None,
     frames: FrameObserver | None = None,
+    keep: int = 1,
 ) -> OdometryResult:
     """Stream a log through :class:`~terrain_odom.estimation.online.OnlineOdometry`, row by row.
 
@@ -196,15 +201,26 @@ def run_odometry(
     changes), ``pose(t[k], ...)`` when the row has a measured component,
     then the frames with ``t[k] <= t_f < t[k + 1]`` (``t_f <= t[-1]`` for
     the last row; frames before the first row or after the last are
-    skipped), then the estimate is recorded.
+    skipped), then the estimate is recorded. The rows between a label, a
+    segment start and a frame go in one
+    :meth:`~terrain_odom.estimation.online.OnlineOdometry.rows` call (the
+    same results, compiled once the filter is anchored).
 
     Parameters
     ----------
     log : WheelLog
     odometry : OnlineOdometry
         A fresh estimator (no sample given yet).
-    labels, on_row, frames
+    labels, frames
         As for :func:`run_icr_ekf`; ``labels`` and ``frames`` exclude each other.
+    on_block : callable, optional
+        Called with each :class:`OdometryBlock` of rows done, in order (about
+        4096 rows each; on an error or interrupt, with the rows done so far,
+        before the exception goes on).
+    keep : int
+        Keep the estimate of every ``keep``-th row (and of the last) in the
+        result (:attr:`OdometryResult.rows`): memory that grows ``keep``
+        times slower with the log, where ``on_block`` takes every row.
 
     Returns
     -------
@@ -214,69 +230,140 @@ def run_odometry(
         raise ValueError(f"labels has {len(labels)} entries for a log of {len(log)} rows")
     if labels is not None and frames is not None:
         raise ValueError("give terrain labels or frames, not both")
-    n_rows, n_state = len(log), len(odometry.names)
-    states = np.empty((n_rows, n_state))
-    stds = np.empty((n_rows, n_state))
-    terrain = np.full(n_rows, "", dtype=object)
+    if keep < 1:
+        raise ValueError(f"keep must be >= 1, got {keep}")
+    done = _Rows(log, len(odometry.names), keep, on_block)
     frame_t = np.empty(0) if frames is None else np.asarray(frames.times, dtype=float)
     # frames observed after row k: those with t[k] <= t_f < t[k + 1] (t_f <= t[-1] for the last)
     bounds = np.searchsorted(frame_t, log.t, side="left")
-    n_after = int(frame_t.size - np.searchsorted(frame_t, log.t[-1], side="right")) if n_rows else 0
-    for k, t, v_l, v_r, new, has_pose, label in _rows(log, labels):
-        if label is not None:
-            odometry.terrain(t, label)
-        odometry.wheels(t, v_l, v_r, new_segment=new)
-        if has_pose:
-            odometry.pose(t, *log.pose[k].tolist())
-        if frames is not None:
-            stop = int(bounds[k + 1]) if k + 1 < n_rows else frame_t.size - n_after
-            for i in range(int(bounds[k]), stop):
-                frames.feed(i, odometry)
-        states[k], stds[k] = odometry.estimate()
-        terrain[k] = odometry.current_terrain
-        if on_row is not None:
-            on_row(OdometryRow(k, t, states[k], stds[k], terrain[k]))
+    n_after = (
+        int(frame_t.size - np.searchsorted(frame_t, log.t[-1], side="right")) if len(log) else 0
+    )
+    ends = np.append(bounds[1:], frame_t.size - n_after)[: len(log)]  # frames: bounds[k]:ends[k]
+    try:
+        for rows, new, label in _stretches(log, labels, ends > bounds):
+            if label is not None:
+                odometry.terrain(float(log.t[rows.start]), label)
+            stretch = _run_stretch(odometry, log, rows, new)
+            last = rows.stop - 1
+            if frames is not None and ends[last] > bounds[last]:
+                for i in range(int(bounds[last]), int(ends[last])):
+                    frames.feed(i, odometry)
+                stretch[0][-1], stretch[1][-1] = odometry.estimate()  # a frame may apply a change
+                stretch[2][-1] = odometry.current_terrain
+            done.add(*stretch)
+    finally:
+        done.flush()
     return OdometryResult(
         odometry.names,
-        states,
-        stds,
-        terrain.astype(str),
+        done.states,
+        done.stds,
+        done.terrain.astype(str),
         odometry.changes,
         odometry.n_updates,
-        frames_before=int(bounds[0]) if n_rows else int(frame_t.size),
+        frames_before=int(bounds[0]) if len(log) else int(frame_t.size),
         frames_after=n_after,
+        rows=None if keep == 1 else done.kept,
     )
 
 
-_CHUNK = 4096  # rows converted to Python numbers at a time
+def _run_stretch(
+    odometry: OnlineOdometry, log: WheelLog, rows: slice, new: bool
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Give ``odometry`` the ``rows`` of ``log`` (one, starting a segment, if ``new``).
 
-
-def _rows(
-    log: WheelLog, labels: Sequence[str] | np.ndarray | None
-) -> Iterator[tuple[int, float, float, float, bool, bool, str | None]]:
-    """Yield ``k, t, v_l, v_r, new segment, has a pose, new label`` per row, as Python objects.
-
-    The new label is ``str(labels[k])`` where it differs from the previous
-    row's (and on row 0), else None. Indexing numpy per row costs more than
-    the row's filter step; the columns are converted a chunk at a time, so
-    memory does not grow with the log.
+    Returns the estimates, standard deviations and terrain after each row.
     """
-    new_segment = np.zeros(len(log), dtype=bool)
-    new_segment[log.run_starts()] = True
-    has_pose = np.isfinite(log.pose).any(axis=1)
-    events = _label_changes(labels)
-    for start in range(0, len(log), _CHUNK):
-        chunk = slice(start, min(start + _CHUNK, len(log)))
-        yield from zip(
-            range(chunk.start, chunk.stop),
-            log.t[chunk].tolist(),
-            log.v_l[chunk].tolist(),
-            log.v_r[chunk].tolist(),
-            new_segment[chunk].tolist(),
-            has_pose[chunk].tolist(),
-            map(events.get, range(chunk.start, chunk.stop)),
-            strict=True,
+    if not new:
+        return odometry.rows(log.t[rows], log.v_l[rows], log.v_r[rows], log.pose[rows])
+    k = rows.start
+    odometry.wheels(float(log.t[k]), float(log.v_l[k]), float(log.v_r[k]), new_segment=True)
+    pose = log.pose[k]
+    if np.isfinite(pose).any():
+        odometry.pose(float(log.t[k]), *pose.tolist())
+    state, std = odometry.estimate()
+    return state[None], std[None], np.array([odometry.current_terrain], dtype=object)
+
+
+class _Rows:
+    """The rows done: handed on in blocks (``on_block``), every ``keep``-th (and the last) kept."""
+
+    def __init__(
+        self,
+        log: WheelLog,
+        n_state: int,
+        keep: int,
+        on_block: Callable[[OdometryBlock], None] | None,
+    ) -> None:
+        n_rows = len(log)
+        self.kept = (
+            np.unique(np.r_[np.arange(0, n_rows, keep), n_rows - 1]) if n_rows else np.empty(0, int)
         )
+        self.states = np.empty((self.kept.size, n_state))
+        self.stds = np.empty((self.kept.size, n_state))
+        self.terrain = np.full(self.kept.size, "", dtype=object)
+        self._t = log.t
+        self._on_block = on_block
+        self._pending: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+        self._done = self._flushed = 0
+
+    def add(self, states: np.ndarray, stds: np.ndarray, terrain: np.ndarray) -> None:
+        """Take the next stretch of rows; hand them on once :data:`_CHUNK` rows are pending."""
+        self._pending.append((states, stds, terrain))
+        self._done += len(states)
+        if self._done - self._flushed >= _CHUNK:
+            self.flush()
+
+    def flush(self) -> None:
+        """Hand the pending rows on as one block and keep those to keep."""
+        if not self._pending:
+            return
+        start, stop = self._flushed, self._done
+        states, stds, terrain = (np.concatenate(part) for part in zip(*self._pending, strict=True))
+        self._pending.clear()
+        self._flushed = stop
+        lo, hi = np.searchsorted(self.kept, [start, stop])
+        kept = self.kept[lo:hi] - start
+        self.states[lo:hi], self.stds[lo:hi], self.terrain[lo:hi] = (
+            states[kept],
+            stds[kept],
+            terrain[kept],
+        )
+        if self._on_block is not None:
+            self._on_block(OdometryBlock(start, self._t[start:stop], states, stds, terrain))
+
+
+_CHUNK = 4096  # rows per stretch at most, and per block handed on
+
+
+def _stretches(
+    log: WheelLog, labels: Sequence[str] | np.ndarray | None, frames_after: np.ndarray
+) -> Iterator[tuple[slice, bool, str | None]]:
+    """Yield ``rows, new segment, new label`` for the stretches of rows run in one go.
+
+    A stretch starts at a new label (``str(labels[k])`` where it differs
+    from the previous row's, and on row 0; else None) and at a segment
+    start (a stretch of that one row, ``new segment`` True), and ends after
+    a row with frames after it, or after :data:`_CHUNK` rows.
+    """
+    n_rows = len(log)
+    new_segment = np.zeros(n_rows, dtype=bool)
+    new_segment[log.run_starts()] = True
+    changes = _label_changes(labels)
+    starts = new_segment.copy()
+    starts[list(changes)] = True
+    ends = frames_after | np.append(starts[1:], True)  # a stretch ends before a start
+    cuts = np.flatnonzero(ends).tolist()
+    start = 0
+    for cut in cuts:
+        while start <= cut:
+            if new_segment[start]:
+                yield slice(start, start + 1), True, changes.get(start)
+                start += 1
+                continue
+            stop = min(cut + 1, start + _CHUNK)
+            yield slice(start, stop), False, changes.get(start)
+            start = stop
 
 
 def _label_changes(labels: Sequence[str] | np.ndarray | None) -> dict[int, str]:

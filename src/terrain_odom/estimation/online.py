@@ -49,7 +49,7 @@ from terrain_odom.estimation.pose_measurement import (
     sensor_pose,
 )
 from terrain_odom.estimation.terrain import TerrainTracker
-from terrain_odom.kinematics import compose, relative_pose, twist_icr, wrap_angle
+from terrain_odom.kinematics import relative_pose, twist_icr, wrap_angle
 from terrain_odom.records import Sighting, TerrainChange
 
 if TYPE_CHECKING:  # the classifier's modules (scikit-learn) load only with a classifier
@@ -279,6 +279,75 @@ class OnlineOdometry:
         self.n_updates += updated
         return updated
 
+    def rows(
+        self, t: np.ndarray, v_l: np.ndarray, v_r: np.ndarray, pose: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Take a stretch of log rows: per row :meth:`wheels`, :meth:`pose`, :meth:`estimate`.
+
+        Equal, bit for bit, to calling :meth:`wheels` for each row (within
+        the current segment), :meth:`pose` for each row with a finite
+        component, and :meth:`estimate` after it. Labels, sightings and
+        frames go between stretches. Once the ICR EKF has anchored the pose
+        and the terrain is steady (no change being confirmed or pending),
+        the rest of the stretch runs in one compiled call
+        (:meth:`~terrain_odom.estimation.icr_ekf.IcrEkf.run_rows`), ~10x
+        faster than the calls one by one.
+
+        Parameters
+        ----------
+        t : ndarray, shape (B,)
+            Times, s, increasing, after the latest wheel sample.
+        v_l, v_r : ndarray, shape (B,)
+            Track surface speeds, m/s.
+        pose : ndarray, shape (B, 3)
+            Measured ``x, y, yaw`` (m, m, rad), NaN where not measured.
+
+        Returns
+        -------
+        states, stds : ndarray, shape (B, n)
+            :meth:`estimate` after each row.
+        terrain : ndarray of object, shape (B,)
+            :attr:`current_terrain` after each row.
+
+        Raises
+        ------
+        ValueError, EstimationError
+            As :meth:`wheels` and :meth:`pose`, at the first row at fault.
+        """
+        n_rows, n = len(t), len(self.names)
+        states, stds = np.empty((n_rows, n)), np.empty((n_rows, n))
+        terrain = np.empty(n_rows, dtype=object)
+        valid = _valid_from(t, v_l, v_r)
+        k = 0
+        while k < n_rows and not (self._steady() and valid[k] and t[k] > self._t):
+            self.wheels(float(t[k]), float(v_l[k]), float(v_r[k]))
+            if np.isfinite(pose[k]).any():
+                self.pose(float(t[k]), *pose[k].tolist())
+            states[k], stds[k] = self.estimate()
+            terrain[k] = self.current_terrain
+            k += 1
+        terrain[k:] = self.current_terrain
+        if k < n_rows:
+            assert isinstance(self._steps, _IcrSteps) and self._t is not None  # _steady()
+            states[k:], stds[k:], updates = self._steps.filter.run_rows(
+                (self._t, *self._speeds), t[k:], (v_l[k:], v_r[k:]), pose[k:]
+            )
+            self.n_updates += updates
+            self.pose_use.fused(pose[k:])
+            self._t, self._speeds = float(t[-1]), (float(v_l[-1]), float(v_r[-1]))
+        return states, stds, terrain
+
+    def _steady(self) -> bool:
+        """Whether rows can run in one call: the ICR EKF anchored, the terrain steady."""
+        steps = self._steps
+        return (
+            isinstance(steps, _IcrSteps)
+            and steps.anchored
+            and self._t is not None
+            and not self._labels
+            and self._flow.steady(self._label)
+        )
+
     def frame(self, t: float, image: np.ndarray) -> FrameClassification:
         """Classify a camera frame and feed its label to the terrain tracker.
 
@@ -388,6 +457,16 @@ def _mounting(config: Config) -> Mounting:
     return Mounting(sensor.antenna_x, sensor.antenna_y, sensor.heading_offset)
 
 
+def _valid_from(t: np.ndarray, v_l: np.ndarray, v_r: np.ndarray) -> np.ndarray:
+    """Per row ``k``: whether rows ``k:`` are finite and advance in time after row ``k``.
+
+    Where not, :meth:`OnlineOdometry.wheels` run row by row says why.
+    """
+    ok = np.isfinite(t) & np.isfinite(v_l) & np.isfinite(v_r)
+    ok[1:] &= t[1:] > t[:-1]
+    return np.logical_and.accumulate(ok[::-1])[::-1]
+
+
 def _measured_rows(finite: list[bool]) -> tuple[int, ...]:
     """Return the measured components (indices into ``x, y, yaw``) given which are finite.
 
@@ -455,6 +534,11 @@ class _IcrSteps:
         self._heading = self._position = False  # a break: nothing is integrated across it
         self._course: tuple[np.ndarray, np.ndarray] | None = None  # first fix, its prediction
         self.filter.t = t
+
+    @property
+    def anchored(self) -> bool:
+        """Whether heading and position are anchored: every pose component is fused."""
+        return self._heading and self._position
 
     def predict(self, v_l: float, v_r: float, dt: float) -> None:
         self.filter.predict(v_l, v_r, dt)
@@ -643,8 +727,7 @@ class _SlipSteps:
 
     def predict(self, v_l: float, v_r: float, dt: float) -> None:
         self.filter.predict(dt)
-        inc = self.filter.model.pose_change(self.filter.x, v_l, v_r, dt)
-        self._pose = compose(self._pose, inc)
+        self.filter.dead_reckon(self._pose, v_l, v_r, dt)
 
     def sample(self, t: float, v_l: float, v_r: float) -> None:
         self._samples.append((t, v_l, v_r))
@@ -751,10 +834,7 @@ class _SlipSteps:
         return np.array([*map(float, icr), alpha])
 
     def estimate(self, v_l: float, v_r: float) -> tuple[np.ndarray, np.ndarray]:
-        icr = np.array([float(c) for c in self.filter.icrs(v_l, v_r)])
-        state = np.concatenate([self._pose, icr, self.filter.x])
-        std = np.concatenate([np.full(3, np.nan), self.filter.icr_std(v_l, v_r), self.filter.std])
-        return state, std
+        return self.filter.estimate(self._pose, v_l, v_r)
 
 
 class _TerrainFlow:
@@ -781,6 +861,12 @@ class _TerrainFlow:
     def seen(self) -> str | None:
         """Terrain confirmed by the observations so far."""
         return self.tracker.current
+
+    def steady(self, label: Sighting | None) -> bool:
+        """Whether observing ``label`` (None: no label) at every row would change nothing."""
+        if self.odometer_on or self.pending:
+            return False
+        return label is None or (self.ekf.terrain is not None and self.tracker.steady(label.label))
 
     def travel(self, distance: float) -> None:
         """Advance the odometer by ``distance`` m."""

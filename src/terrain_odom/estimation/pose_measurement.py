@@ -237,6 +237,9 @@ def chord_turn(
     return h, np.vstack([c2 @ j2 / np.sqrt(l2), d_turn])
 
 
+_UNPAIRED = "x without y (or y without x)"
+
+
 @dataclass
 class PoseUse:
     """What became of the measured pose components of a run.
@@ -265,7 +268,25 @@ class PoseUse:
         self.position += int(0 in rows)
         self.heading += int(_YAW in rows)
         if 0 not in rows and np.isfinite(z[:2]).any():
-            self.drop("position", "x without y (or y without x)")
+            self.drop("position", _UNPAIRED)
+
+    def fused(self, z: np.ndarray) -> None:
+        """Count the rows of ``z`` (B, 3) as :meth:`measured`, and each usable component used.
+
+        What an anchored filter does with a stretch of pose rows: it fuses
+        every pair ``x, y`` and every ``yaw`` (rows with no finite component
+        count nothing).
+        """
+        finite = np.isfinite(z)
+        pair = finite[:, 0] & finite[:, 1]
+        positions, headings = int(np.count_nonzero(pair)), int(np.count_nonzero(finite[:, _YAW]))
+        self.position += positions
+        self.heading += headings
+        self.used_position += positions
+        self.used_heading += headings
+        unpaired = int(np.count_nonzero(finite[:, 0] != finite[:, 1]))
+        if unpaired:
+            self.drop("position", _UNPAIRED, unpaired)
 
     def used(self, what: str) -> None:
         """Count one ``position`` or ``heading`` component as used."""
@@ -274,10 +295,10 @@ class PoseUse:
         else:
             self.used_heading += 1
 
-    def drop(self, what: str, why: str) -> None:
-        """Count one ``position`` or ``heading`` component dropped because ``why``."""
+    def drop(self, what: str, why: str, count: int = 1) -> None:
+        """Count ``count`` ``position`` or ``heading`` components dropped because ``why``."""
         key = f"{what}: {why}"
-        self.dropped[key] = self.dropped.get(key, 0) + 1
+        self.dropped[key] = self.dropped.get(key, 0) + count
 
     def summary(self) -> str:
         """One line: components used of measured, and the dropped ones by reason.

@@ -26,6 +26,11 @@ Positions without any heading (a GPS alone) are fused by
 :meth:`SlipEkf.update_course`: the length of a chord between fixes and its
 turn from the chord before, all that positions measure up to a rotation.
 
+The arithmetic runs in compiled kernels (:mod:`~terrain_odom.estimation._slip_kernels`,
+numba, the process's first calls as Python); the numpy and filterpy
+formulation they replace is kept as the reference
+(:class:`~terrain_odom.estimation.slip_ekf_reference.FilterpySlipEkf`).
+
 References
 ----------
 .. [1] "Slip model of tracked vehicles based on ICRs", Mathematical Problems
@@ -35,16 +40,13 @@ References
 from __future__ import annotations
 
 import logging
-from collections.abc import Callable
 
 import numpy as np
-from filterpy.kalman import ExtendedKalmanFilter
 from numpy.typing import ArrayLike
 
 from terrain_odom.config import SlipEkfConfig, SlipSigmas, TerrainConfig
 from terrain_odom.errors import EstimationError
-from terrain_odom.estimation.pose_measurement import chord_turn
-from terrain_odom.kinematics import wrap_angle
+from terrain_odom.estimation import _slip_kernels as kernels  # looked up per call: see there
 from terrain_odom.kinematics.slip import SlipModel, param_names
 from terrain_odom.records import TerrainChange
 
@@ -89,10 +91,9 @@ class SlipEkf:
         self.model = SlipModel.from_config(config, track_width)
         self.terrain_config = terrain if terrain is not None else TerrainConfig()
         self.names = param_names(config.estimate_alpha)
-        n = len(self.names)
-        self._filter = ExtendedKalmanFilter(dim_x=n, dim_z=3)
-        self._filter.x = self._sigmas(config.initial)[:, None]
-        self._filter.P = np.diag(self._sigmas(config.sigma_p0) ** 2)
+        self._x = self._sigmas(config.initial)
+        self._P = np.diag(self._sigmas(config.sigma_p0) ** 2)
+        self._model = model_constants(self.model)
         self._q_density = self._sigmas(config.sigma_q) ** 2
         r = config.sigma_r
         self._r_diag = np.array([r.dx, r.dy, r.dyaw]) ** 2
@@ -108,19 +109,19 @@ class SlipEkf:
     @property
     def x(self) -> np.ndarray:
         """Parameter vector ``l1 .. l6(, alpha)``, shape (n,)."""
-        return self._filter.x[:, 0].copy()
+        return self._x.copy()
 
     params = x
 
     @property
     def P(self) -> np.ndarray:  # noqa: N802 - the usual symbol
         """Parameter covariance, shape (n, n)."""
-        return self._filter.P.copy()
+        return self._P.copy()
 
     @property
     def std(self) -> np.ndarray:
         """Standard deviation of every parameter, shape (n,)."""
-        return np.sqrt(np.clip(np.diag(self._filter.P), 0.0, None))
+        return np.sqrt(np.clip(np.diag(self._P), 0.0, None))
 
     def icrs(self, v_l: ArrayLike, v_r: ArrayLike) -> tuple[np.ndarray, ...]:
         """Return the current ICRs ``y_l, y_r, x_icr`` (m) at these track speeds (m/s)."""
@@ -129,16 +130,44 @@ class SlipEkf:
     def icr_std(self, v_l: float, v_r: float) -> np.ndarray:
         """Return the std of ``y_l, y_r, x_icr`` at these speeds (linearised), m."""
         _, jac = self.model.icrs_with_jacobian(self.x, *self.model.features(v_l, v_r))
-        cov = jac[:3] @ self._filter.P @ jac[:3].T
+        cov = jac[:3] @ self._P @ jac[:3].T
         return np.sqrt(np.clip(np.diag(cov), 0.0, None))
+
+    def estimate(self, pose: np.ndarray, v_l: float, v_r: float) -> tuple[np.ndarray, np.ndarray]:
+        """Return a log row's state and its standard deviations.
+
+        Parameters
+        ----------
+        pose : ndarray, shape (3,)
+            The dead-reckoned pose ``x, y, yaw`` (m, m, rad).
+        v_l, v_r : float
+            The held track speeds, m/s.
+
+        Returns
+        -------
+        state : ndarray, shape (6 + n,)
+            ``pose``, the ICRs ``y_l, y_r, x_icr`` at the speeds (:meth:`icrs`),
+            the parameters.
+        std : ndarray, shape (6 + n,)
+            NaN for the pose, then :meth:`icr_std` and :attr:`std`.
+        """
+        return kernels.slip_estimate(pose, self._x, self._P, float(v_l), float(v_r), self._model)
 
     # ------------------------------------------------------------ filtering
     def predict(self, dt: float) -> None:
         """Random walk of the parameters over ``dt`` seconds (>= 0): ``P += Q dt``."""
         if not dt >= 0.0:
             raise EstimationError(f"predict needs dt >= 0 s, got {dt}")
-        self._filter.P = self._filter.P + np.diag(self._q_density * dt)
+        kernels.slip_predict(self._P, self._q_density, float(dt))
         self.t += dt
+
+    def dead_reckon(self, pose: np.ndarray, v_l: float, v_r: float, dt: float) -> None:
+        """Advance ``pose`` (``x, y, yaw``, float array) in place over one wheel sample.
+
+        The twist of the current parameters at track speeds ``v_l, v_r``
+        (m/s), held ``dt`` s (an exact arc).
+        """
+        kernels.dead_reckon(pose, self._x, float(v_l), float(v_r), float(dt), self._model)
 
     def update(
         self,
@@ -168,17 +197,10 @@ class SlipEkf:
             Normalised innovation squared (NaN if nothing was measured).
         """
         z = np.asarray(z, dtype=float)
-        rows = np.flatnonzero(np.isfinite(z))
-        if rows.size == 0:
+        if not np.isfinite(z).any():
             return float("nan")
-        r = np.diag((self._r_diag if R is None else np.asarray(R, dtype=float))[rows])
-        freeze = np.arange(len(self.names)) < 6  # heading only: alpha not observable, kept
-
-        def predict(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-            change, jac = self.model.pose_change_with_jacobian(x, v_l, v_r, dt)
-            return change[rows], jac[rows] * freeze if rows.size == 1 else jac[rows]
-
-        return self._iterated_update(z[rows], r, predict, np.flatnonzero(rows == 2))
+        r = self._r_diag if R is None else np.asarray(R, dtype=float)
+        return self._fuse(z, r, _samples(v_l, v_r, dt), -1, _NO_ANTENNA)
 
     def update_course(
         self,
@@ -208,53 +230,21 @@ class SlipEkf:
         float
             Normalised innovation squared.
         """
+        head, tail = _samples(*first), _samples(*second)
+        z, r = (np.asarray(a, dtype=float) for a in (z, R))
+        arm = np.asarray(antenna, dtype=float)
+        return self._fuse(z, r, np.hstack([head, tail]), head.shape[1], arm)
 
-        def predict(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-            c1, j1 = self.model.pose_change_with_jacobian(x, *first)
-            c2, j2 = self.model.pose_change_with_jacobian(x, *second)
-            return chord_turn(c1, j1, c2, j2, antenna)
-
-        r = np.diag(np.asarray(R, dtype=float))
-        return self._iterated_update(np.asarray(z, dtype=float), r, predict, np.array([1]))
-
-    def _iterated_update(
-        self,
-        z: np.ndarray,
-        r: np.ndarray,
-        predict: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]],
-        angle_rows: np.ndarray,
+    def _fuse(
+        self, z: np.ndarray, r: np.ndarray, samples: np.ndarray, split: int, antenna: np.ndarray
     ) -> float:
-        """Fuse measurement ``z`` (noise ``r``) predicted by ``predict``: an iterated EKF update.
-
-        ``predict(x)`` returns ``h(x)`` and ``dh/dx``; ``angle_rows`` are the
-        rows whose residual is wrapped. Returns the normalised innovation squared.
-        """
-        x0, p0 = self.x, self._filter.P
-
-        def residual(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-            res = a - b
-            res[angle_rows] = wrap_angle(res[angle_rows])
-            return res
-
-        x_i = x0
-        for i in range(self.config.iterations):  # Gauss-Newton on the measurement (IEKF)
-            h, H = predict(x_i)  # noqa: N806
-            if i == 0 and self.config.robust:
-                r = r * _outlier_inflation(residual(z, h), H @ p0 @ H.T, r)
-            gain = p0 @ H.T @ np.linalg.inv(H @ p0 @ H.T + r)
-            x_last, x_i = x_i, x0 + gain @ (residual(z, h) - H @ (x0 - x_i))
-        # The final step through filterpy (Joseph form), linearised at the last iterate.
-        self._filter.update(
-            z[:, None],
-            HJacobian=lambda _x: H,
-            Hx=lambda x: (h + H @ (x[:, 0] - x_last))[:, None],
-            R=r,
-            residual=lambda a, b: residual(a[:, 0], b[:, 0])[:, None],
+        """Run :func:`~terrain_odom.estimation._slip_kernels.slip_update`; return the NIS."""
+        options = (int(self.config.iterations), bool(self.config.robust))  # one numba signature
+        nis, finite = kernels.slip_update(
+            self._x, self._P, z, r, samples, split, self._model, antenna, *options
         )
-        y = self._filter.y
-        self.last_nis = float((y.T @ self._filter.SI @ y).item())
-        self._filter.P = 0.5 * (self._filter.P + self._filter.P.T)
-        if not (np.all(np.isfinite(self._filter.x)) and np.all(np.isfinite(self._filter.P))):
+        self.last_nis = float(nis)
+        if not finite:
             raise EstimationError("slip EKF state became non-finite; check the noise configuration")
         return self.last_nis
 
@@ -277,26 +267,34 @@ class SlipEkf:
             self._memory[self.terrain] = self.x
         restored = tc.memory and label in self._memory
         if restored:
-            self._filter.x = self._memory[label][:, None].copy()
+            self._x = self._memory[label].copy()
         pb: SlipSigmas = self.config.sigma_pb
-        self._filter.P = np.diag(self._sigmas(pb) ** 2)
+        self._P = np.diag(self._sigmas(pb) ** 2)
         change = TerrainChange(self.t, self.terrain, label, bool(restored))
         logger.info("slip EKF: terrain %s -> %s at t=%.2f s", self.terrain, label, self.t)
         self.set_terrain(label)
         return change
 
 
-def _outlier_inflation(innovation: np.ndarray, hph: np.ndarray, r: np.ndarray) -> float:
-    """Factor (>= 1) on ``R`` that brings the innovation back to the 99 % chi-square bound.
+def model_constants(model: SlipModel) -> np.ndarray:
+    """Return the constants of ``model`` as the kernels take them, shape (9,).
 
-    ``hph`` is ``H P H^T`` and ``r`` the measurement covariance; the
-    normalised innovation squared ``y^T (HPH^T + R)^-1 y`` above the bound of
-    its dimension marks an outlier (ICP stamp jitter), whose noise is then
-    taken as that much larger.
+    ``B, eps``, lateral acceleration and curvature on (1) or off (0), then
+    the limits ``half_width_min, half_width_max, x_icr_max, alpha_min, alpha_max``.
     """
-    nis = float(innovation @ np.linalg.solve(hph + r, innovation))
-    return max(1.0, nis / _CHI2_99[innovation.size])
+    lim = model.limits
+    return np.array(
+        [model.track_width, model.eps, model.lateral_acceleration, model.curvature]
+        + [lim.half_width_min, lim.half_width_max, lim.x_icr_max, lim.alpha_min, lim.alpha_max],
+        dtype=float,
+    )
 
 
-_CHI2_99 = {1: 6.635, 2: 9.210, 3: 11.345}
-"""99 % quantiles of the chi-square distribution with 1, 2 and 3 degrees of freedom."""
+def _samples(v_l: ArrayLike, v_r: ArrayLike, dt: ArrayLike) -> np.ndarray:
+    """Return wheel samples ``v_l, v_r, dt`` (each shape (K,), broadcast) as rows, (3, K)."""
+    return np.vstack(
+        np.broadcast_arrays(*(np.atleast_1d(np.asarray(a, float)) for a in (v_l, v_r, dt)))
+    )
+
+
+_NO_ANTENNA = np.zeros(2)  # a pose change uses no lever arm

@@ -44,6 +44,10 @@ class TerrainTracker:
         self._candidate_at: float | None = None
         self.changed_at: float | None = None
 
+    def steady(self, label: str) -> bool:
+        """Whether observing ``label`` now would change nothing (it is the current terrain)."""
+        return label == self.current and self._candidate is None
+
     def observe(self, label: str, at: float | None = None) -> str | None:
         """Feed one observation; return the new label when a change is confirmed.
 

@@ -7,11 +7,12 @@ import os
 import secrets
 from collections.abc import Callable
 from pathlib import Path
-from typing import BinaryIO
+from types import TracebackType
+from typing import BinaryIO, TypeVar
 
 from terrain_odom.errors import TerrainOdomError
 
-__all__ = ["OutputFileError", "write_atomic", "write_text_atomic"]
+__all__ = ["AtomicFile", "OutputFileError", "write_atomic", "write_text_atomic"]
 
 
 class OutputFileError(TerrainOdomError, OSError):
@@ -21,13 +22,18 @@ class OutputFileError(TerrainOdomError, OSError):
         return f"{self.filename}: cannot write ({self.strerror})"
 
 
-def write_atomic(path: str | os.PathLike[str], write: Callable[[BinaryIO], object]) -> None:
-    """Write a file through ``write(handle)`` atomically.
+_Atomic = TypeVar("_Atomic", bound="AtomicFile")
 
-    The bytes go to a new temporary file in the same folder (created with the
-    usual permissions, i.e. subject to the umask), synced to disk, which then
-    replaces ``path``; on any error the temporary file is removed and an
-    existing ``path`` is left untouched.
+
+class AtomicFile:
+    """A binary file written to a temporary file that replaces ``path`` when closed cleanly.
+
+    A context manager: inside, write to :attr:`handle`; on a clean exit the
+    bytes are synced to disk and the temporary file (a new file in the same
+    folder, with the usual permissions, i.e. subject to the umask) replaces
+    ``path``; on any exception it is removed and an existing ``path`` is
+    left untouched. So a file can be streamed block by block and readers
+    still never see a partial one.
 
     Raises
     ------
@@ -38,22 +44,66 @@ def write_atomic(path: str | os.PathLike[str], write: Callable[[BinaryIO], objec
         On any other operating-system error (read-only folder, full disk,
         ``path`` a folder, ...), naming ``path``.
     """
-    path = Path(path)
-    if not path.parent.is_dir():
-        raise FileNotFoundError(
-            errno.ENOENT, f"directory does not exist, cannot write {path}", str(path.parent)
-        )
-    temporary = path.with_name(f".{path.name}.{secrets.token_hex(4)}.tmp")
-    try:
-        with open(temporary, "xb") as handle:
-            write(handle)
-            handle.flush()
-            os.fsync(handle.fileno())
-        os.replace(temporary, path)
-    except OSError as exc:
-        raise OutputFileError(exc.errno, exc.strerror, str(path)) from exc
-    finally:
-        temporary.unlink(missing_ok=True)
+
+    def __init__(self, path: str | os.PathLike[str]) -> None:
+        self.path = Path(path)
+        if not self.path.parent.is_dir():
+            raise FileNotFoundError(
+                errno.ENOENT,
+                f"directory does not exist, cannot write {self.path}",
+                str(self.path.parent),
+            )
+        self._temporary = self.path.with_name(f".{self.path.name}.{secrets.token_hex(4)}.tmp")
+        try:
+            self.handle: BinaryIO = open(self._temporary, "xb")  # noqa: SIM115 - closed in __exit__
+        except OSError as exc:
+            raise OutputFileError(exc.errno, exc.strerror, str(self.path)) from exc
+
+    def discard(self) -> None:
+        """Close and remove the temporary file, leaving ``path`` as it was; exiting then does nothing."""
+        self.handle.close()
+        self._temporary.unlink(missing_ok=True)
+
+    def __enter__(self: _Atomic) -> _Atomic:
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        traceback: TracebackType | None,
+    ) -> None:
+        if self.handle.closed:  # discarded
+            return
+        try:
+            with self.handle:
+                if exc_type is None:
+                    self.handle.flush()
+                    os.fsync(self.handle.fileno())
+            if exc_type is None:
+                os.replace(self._temporary, self.path)
+        except OSError as error:
+            raise OutputFileError(error.errno, error.strerror, str(self.path)) from error
+        finally:
+            self._temporary.unlink(missing_ok=True)
+
+
+def write_atomic(path: str | os.PathLike[str], write: Callable[[BinaryIO], object]) -> None:
+    """Write a file through ``write(handle)`` atomically (see :class:`AtomicFile`).
+
+    Raises
+    ------
+    FileNotFoundError, OutputFileError
+        As :class:`AtomicFile`; an ``OSError`` raised by ``write`` becomes
+        an ``OutputFileError`` naming ``path``.
+    """
+    with AtomicFile(path) as file:
+        try:
+            write(file.handle)
+        except OutputFileError:
+            raise
+        except OSError as exc:
+            raise OutputFileError(exc.errno, exc.strerror, str(path)) from exc
 
 
 def write_text_atomic(path: str | os.PathLike[str], text: str) -> None:

@@ -17,7 +17,6 @@ from __future__ import annotations
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-import cv2
 import numpy as np
 from numpy.typing import NDArray
 
@@ -84,6 +83,8 @@ def read_image_rgb(path: str | Path) -> NDArray[np.uint8] | None:
         data = np.fromfile(path, dtype=np.uint8)
     except OSError:
         return None
+    import cv2  # ~0.1 s: loaded when an image is read, not by a wheel-only run
+
     bgr = cv2.imdecode(data, cv2.IMREAD_COLOR) if data.size else None
     if bgr is None:
         return None

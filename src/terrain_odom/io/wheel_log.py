@@ -32,7 +32,7 @@ from __future__ import annotations
 import math
 import os
 from collections.abc import Sequence
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -99,19 +99,25 @@ def read_wheel_log(source: Source, *, wheel_radius: float | None = None) -> Whee
         last = _Last(float(part.t[-1]), int(part.segment[-1]), table.lines[-1])
     if not parts:
         raise table.error("no data rows after the header")
-    v_l, v_r = (np.concatenate([getattr(p, name) for p in parts]) for name in ("v_l", "v_r"))
+    t, v_l, v_r, pose, terrain, segment = _joined(parts)
     if speeds == _SPEED_PAIRS[1]:
         v_l, v_r = v_l * wheel_radius, v_r * wheel_radius
-    terrain = None if parts[0].terrain is None else np.concatenate([p.terrain for p in parts])
-    return WheelLog(
-        t=np.concatenate([p.t for p in parts]),
-        v_l=v_l,
-        v_r=v_r,
-        pose=np.concatenate([p.pose for p in parts]),
-        terrain=terrain,
-        segment=np.concatenate([p.segment for p in parts]),
-        source=table.name,
-    )
+    return WheelLog(t, v_l, v_r, pose, terrain, segment, source=table.name)
+
+
+def _joined(parts: list[_Columns]) -> _Columns:
+    """Join the chunks' columns, one column at a time (``parts`` is emptied).
+
+    Each column's chunks are freed once it is joined, so the log is held
+    about once, not twice, while it is put together.
+    """
+    pieces = {name: [getattr(part, name) for part in parts] for name in _Columns._fields}
+    parts.clear()
+    joined: dict[str, Any] = {}
+    for name in _Columns._fields:
+        chunks = pieces.pop(name)
+        joined[name] = None if chunks[0] is None else np.concatenate(chunks)
+    return _Columns(**joined)
 
 
 _CHUNK_ROWS = 16384
