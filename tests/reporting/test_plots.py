@@ -140,7 +140,7 @@ def _drawn_within_picture(fig) -> bool:
 
 
 def test_the_run_figures_lay_out_long_labels_and_large_coordinates_inside_the_picture(png_of):
-    """Tight layout (every run draws these two): no legend, tick or axis label is cut off."""
+    """Laid out when drawn (every run draws these two): no legend, tick or label is cut off."""
     names = tuple(f"terrain_with_a_long_name_{i:02d}" for i in range(5))
     log, result, truth_xy = _run(n=1200, labels=names)
     far = np.array([452_310.0, 5_411_870.0, 0.0])  # UTM-sized coordinates: long tick labels

@@ -156,7 +156,7 @@ def trajectory_figure(
     has_error = truth is not None or bool(np.isfinite(measured).all(axis=1).any())
     ratio = _aspect(result.states[:, :2], measured)
     height = 5.6 * ratio + (2.6 if has_error else 0.6)
-    fig = new_figure(9.0, height, layout="tight")  # drawn by every run: the cheaper layout
+    fig = new_figure(9.0, height)
     ratios = [5.6 * ratio, 2.0] if has_error else None
     axes = fig.subplots(2 if has_error else 1, 1, height_ratios=ratios)
     ax = axes[0] if has_error else axes
@@ -278,7 +278,7 @@ def states_figure(
         One axis per state of :data:`STATE_UNITS` the run has.
     """
     names = [n for n in STATE_UNITS if n in result.names]
-    fig = new_figure(8.0, 1.2 + 1.9 * len(names), layout="tight")  # drawn by every run
+    fig = new_figure(8.0, 1.2 + 1.9 * len(names))
     axes = fig.subplots(len(names), 1, sharex=True, squeeze=False)[:, 0]
     index = decimate(len(t))
     labels = np.asarray(result.terrain).astype(str)
