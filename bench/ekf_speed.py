@@ -15,9 +15,16 @@ the repository), then prints, each figure with the baseline it is divided by:
    (``read_csv`` + ``to_csv``, pandas already imported), alternately, best of
    ``--repeat`` each; and where the time goes (in-process: reading, checks
    and pose delay, filter loop, writing);
-3. **start-up**: ``terrain-odom run`` on the first 200 rows against
-   ``python -c "import numpy"`` (alternately, best of ``--repeat`` fresh
-   processes each), and whether scikit-learn, ``scipy.stats`` or filterpy
+3. **start-up**: ``terrain-odom run`` on the first 200 rows, with and
+   without its plots, against ``python -c "import numpy"``, and the plots'
+   floor: importing the matplotlib modules they need and nothing else
+   (alternately, best of 3 x ``--repeat`` fresh processes each: a start-up
+   is short, its minimum needs more rounds), the package byte-compiled
+   first as an installed one is (under ``PYTHONDONTWRITEBYTECODE=1`` a
+   source checkout would otherwise compile its ~70 modules at every start);
+   then, in one more fresh process, where the plots' time goes (the filter,
+   importing matplotlib, and each figure's build, layout, draw and PNG);
+   whether scikit-learn, ``scipy.stats``, filterpy, numba or matplotlib
    were imported;
 4. **memory**: peak resident memory of ``terrain-odom run`` on one copy and
    on ``--copies`` copies, and the growth per row; the same with
@@ -38,6 +45,7 @@ About 2 minutes on the 2-core machine (the filterpy reference takes most).
 from __future__ import annotations
 
 import argparse
+import compileall
 import json
 import os
 import subprocess
@@ -48,6 +56,7 @@ from pathlib import Path
 
 import numpy as np
 
+import terrain_odom
 from terrain_odom.config import Config, load_config
 from terrain_odom.estimation import IcrEkf, icr_step_with_jacobian
 from terrain_odom.estimation._kernels import compile_kernels
@@ -284,28 +293,68 @@ def breakdown(path: Path, cfg: Config, rows: int, work: Path) -> None:
 
 
 # ------------------------------------------------------ 3. start-up, 4. memory
+MATPLOTLIB = "import matplotlib.figure, matplotlib.backends.backend_agg"
+"""What drawing a run's plots imports at least (``reporting.figure``: no pyplot)."""
+
+
+PLOT_PARTS = """
+import io, sys, time
+import numpy as np
+from PIL import Image
+from terrain_odom.config import load_config
+from terrain_odom.estimation.odometry import run_icr_ekf
+from terrain_odom.io import read_wheel_log
+cfg = load_config(sys.argv[2])
+log = read_wheel_log(sys.argv[1], wheel_radius=cfg.robot.wheel_radius)
+laps = [time.perf_counter()]
+result = run_icr_ekf(log, cfg, labels=log.terrain)
+def lap():
+    laps.append(time.perf_counter())
+    return f"{1e3 * (laps[-1] - laps[-2]):4.0f} ms"
+print(f"   in one fresh process: the filter over the 200 rows {lap()} (its Python kernels)")
+import matplotlib.figure, matplotlib.backends.backend_agg
+print(f"   importing matplotlib (figure, Agg) {lap()}")
+from terrain_odom.reporting.plots import states_figure, trajectory_figure
+lap()
+for name, draw in (("trajectory", lambda: trajectory_figure(log, result)),
+                   ("states", lambda: states_figure(log.t, result))):
+    fig = draw()
+    build = lap()
+    fig.get_layout_engine().execute(fig)
+    layout = lap()
+    fig.set_layout_engine("none")
+    fig.canvas.draw()
+    render = lap()
+    Image.fromarray(np.asarray(fig.canvas.buffer_rgba())).save(io.BytesIO(), format="png")
+    print(f"   {name:10s} figure: build {build}, layout {layout}, draw {render}, PNG {lap()}")
+"""
+"""Where a 200-row run's plots spend their time, figure by figure (``reporting.plots``)."""
+
+
 def startup(path: Path, work: Path, repeat: int) -> None:
-    """Section 3: a 200-row run against importing numpy, fresh processes."""
+    """Section 3: a 200-row run against importing numpy (and matplotlib), fresh processes."""
     short = work / "short200.csv"
     short.write_text("".join(path.read_text().splitlines(keepends=True)[:201]))
+    package = Path(terrain_odom.__file__).parent
+    compileall.compile_dir(package, quiet=1)  # as pip install does; a no-op once compiled
     run_cli(short, work / "short")  # compile or load the kernels' cache once
 
-    def numpy_only() -> None:
-        subprocess.run([sys.executable, "-c", "import numpy"], check=True)
+    def python_c(code: str) -> Callable[[], object]:
+        return lambda: subprocess.run([sys.executable, "-c", code], check=True)
 
-    t_numpy, t_run, t_bare = best_of(
-        repeat,
-        numpy_only,
-        lambda: run_cli(short, work / "short"),
-        lambda: run_cli(short, work / "short", "--no-plots"),
-    )
-    print(f"3. start-up, best of {repeat} fresh processes")
-    print(f"   python -c 'import numpy' (baseline)  {t_numpy:6.3f} s")
-    for what, seconds in (("", t_run), (" --no-plots", t_bare)):
-        print(
-            f"   terrain-odom run, 200 rows{what:11s} {seconds:6.3f} s = "
-            f"{seconds / t_numpy:4.1f}x numpy (goal <= 4x)"
-        )
+    rounds = 3 * repeat
+    names = ("python -c 'import numpy' (baseline)", "terrain-odom run, 200 rows",
+             "terrain-odom run, 200 rows --no-plots", "matplotlib's import alone (*)")  # fmt: skip
+    jobs = (python_c("import numpy"), lambda: run_cli(short, work / "short"),
+            lambda: run_cli(short, work / "short", "--no-plots"), python_c(MATPLOTLIB))  # fmt: skip
+    wall = best_of(rounds, *jobs)
+    print(f"3. start-up, best of {rounds} fresh processes (goal <= 4x numpy)")
+    for name, seconds in zip(names, wall, strict=True):
+        print(f"   {name:38s} {seconds:6.3f} s = {seconds / wall[0]:4.1f}x numpy")
+    print(f"   the plots: {wall[1] - wall[2]:.3f} s")
+    print(f"   (*) python -c '{MATPLOTLIB}': the plots' floor")
+    print(subprocess.run([sys.executable, "-c", PLOT_PARTS, str(short), str(CONFIG)],
+                         capture_output=True, text=True, check=True).stdout, end="")  # fmt: skip
     run_cli(short, work / "short", stats=True)
     run_cli(short, work / "short", "--no-plots", stats=True)
 

@@ -128,3 +128,29 @@ def test_frames_of_unknown_truth_are_shown_as_unknown_never_as_wrong(png_of, not
     not_blank(image)
     b, g, r = (image[..., i].astype(int) for i in range(3))
     assert ((r > 200) & (g < 80) & (b < 80)).any()  # the red cross of the wrong label
+
+
+def _drawn_within_picture(fig) -> bool:
+    """Whether everything a drawn ``fig`` shows (labels, ticks, legends) lies in its picture."""
+    drawn = fig.get_tightbbox(fig.canvas.get_renderer())  # inches
+    width, height = fig.get_size_inches()
+    slack = 1.0 / fig.dpi  # a pixel
+    return bool(drawn.x0 >= -slack and drawn.y0 >= -slack and drawn.x1 <= width + slack
+                and drawn.y1 <= height + slack)  # fmt: skip
+
+
+def test_the_run_figures_lay_out_long_labels_and_large_coordinates_inside_the_picture(png_of):
+    """Laid out when drawn (every run draws these two): no legend, tick or label is cut off."""
+    names = tuple(f"terrain_with_a_long_name_{i:02d}" for i in range(5))
+    log, result, truth_xy = _run(n=1200, labels=names)
+    far = np.array([452_310.0, 5_411_870.0, 0.0])  # UTM-sized coordinates: long tick labels
+    log = WheelLog(log.t, log.v_l, log.v_r, log.pose + far, log.terrain, log.segment)
+    result = OdometryResult(NAMES, result.states + np.append(far, np.zeros(4)), result.stds,
+                            result.terrain, result.changes)  # fmt: skip
+    truth = GroundTruth(log.t, truth_xy + far, np.zeros((len(log), 3)), None, log.terrain, "gt")
+    variants = {"ICR EKF without the terrain-triggered reset": result, "b": result}
+    for fig in (trajectory_figure(log, result, truth=truth, variants=variants),
+                states_figure(log.t, result)):  # fmt: skip
+        assert fig.get_layout_engine() is not None  # laid out when drawn
+        png_of(fig)
+        assert _drawn_within_picture(fig)

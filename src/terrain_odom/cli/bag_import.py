@@ -129,7 +129,7 @@ def logs_from_bags(
         A bag without ``--wheels-topic``, or ``--wheels-topic`` and no bag.
     """
     from terrain_odom.errors import ConfigError
-    from terrain_odom.io.bag_reader import is_bag
+    from terrain_odom.io.bag_paths import is_bag  # rosbags loads for a bag only
 
     bags = [path for path in paths if is_bag(path)]
     if args.wheels_topic is None:

@@ -32,7 +32,6 @@ __all__ = [
     "BagSummary",
     "TopicSummary",
     "bag_kind",
-    "is_bag",
     "open_bag",
     "roles_of",
     "short_type",
@@ -107,18 +106,6 @@ def bag_kind(path: str | os.PathLike[str]) -> str:
         storage = "mcap" if any(p.glob("*.mcap")) else "sqlite3"
         return f"ROS 2 ({storage})"
     return {".bag": "ROS 1", ".mcap": "MCAP", ".db3": "ROS 2 (sqlite3)"}.get(p.suffix, "unknown")
-
-
-def is_bag(path: str | os.PathLike[str]) -> bool:
-    """Whether ``path`` looks like a bag: a ``.bag``/``.mcap``/``.db3`` file or a ROS 2 folder.
-
-    By name only (a ROS 2 folder holds ``metadata.yaml``); :func:`open_bag`
-    says whether it is readable.
-    """
-    p = Path(path)
-    if p.is_dir():
-        return (p / "metadata.yaml").is_file()
-    return p.suffix in (".bag", ".mcap", ".db3")
 
 
 @contextmanager

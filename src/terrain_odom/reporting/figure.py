@@ -62,14 +62,20 @@ def new_figure(width: float, height: float) -> Any:
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    fig = Figure(figsize=(width, height), layout="constrained")
+    fig = Figure(figsize=(width, height), dpi=DPI, layout="constrained")
     FigureCanvasAgg(fig)
     return fig
 
 
 def save_png(fig: Any, handle: BinaryIO, dpi: int = DPI) -> None:
-    """Write ``fig`` as a PNG into the binary ``handle``."""
-    fig.savefig(handle, format="png", dpi=dpi)
+    """Write ``fig`` (from :func:`new_figure`) as a PNG into the binary ``handle``.
+
+    The same bytes as ``fig.savefig(handle, format="png", dpi=dpi)``, in one
+    layout and one draw: ``savefig`` lays the figure out in a draw of its own
+    (nothing rendered) before the real one, ~30 ms more a run's figure.
+    """
+    fig.set_dpi(dpi)
+    fig.canvas.print_png(handle)
 
 
 def decimate(n: int, max_points: int = MAX_POINTS) -> np.ndarray:
