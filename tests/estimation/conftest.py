@@ -1,18 +1,23 @@
-"""Fixtures of the estimation tests: the ICR EKF's kernels run as Python or compiled."""
+"""Fixtures of the estimation tests: the EKFs' kernels run as Python or compiled."""
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
-from terrain_odom.estimation import _kernels
+from terrain_odom.estimation import _kernels, _slip_kernels
+
+TOLERANCE = 1e-12
+"""How far the compiled filters may be from their references."""
 
 
 def python_kernels(monkeypatch: pytest.MonkeyPatch) -> None:
-    """Put the kernels back as a fresh process has them: Python, counting calls."""
+    """Put the kernels of both filters back as a fresh process has them: Python, counting calls."""
     monkeypatch.setattr(_kernels, "_compiled", False)
     monkeypatch.setattr(_kernels, "_calls", 0)
-    for name, function in {**_kernels._PURE, **_kernels._WRAPPERS}.items():
-        monkeypatch.setattr(_kernels, name, function)
+    for module in (_kernels, _slip_kernels):
+        for name, function in {**module._PURE, **module._WRAPPERS}.items():
+            monkeypatch.setattr(module, name, function)
 
 
 @pytest.fixture
@@ -27,3 +32,13 @@ def kernels(request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch) -> 
         python_kernels(monkeypatch)
         monkeypatch.setattr(_kernels, "PURE_CALLS", 10**12)
     return str(request.param)
+
+
+def assert_equal_runs(fast: object, slow: object) -> None:
+    """Two runs' results (``OdometryResult``) agree to :data:`TOLERANCE`, updates and changes alike."""
+    assert fast.n_updates == slow.n_updates > 0  # type: ignore[attr-defined]
+    assert fast.changes == slow.changes  # type: ignore[attr-defined]
+    for name in ("states", "stds"):
+        np.testing.assert_allclose(
+            getattr(fast, name), getattr(slow, name), rtol=0, atol=TOLERANCE, err_msg=name
+        )

@@ -20,9 +20,7 @@ from terrain_odom.estimation.icr_ekf_reference import FilterpyIcrEkf
 from terrain_odom.estimation.pose_measurement import Mounting
 from terrain_odom.io import read_wheel_log
 
-from .conftest import python_kernels
-
-TOLERANCE = 1e-12
+from .conftest import TOLERANCE, assert_equal_runs, python_kernels
 
 
 def _both(log, cfg, monkeypatch, labels=None):
@@ -31,13 +29,6 @@ def _both(log, cfg, monkeypatch, labels=None):
     monkeypatch.setattr(online, "IcrEkf", FilterpyIcrEkf)
     slow = odometry.run_icr_ekf(log, cfg, labels=labels)
     return fast, slow
-
-
-def _assert_equal(fast, slow):
-    assert fast.n_updates == slow.n_updates > 0
-    assert fast.changes == slow.changes
-    np.testing.assert_allclose(fast.states, slow.states, rtol=0, atol=TOLERANCE)
-    np.testing.assert_allclose(fast.stds, slow.stds, rtol=0, atol=TOLERANCE)
 
 
 @pytest.mark.parametrize(
@@ -51,7 +42,7 @@ def test_kernels_equal_filterpy_on_the_simulated_run(sample_dir, monkeypatch, al
     log = read_wheel_log(sample_dir / "log.csv", wheel_radius=cfg.robot.wheel_radius)
     fast, slow = _both(log, cfg, monkeypatch, labels=log.terrain)
     assert len(fast.changes) >= 2  # grass -> gravel -> grass: resets and memory exercised
-    _assert_equal(fast, slow)
+    assert_equal_runs(fast, slow)
 
 
 def test_kernels_equal_filterpy_on_a_real_log(drive_dir, warthog_yaml, monkeypatch):
@@ -61,7 +52,7 @@ def test_kernels_equal_filterpy_on_a_real_log(drive_dir, warthog_yaml, monkeypat
     log = read_wheel_log(drive_dir / "stitched_grass_to_asphalt.csv", wheel_radius=0.30)
     fast, slow = _both(log, cfg, monkeypatch, labels=log.terrain)
     assert len(fast.changes) == 1
-    _assert_equal(fast, slow)
+    assert_equal_runs(fast, slow)
 
 
 def test_switch_to_compiled_kernels_mid_run_changes_no_bit(drive_dir, warthog_yaml, monkeypatch):
@@ -134,7 +125,7 @@ def test_kernels_equal_filterpy_with_heading_only_rows_holding_alpha(sample_dir,
     pose[rows[1::2], :2] = np.nan
     log = dataclasses.replace(log, pose=pose)
     fast, slow = _both(log, cfg, monkeypatch)
-    _assert_equal(fast, slow)
+    assert_equal_runs(fast, slow)
     moved = np.flatnonzero(np.diff(fast.states[:, 6]) != 0.0) + 1
     assert moved.size > 100 and np.all(log.has_position[moved])
 

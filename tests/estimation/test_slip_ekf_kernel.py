@@ -34,29 +34,10 @@ from terrain_odom.kinematics.slip import SlipModel
 from terrain_odom.sim.slip_scenario import TRACK_WIDTH, feature_slip_scenario, icr_switch_scenario
 from terrain_odom.sim.slip_tuning import sec41_config
 
-TOLERANCE = 1e-12
+from .conftest import TOLERANCE, assert_equal_runs, python_kernels
+
 MODEL = SlipModel(TRACK_WIDTH, 1e-3, True, True, IcrLimits())
 PARAMS = np.array([0.3, 0.5, -0.2, 0.4, 0.1, -0.3, 0.95])
-
-
-@pytest.fixture
-def kernels(request, monkeypatch):
-    """Run the kernels as Python (as the first calls of a process do), or compiled."""
-    if request.param == "compiled":
-        _kernels.compile_kernels()
-    else:
-        monkeypatch.setattr(_kernels, "PURE_CALLS", 10**12)
-        _python_kernels(monkeypatch)
-    return request.param
-
-
-def _python_kernels(monkeypatch):
-    """Put the kernels of both modules back as a fresh process has them: Python, counting."""
-    monkeypatch.setattr(_kernels, "_compiled", False)
-    monkeypatch.setattr(_kernels, "_calls", 0)
-    for module in (_kernels, _slip_kernels):
-        for name, function in {**module._PURE, **module._WRAPPERS}.items():
-            monkeypatch.setattr(module, name, function)
 
 
 def _both(log, cfg, monkeypatch, labels=None):
@@ -68,20 +49,13 @@ def _both(log, cfg, monkeypatch, labels=None):
     return fast, slow
 
 
-def _assert_equal(fast, slow):
-    assert fast.n_updates == slow.n_updates > 0
-    assert fast.changes == slow.changes
-    np.testing.assert_allclose(fast.states, slow.states, rtol=0, atol=TOLERANCE)
-    np.testing.assert_allclose(fast.stds, slow.stds, rtol=0, atol=TOLERANCE)
-
-
 @pytest.mark.parametrize("kernels", ["python", "compiled"], indirect=True)
 def test_kernels_equal_the_reference_on_the_sec41_run(monkeypatch, kernels):
     """Sec. 4.1 (abrupt ICR changes, 10-Hz poses, 0.6-s window), the terrain resets on."""
     scenario = icr_switch_scenario(seed=0)
     fast, slow = _both(scenario.log, sec41_config(True), monkeypatch, scenario.log.terrain)
     assert [c.label for c in fast.changes] == ["B", "C"]
-    _assert_equal(fast, slow)
+    assert_equal_runs(fast, slow)
 
 
 def test_kernels_equal_the_reference_on_a_real_log(drive_dir, warthog_yaml, monkeypatch):
@@ -91,7 +65,7 @@ def test_kernels_equal_the_reference_on_a_real_log(drive_dir, warthog_yaml, monk
     log = read_wheel_log(drive_dir / "stitched_grass_to_asphalt.csv", wheel_radius=0.30)
     fast, slow = _both(log, cfg, monkeypatch, labels=log.terrain)
     assert len(fast.changes) == 1 and fast.n_updates > 1000
-    _assert_equal(fast, slow)
+    assert_equal_runs(fast, slow)
 
 
 @pytest.mark.parametrize("blank", ["yaw", "position"])
@@ -104,7 +78,7 @@ def test_gps_alone_and_heading_only_runs_equal_the_reference(monkeypatch, blank)
     cfg = Config(robot=RobotConfig(track_width=TRACK_WIDTH), slip_ekf=SlipEkfConfig(robust=True))
     _kernels.compile_kernels()
     fast, slow = _both(log, cfg, monkeypatch)
-    _assert_equal(fast, slow)
+    assert_equal_runs(fast, slow)
     if blank == "position":
         assert np.all(fast.states[:, -1] == 1.0)  # alpha never moved
 
@@ -115,7 +89,7 @@ def test_switch_to_compiled_kernels_mid_run_changes_no_bit(monkeypatch):
     cfg = sec41_config(True)
     _kernels.compile_kernels()
     compiled = odometry.run_slip_ekf(scenario.log, cfg, labels=scenario.log.terrain)
-    _python_kernels(monkeypatch)
+    python_kernels(monkeypatch)
     monkeypatch.setattr(_kernels, "PURE_CALLS", 300)
     switched = odometry.run_slip_ekf(scenario.log, cfg, labels=scenario.log.terrain)
     assert _kernels._compiled and _slip_kernels.slip_update is _slip_kernels._slip_update
