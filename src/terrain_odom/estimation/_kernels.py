@@ -43,6 +43,7 @@ PURE_CALLS = 2000
 """Kernel calls run as Python before the kernels are compiled (about 700-1000 log rows)."""
 
 _SERIES_LIMIT = 1e-2  # as terrain_odom.kinematics.integration._SERIES_LIMIT
+_FIRST_COUPLED = (2, 2, 3)  # pose row i of F: zero left of column _FIRST_COUPLED[i] but F[i, i] = 1
 _TWO_PI = 2.0 * math.pi
 
 
@@ -159,12 +160,22 @@ def _icr_predict(
     n = x.shape[0]
     jac = np.empty((n, n))
     _step_jacobian(x, v_l, v_r, dt, jac)
-    fp = _matmul(jac, p)
-    for i in range(n):
+    # F is the identity but in its pose rows (F[0, 2], F[1, 2], F[:3, 3:]; see _step_jacobian):
+    # F P F^T changes only the pose rows, then the pose columns. The sums take the full
+    # products' terms in their order without the exact zeros: the same bits, ~2.5x fewer terms.
+    fp = p.copy()  # F P
+    for i in range(3):
         for j in range(n):
-            acc = 0.0
-            for k in range(n):
-                acc += fp[i, k] * jac[j, k]
+            acc = p[i, j]
+            for k in range(_FIRST_COUPLED[i], n):
+                acc += jac[i, k] * p[k, j]
+            fp[i, j] = acc
+    for i in range(n):  # (F P) F^T
+        for j in range(n):
+            acc = fp[i, j]
+            if j < 3:
+                for k in range(_FIRST_COUPLED[j], n):
+                    acc += fp[i, k] * jac[j, k]
             p[i, j] = acc
         p[i, i] += q_density[i] * dt
     _symmetrise(p)
