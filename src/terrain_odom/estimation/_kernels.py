@@ -118,14 +118,19 @@ def _step_jacobian(x: np.ndarray, v_l: float, v_r: float, dt: float, jac: np.nda
 
 
 def _matmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Return ``a @ b`` of small square matrices, in loops (numba's ``@`` loads SciPy's BLAS)."""
+    """Return ``a @ b`` of small square matrices, in loops (numba's ``@`` loads SciPy's BLAS).
+
+    Zeros of ``a`` are skipped: the sums are those of the full product, bit for bit
+    (a finite ``b``), at the cost of the nonzero terms (``I - K H`` is mostly the identity).
+    """
     n = a.shape[0]
     out = np.zeros((n, n))
     for i in range(n):
         for k in range(n):
             aik = a[i, k]
-            for j in range(n):
-                out[i, j] += aik * b[k, j]
+            if aik != 0.0:
+                for j in range(n):
+                    out[i, j] += aik * b[k, j]
     return out
 
 
@@ -324,10 +329,12 @@ def _joseph(
     """Set ``P = (I - K H) P (I - K H)^T + K R K^T`` in place (``R`` of ``rows``)."""
     n, m = k_gain.shape
     i_kh = np.eye(n)
-    for i in range(n):
+    for k in range(m):  # H is sparse (ICR EKF): its zeros skipped, the same sums
         for j in range(n):
-            for k in range(m):
-                i_kh[i, j] -= k_gain[i, k] * jac[k, j]
+            h_kj = jac[k, j]
+            if h_kj != 0.0:
+                for i in range(n):
+                    i_kh[i, j] -= k_gain[i, k] * h_kj
     left = _matmul(i_kh, p)
     kr = np.zeros((n, m))
     for i in range(n):
@@ -338,7 +345,9 @@ def _joseph(
         for j in range(n):
             acc = 0.0
             for k in range(n):
-                acc += left[i, k] * i_kh[j, k]
+                c = i_kh[j, k]
+                if c != 0.0:
+                    acc += left[i, k] * c
             noise = 0.0
             for k in range(m):
                 noise += kr[i, k] * k_gain[j, k]
