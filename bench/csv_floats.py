@@ -1,11 +1,12 @@
-"""Ways to write a block of floats exactly, against the shortest ``repr`` that trajectory.csv uses.
+"""Ways to write a block of floats exactly, against the shortest ``repr``.
 
 Formats a block of 4096 rows x 15 float columns (random normal values, as
 the state and standard-deviation columns of ``trajectory.csv``) as CSV text
 in several ways and prints each as microseconds per row and as a ratio to
-``repr`` (``TrajectoryWriter.write_block``'s way), best of ``--repeat``.
-Every way shown round-trips exactly (``float(text) == value``, checked);
-only ``repr`` gives the shortest text, the others change the bytes.
+``repr`` per float, best of ``--repeat``. Every way shown round-trips
+exactly (``float(text) == value``, checked). ``by_writer`` is what
+``TrajectoryWriter.write_block`` does (orjson's Ryu digits, a column at a
+time: shortest digits, the notation may differ from ``repr``'s).
 
 Usage::
 
@@ -20,6 +21,8 @@ from collections.abc import Callable
 
 import numpy as np
 
+from terrain_odom.io.trajectory import _float_texts
+
 ROWS, COLUMNS = 4096, 15
 
 
@@ -27,6 +30,17 @@ def by_repr(block: np.ndarray) -> str:
     """Each column with ``float.__repr__`` (the writer's way), rows joined."""
     cells = [list(map(float.__repr__, column)) for column in block.T.tolist()]
     return "\n".join(map(",".join, zip(*cells, strict=True)))
+
+
+def by_writer(block: np.ndarray) -> str:
+    """Format as the writer does (orjson a column at a time), rows joined as it joins them."""
+    cells = [_float_texts(column) for column in block.T]
+    return "\n".join(map(",".join, zip(*cells, strict=True)))
+
+
+def by_numpy_str(block: np.ndarray) -> str:
+    """Format with numpy's ``astype(str)`` (Dragon4, shortest), rows joined."""
+    return "\n".join(map(",".join, block.astype(str).tolist()))
 
 
 def by_list_repr(block: np.ndarray) -> str:
@@ -55,7 +69,7 @@ def main() -> None:
     parser.add_argument("--repeat", type=int, default=7)
     args = parser.parse_args()
     block = np.random.default_rng(0).normal(size=(ROWS, COLUMNS))
-    ways = (by_repr, by_list_repr, by_percent_17g)
+    ways = (by_repr, by_writer, by_numpy_str, by_list_repr, by_percent_17g)
     for fn in ways:  # every way is exact
         text = fn(block)
         back = np.array([line.split(",") for line in text.split("\n")], dtype=float)

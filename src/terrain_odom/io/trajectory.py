@@ -10,7 +10,7 @@ Two formats:
   trajectory-evaluation tools (e.g. ``evo``), written by :func:`write_tum`.
 
 Floats are written exactly: the shortest digits that read back to the same
-float (Ryu's, formatted by ``orjson`` in C, ~10x faster than ``repr``; the
+float (Ryu's, formatted by ``orjson`` in C, ~5x faster than ``repr``; the
 notation can differ from ``repr``: ``0.00001`` for ``1e-05``); NaN is
 written as an empty cell, as in the wheel-log format, infinities as
 ``inf``/``-inf``.
