@@ -103,11 +103,11 @@ def interrupt_second_stretch(monkeypatch: pytest.MonkeyPatch) -> list[int]:
     real = OnlineOdometry.rows
     stretches: list[int] = []
 
-    def interrupted(self, t, *args):  # type: ignore[no-untyped-def]
+    def interrupted(self, t, *args, **kwargs):  # type: ignore[no-untyped-def]
         stretches.append(len(t))
         if len(stretches) == 2:
             raise KeyboardInterrupt
-        return real(self, t, *args)
+        return real(self, t, *args, **kwargs)
 
     monkeypatch.setattr(OnlineOdometry, "rows", interrupted)
     return stretches
@@ -118,8 +118,8 @@ def test_interrupted_run_keeps_streamed_rows(
 ) -> None:
     """KeyboardInterrupt in the middle: trajectory.csv holds every row done, no TUM file.
 
-    The synthetic log runs as three stretches (row 0, a new segment; rows
-    1-99; rows 100-199 from the label change on): Ctrl-C during the third
+    The synthetic log runs as two stretches (rows 0-99, from the segment's
+    start; rows 100-199 from the label change on): Ctrl-C during the second
     leaves the first 100 rows, equal to those of an uninterrupted run, and
     report.json says so.
     """
@@ -131,7 +131,7 @@ def test_interrupted_run_keeps_streamed_rows(
     with pytest.raises(KeyboardInterrupt):
         run(log_path, out_dir, progress=False)
 
-    assert stretches == [INTERRUPT_AFTER - 1, N_ROWS - INTERRUPT_AFTER]
+    assert stretches == [INTERRUPT_AFTER, N_ROWS - INTERRUPT_AFTER]
     traj = read_trajectory_csv(out_dir / "trajectory.csv")
     assert len(traj["t"]) == INTERRUPT_AFTER
     for name, column in whole.items():

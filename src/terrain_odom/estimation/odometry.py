@@ -244,7 +244,9 @@ def run_odometry(
         for rows, new, label in _stretches(log, labels, ends > bounds):
             if label is not None:
                 odometry.terrain(float(log.t[rows.start]), label)
-            stretch = _run_stretch(odometry, log, rows, new)
+            stretch = odometry.rows(
+                log.t[rows], log.v_l[rows], log.v_r[rows], log.pose[rows], new_segment=new
+            )
             last = rows.stop - 1
             if frames is not None and ends[last] > bounds[last]:
                 for i in range(int(bounds[last]), int(ends[last])):
@@ -265,24 +267,6 @@ def run_odometry(
         frames_after=n_after,
         rows=None if keep == 1 else done.kept,
     )
-
-
-def _run_stretch(
-    odometry: OnlineOdometry, log: WheelLog, rows: slice, new: bool
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Give ``odometry`` the ``rows`` of ``log`` (one, starting a segment, if ``new``).
-
-    Returns the estimates, standard deviations and terrain after each row.
-    """
-    if not new:
-        return odometry.rows(log.t[rows], log.v_l[rows], log.v_r[rows], log.pose[rows])
-    k = rows.start
-    odometry.wheels(float(log.t[k]), float(log.v_l[k]), float(log.v_r[k]), new_segment=True)
-    pose = log.pose[k]
-    if np.isfinite(pose).any():
-        odometry.pose(float(log.t[k]), *pose.tolist())
-    state, std = odometry.estimate()
-    return state[None], std[None], np.array([odometry.current_terrain], dtype=object)
 
 
 class _Rows:
@@ -341,28 +325,22 @@ def _stretches(
 ) -> Iterator[tuple[slice, bool, str | None]]:
     """Yield ``rows, new segment, new label`` for the stretches of rows run in one go.
 
-    A stretch starts at a new label (``str(labels[k])`` where it differs
-    from the previous row's, and on row 0; else None) and at a segment
-    start (a stretch of that one row, ``new segment`` True), and ends after
-    a row with frames after it, or after :data:`_CHUNK` rows.
+    A stretch starts at a segment start (``new segment`` True) and at a new
+    label (``str(labels[k])`` where it differs from the previous row's, and
+    on row 0; else None), and ends after a row with frames after it, or
+    after :data:`_CHUNK` rows.
     """
-    n_rows = len(log)
-    new_segment = np.zeros(n_rows, dtype=bool)
+    new_segment = np.zeros(len(log), dtype=bool)
     new_segment[log.run_starts()] = True
     changes = _label_changes(labels)
     starts = new_segment.copy()
     starts[list(changes)] = True
     ends = frames_after | np.append(starts[1:], True)  # a stretch ends before a start
-    cuts = np.flatnonzero(ends).tolist()
     start = 0
-    for cut in cuts:
+    for cut in np.flatnonzero(ends).tolist():
         while start <= cut:
-            if new_segment[start]:
-                yield slice(start, start + 1), True, changes.get(start)
-                start += 1
-                continue
             stop = min(cut + 1, start + _CHUNK)
-            yield slice(start, stop), False, changes.get(start)
+            yield slice(start, stop), bool(new_segment[start]), changes.get(start)
             start = stop
 
 

@@ -280,12 +280,18 @@ class OnlineOdometry:
         return updated
 
     def rows(
-        self, t: np.ndarray, v_l: np.ndarray, v_r: np.ndarray, pose: np.ndarray
+        self,
+        t: np.ndarray,
+        v_l: np.ndarray,
+        v_r: np.ndarray,
+        pose: np.ndarray,
+        *,
+        new_segment: bool = False,
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Take a stretch of log rows: per row :meth:`wheels`, :meth:`pose`, :meth:`estimate`.
 
-        Equal, bit for bit, to calling :meth:`wheels` for each row (within
-        the current segment), :meth:`pose` for each row with a finite
+        Equal, bit for bit, to calling :meth:`wheels` for each row (the
+        first with ``new_segment``), :meth:`pose` for each row with a finite
         component, and :meth:`estimate` after it. Labels, sightings and
         frames go between stretches. Once the ICR EKF has anchored the pose
         and the terrain is steady (no change being confirmed or pending),
@@ -301,6 +307,8 @@ class OnlineOdometry:
             Track surface speeds, m/s.
         pose : ndarray, shape (B, 3)
             Measured ``x, y, yaw`` (m, m, rad), NaN where not measured.
+        new_segment : bool
+            The first row starts a new segment (see :meth:`wheels`).
 
         Returns
         -------
@@ -319,8 +327,12 @@ class OnlineOdometry:
         terrain = np.empty(n_rows, dtype=object)
         valid = _valid_from(t, v_l, v_r)
         k = 0
-        while k < n_rows and not (self._steady() and valid[k] and t[k] > self._t):
-            self.wheels(float(t[k]), float(v_l[k]), float(v_r[k]))
+        while k < n_rows and (
+            (new_segment and k == 0) or not (self._steady() and valid[k] and t[k] > self._t)
+        ):
+            self.wheels(
+                float(t[k]), float(v_l[k]), float(v_r[k]), new_segment=new_segment and k == 0
+            )
             if np.isfinite(pose[k]).any():
                 self.pose(float(t[k]), *pose[k].tolist())
             states[k], stds[k] = self.estimate()
