@@ -374,11 +374,15 @@ def _constrain(x: np.ndarray, p: np.ndarray, limits: np.ndarray) -> bool:
 
 def _std(p: np.ndarray) -> np.ndarray:
     """Return the standard deviations ``sqrt(max(diag(P), 0))``, shape (n,)."""
-    n = p.shape[0]
-    out = np.empty(n)
-    for i in range(n):
-        out[i] = math.sqrt(max(p[i, i], 0.0))
+    out = np.empty(p.shape[0])
+    _std_into(p, out)
     return out
+
+
+def _std_into(p: np.ndarray, out: np.ndarray) -> None:
+    """Write the standard deviations ``sqrt(max(diag(P), 0))`` into ``out`` (n,)."""
+    for i in range(p.shape[0]):
+        out[i] = math.sqrt(max(p[i, i], 0.0))
 
 
 def _icr_rows(
@@ -429,7 +433,6 @@ def _icr_rows(
     """
     q_density, r, mounting, limits = noise
     t, v_l, v_r, z = rows
-    n = x.shape[0]
     updates, last_nis = 0, math.nan
     for i in range(t.shape[0]):
         dt = t[i] - held[0]
@@ -442,9 +445,8 @@ def _icr_rows(
         if not math.isnan(nis):
             updates += 1
             last_nis = nis
-        for j in range(n):
-            states[i, j] = x[j]
-            stds[i, j] = math.sqrt(max(p[j, j], 0.0))
+        states[i, :] = x
+        _std_into(p, stds[i])
     return updates, last_nis, -1
 
 
@@ -452,7 +454,7 @@ _PURE: dict[str, Callable[..., Any]] = {
     name: globals()[name]
     for name in ("_wrap", "_arc", "_step_jacobian", "_matmul", "_symmetrise", "_inverse")
     + ("_sensor", "_gain", "_joseph", "_icr_predict", "_icr_update", "_constrain", "_std")
-    + ("_icr_rows",)
+    + ("_std_into", "_icr_rows")
 }
 _PUBLIC = ("icr_predict", "icr_update", "constrain", "std", "icr_rows")
 _MODULES: list[tuple[dict[str, Any], dict[str, Callable[..., Any]], tuple[str, ...]]] = []
