@@ -67,6 +67,7 @@ logger = logging.getLogger(__name__)
 STATE_NAMES = ("x", "y", "yaw", "y_l", "y_r", "x_icr", "alpha")
 _POSE = slice(0, 3)
 _YAW = 2
+_NON_FINITE = "EKF state became non-finite; check the noise configuration"
 
 
 def state_names(estimate_alpha: bool) -> tuple[str, ...]:
@@ -313,11 +314,11 @@ class IcrEkf:
         else:
             r_full = np.asarray(R, dtype=float)
             r_full = np.diag(r_full) if r_full.ndim == 1 else r_full
-        sensor = self.mounting
-        mounting = np.array([sensor.antenna_x, sensor.antenna_y, sensor.heading_offset])
-        nis, finite = _kernels.icr_update(self._x, self._P, z, r_full, mounting, self._limits)
+        nis, finite = _kernels.icr_update(
+            self._x, self._P, z, r_full, self._mounting_array(), self._limits
+        )
         if not finite:
-            raise EstimationError("EKF state became non-finite; check the noise configuration")
+            raise EstimationError(_NON_FINITE)
         if not math.isnan(nis):  # NaN: nothing measured, nothing done
             self.last_nis = nis
         return nis
@@ -363,26 +364,25 @@ class IcrEkf:
             raise EstimationError(f"predict needs dt > 0 s, got {steps.min()}")
         held = np.array([*since, self.t])
         states, stds = np.empty((t.size, self._x.size)), np.empty((t.size, self._x.size))
-        sensor = self.mounting
-        noise = (
-            self._q_density,
-            self._r,
-            np.array([sensor.antenna_x, sensor.antenna_y, sensor.heading_offset]),
-            self._limits,
-        )
+        noise = (self._q_density, self._r, self._mounting_array(), self._limits)
         rows = (t, *speeds, np.ascontiguousarray(z, dtype=float))
         updates, nis, bad = _kernels.icr_rows(self._x, self._P, noise, rows, held, states, stds)
         if bad >= 0:
-            raise EstimationError("EKF state became non-finite; check the noise configuration")
+            raise EstimationError(_NON_FINITE)
         self.t = float(held[3])
         if not math.isnan(nis):
             self.last_nis = float(nis)
         return states, stds, int(updates)
 
+    def _mounting_array(self) -> np.ndarray:
+        """:attr:`mounting` as the kernels take it: ``antenna_x, antenna_y, heading_offset``."""
+        sensor = self.mounting
+        return np.array([sensor.antenna_x, sensor.antenna_y, sensor.heading_offset])
+
     def _constrain(self) -> None:
         """Wrap yaw, clip the ICR state into its limits, symmetrise P."""
         if not _kernels.constrain(self._x, self._P, self._limits):
-            raise EstimationError("EKF state became non-finite; check the noise configuration")
+            raise EstimationError(_NON_FINITE)
 
     def reset_pose(self, pose: ArrayLike, sigma: ArrayLike | None = None) -> None:
         """Re-anchor the pose (e.g. at the first measurement of a log segment).
