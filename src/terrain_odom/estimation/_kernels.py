@@ -23,7 +23,7 @@ this switch with :func:`register`: one count of calls, one compilation.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import Any
 
 import numpy as np
@@ -465,7 +465,10 @@ _compiled = False
 
 
 def register(
-    namespace: dict[str, Any], pure: dict[str, Callable[..., Any]], public: tuple[str, ...]
+    namespace: dict[str, Any],
+    pure: dict[str, Callable[..., Any]],
+    public: tuple[str, ...],
+    calls: Mapping[str, Callable[..., int]] | None = None,
 ) -> dict[str, Callable[..., Any]]:
     """Put a module's kernels under the switch of this one; return its public kernels.
 
@@ -479,6 +482,9 @@ def register(
         of other modules it calls (one compiled function each).
     public : tuple of str
         Names of the kernels callers use: ``name`` runs ``_name``.
+    calls : mapping of str to callable, optional
+        For a public kernel doing the work of many calls (a loop over rows),
+        how many calls one call counts for, given its arguments (default 1).
 
     Returns
     -------
@@ -490,7 +496,21 @@ def register(
     namespace.update(pure)  # as Python, also those imported from a module already compiled
     if _compiled:  # a module imported after the switch: compiled at once
         _compile_module(namespace, pure, public)
-    return {name: _python_first(namespace, pure[f"_{name}"], name) for name in public}
+    counts = calls or {}
+    return {
+        name: _python_first(namespace, pure[f"_{name}"], name, counts.get(name, _one_call))
+        for name in public
+    }
+
+
+def _one_call(*args: Any) -> int:
+    """Count a kernel call as one call."""
+    return 1
+
+
+def _row_calls(*args: Any) -> int:
+    """Count a call of :func:`icr_rows` as two calls per row (a predict and an update)."""
+    return 2 * len(args[3][0])
 
 
 def compile_kernels() -> None:
@@ -523,17 +543,20 @@ def _compile_module(
 
 
 def _python_first(
-    namespace: dict[str, Any], function: Callable[..., Any], name: str
+    namespace: dict[str, Any],
+    function: Callable[..., Any],
+    name: str,
+    counts: Callable[..., int],
 ) -> Callable[..., Any]:
     """Return ``function`` run as Python for the first :data:`PURE_CALLS` calls, then compiled.
 
-    A call of :func:`icr_rows` counts as two calls per row (a predict and an update).
+    A call counts for ``counts(*args)`` calls (see :func:`register`).
     """
 
     def call(*args: Any) -> Any:
         global _calls
         if not _compiled:
-            _calls += 2 * len(args[3][0]) if name == "icr_rows" else 1
+            _calls += counts(*args)
             if _calls <= PURE_CALLS:
                 with np.errstate(all="ignore"):  # as numba's error_model="numpy"
                     return function(*args)
@@ -546,7 +569,7 @@ def _python_first(
     return call
 
 
-_WRAPPERS = register(globals(), _PURE, _PUBLIC)
+_WRAPPERS = register(globals(), _PURE, _PUBLIC, {"icr_rows": _row_calls})
 icr_predict = _WRAPPERS["icr_predict"]
 icr_update = _WRAPPERS["icr_update"]
 icr_rows = _WRAPPERS["icr_rows"]
