@@ -172,7 +172,7 @@ class TrajectoryWriter:
             If a value is neither a str nor a real number.
         """
         self._check_keys(block)
-        self.write_cells({column: _format_column(block[column]) for column in self._columns})
+        self._write_columns([_format_column(block[column]) for column in self._columns])
 
     def write_cells(self, block: Mapping[str, list[str]]) -> None:
         """Append a block of rows given as the cells' text, column by column.
@@ -187,7 +187,10 @@ class TrajectoryWriter:
             lengths differ.
         """
         self._check_keys(block)
-        cells = [block[column] for column in self._columns]
+        self._write_columns([block[column] for column in self._columns])
+
+    def _write_columns(self, cells: list[list[str]]) -> None:
+        """Write the cells' text given column by column, in file order (keys checked)."""
         lengths = {len(column) for column in cells}
         if len(lengths) > 1:
             raise ValueError(f"columns of a block differ in length: {sorted(lengths)}")
