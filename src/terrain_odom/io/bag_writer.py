@@ -149,24 +149,22 @@ class MessageFactory:
         return self.t[POSE_COV_STAMPED](header=self.header(ns, "map"), pose=pose)
 
     def tf(self, ns: int, transforms: Sequence[tuple[str, str, float, float, float]]) -> Any:
-        """Build a ``TFMessage`` of ``(parent, child, x, y, yaw)`` transforms."""
-        t = self.t
-        stamped = [
-            t["geometry_msgs/msg/TransformStamped"](
-                header=self.header(ns, parent),
-                child_frame_id=child,
-                transform=t["geometry_msgs/msg/Transform"](
-                    translation=self._vector(x, y), rotation=self.quaternion(yaw)
-                ),
-            )
-            for parent, child, x, y, yaw in transforms
-        ]
-        return t[TF_MESSAGE](transforms=stamped)
+        """Build a ``TFMessage`` of ``(parent, child, x, y, yaw)`` transforms (planar)."""
+        return self.tf_static(
+            ns,
+            [
+                (parent, child, (x, y, 0.0), (0.0, 0.0, math.sin(yaw / 2), math.cos(yaw / 2)))
+                for parent, child, x, y, yaw in transforms
+            ],
+        )
 
     def tf_static(
         self, ns: int, transforms: Sequence[tuple[str, str, Sequence[float], Sequence[float]]]
     ) -> Any:
-        """Build a ``TFMessage`` of ``(parent, child, (x, y, z), (qx, qy, qz, qw))`` transforms."""
+        """Build a ``TFMessage`` of ``(parent, child, (x, y, z), (qx, qy, qz, qw))`` transforms.
+
+        The message of ``/tf`` and ``/tf_static`` alike (see also :meth:`tf`).
+        """
         t = self.t
         stamped = [
             t["geometry_msgs/msg/TransformStamped"](
