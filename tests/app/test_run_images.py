@@ -304,15 +304,7 @@ class _Recorder:
 def test_frames_are_observed_after_the_rows_up_to_their_time(sim):
     full = read_wheel_log(sim / "log.csv")
     n = 30  # 0 .. 0.58 s at 50 Hz
-    log = dataclasses.replace(
-        full,
-        t=full.t[:n],
-        v_l=full.v_l[:n],
-        v_r=full.v_r[:n],
-        pose=full.pose[:n],
-        terrain=None,
-        segment=full.segment[:n],
-    )
+    log = dataclasses.replace(full.take(slice(0, n)), terrain=None)
     frames = _Recorder([-0.1, 0.0, 0.03, 0.5, 0.51, 0.58, 0.7])
     result = run_icr_ekf(log, load_config(), frames=frames)
     assert result.frames_before == 1 and result.frames_after == 1
