@@ -7,10 +7,9 @@ measured heading at both ends:
 - on straight chords (the wheels and the heading turn less than
   ``straight_turn`` from end to end), the measured heading (averaged
   along the chord, weighted by travel) minus the course of the chord is
-  the sensor's heading offset (an IMU mounted turned, the magnetic
-  declination); its median over the log is :func:`heading_offset`
-  (``pose_sensor.heading_offset: auto``), its spread the robust standard
-  deviation of the single chords;
+  the sensor's heading offset left unexplained (an IMU mounted turned,
+  the magnetic declination): its circular median over the log, its spread
+  the robust standard deviation of the single chords;
 - on every chord, the sideways displacement in the frame of the mean
   heading is ``-x * dyaw`` for a point whose velocity is ``-x * omega``
   sideways: the apparent ``x_icr`` of the position sensor. A GPS antenna
@@ -28,6 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from terrain_odom.evaluation.calibration import circular_median
 from terrain_odom.kinematics import wrap_angle
 from terrain_odom.records import WheelLog
 
@@ -35,7 +35,6 @@ __all__ = [
     "MountingFit",
     "MountingLimits",
     "fit_mounting",
-    "heading_offset",
     "mounting_findings",
     "x_icr_limit",
 ]
@@ -94,7 +93,7 @@ class MountingFit:
     Attributes
     ----------
     heading_offset : float
-        Median measured heading minus course over the straight chords, rad
+        Circular median of measured heading minus course over the straight chords, rad
         (NaN with fewer than ``min_straight``).
     heading_spread : float
         Robust standard deviation of that difference over single chords, rad.
@@ -163,22 +162,11 @@ def fit_mounting(
     nan = float("nan")
     value, spread = nan, nan
     if course.size >= lim.min_straight:
-        value = float(np.median(course))
-        spread = float(1.4826 * np.median(np.abs(course - value)))
+        value = circular_median(course)  # near +-180 deg a plain median splits the cluster
+        spread = float(1.4826 * np.median(np.abs(wrap_angle(course - value))))
     lever = _chords(log, track_width, arm, offset, lim, lim.lever_chord)
     x_icr, x_std = _lever_arm(lever, lim)
     return MountingFit(value, spread, int(course.size), x_icr, x_std, int(lever.turn.size))
-
-
-def heading_offset(
-    log: WheelLog, track_width: float, limits: MountingLimits | None = None
-) -> tuple[float, float, int]:
-    """Return the heading offset of a log (rad), its spread (rad) and the straight chords used.
-
-    The offset is NaN with too few straight chords (see :class:`MountingFit`).
-    """
-    fit = fit_mounting(log, track_width, limits=limits)
-    return fit.heading_offset, fit.heading_spread, fit.straight
 
 
 def _lever_arm(ch: _Chords, lim: MountingLimits) -> tuple[float, float]:

@@ -11,8 +11,11 @@ the likely cause instead of giving a plausible-looking wrong answer:
 - ``still_wheels`` / ``still_poses``: the poses move while the wheels stand
   still over most of the log, or the reverse (wrong columns, or poses of
   another robot or run);
-- ``travel``: distance from the wheels against distance from the poses far
-  from 1 (wheel radius, rad/s against m/s);
+- ``travel``: distance from the wheels against distance from the positions
+  far from 1 (wheel radius, rad/s against m/s), over chords of at least
+  ``travel_chord`` m of wheel travel, each chord's length less the
+  positions' noise (in quadrature): the noise of a GPS would otherwise
+  lengthen a slow robot's measured path many times over;
 - ``yaw_sign``: the heading turns against the wheels' turn (left and right
   swapped, or a clockwise yaw);
 - ``yaw_follow``: the heading does not follow the wheels' turn at all, or
@@ -71,6 +74,10 @@ class PlausibilityLimits:
         Plausible range of pose distance / wheel distance.
     min_travel : float
         Least distance, m, from the wheels and from the poses, for the travel check.
+    travel_chord : float
+        Least wheel travel of a chord of the travel check, m.
+    max_chord_time : float
+        Longest chord of the travel check, s (longer: a stop or a gap).
     min_turn : float
         Least total turn, rad, from the wheels and from the poses, for the yaw checks.
     min_correlation : float
@@ -88,6 +95,8 @@ class PlausibilityLimits:
     min_moving_time: float = 10.0
     travel_ratio: tuple[float, float] = (0.5, 2.0)
     min_travel: float = 5.0
+    travel_chord: float = 4.0
+    max_chord_time: float = 60.0
     min_turn: float = 1.0
     min_correlation: float = 0.3
     yaw_scale: tuple[float, float] = (0.1, 3.0)
@@ -114,7 +123,7 @@ class Plausibility:
     max_speed : float
         Largest absolute track speed, m/s.
     wheel_travel, pose_travel : float
-        Distances over the compared pose intervals, m (NaN without positions).
+        Distances over the travel check's chords, m (0 without positions).
     yaw_scale, yaw_correlation : float
         Least-squares ratio of measured to ideal heading changes, and their
         correlation (NaN without headings).
@@ -156,6 +165,7 @@ def check_log(
     *,
     antenna: tuple[float, float] = (0.0, 0.0),
     heading_offset: float = 0.0,
+    position_noise: float = 0.0,
 ) -> Plausibility:
     """Compare a log's wheel speeds with its poses (see the module).
 
@@ -171,6 +181,9 @@ def check_log(
         Configured position antenna in the robot frame, m (``pose_sensor``).
     heading_offset : float
         Configured heading offset, rad.
+    position_noise : float
+        Standard deviation of the positions per axis, m, where known (the
+        travel check takes it out of each chord's length).
 
     Returns
     -------
@@ -185,7 +198,8 @@ def check_log(
         return Plausibility(tuple(findings), step, top, nan, nan, nan, nan)
     iv = _intervals(log, track_width, lim.span, lim.max_interval)
     pos, yaw = np.isfinite(iv.pose_travel), np.isfinite(iv.pose_turn)
-    findings = _still(iv, pos, lim) or _travel(iv, pos, lim)
+    wheel_travel, pose_travel = _chord_travel(log, lim, position_noise)
+    findings = _still(iv, pos, lim) or _travel(wheel_travel, pose_travel, lim)
     scale, corr = _yaw_fit(iv, yaw)
     findings += _yaw(iv, yaw, scale, corr, lim)
     mounting = fit_mounting(log, track_width, antenna=antenna, offset=heading_offset)
@@ -195,8 +209,8 @@ def check_log(
         tuple(findings),
         step,
         top,
-        float(np.sum(iv.wheel_travel[pos])),
-        float(np.sum(iv.pose_travel[pos])),
+        wheel_travel,
+        pose_travel,
         scale,
         corr,
         mounting,
@@ -290,8 +304,32 @@ def _still(iv: _Intervals, pos: np.ndarray, lim: PlausibilityLimits) -> list[Fin
     return []
 
 
-def _travel(iv: _Intervals, pos: np.ndarray, lim: PlausibilityLimits) -> list[Finding]:
-    wheel, pose = float(np.sum(iv.wheel_travel[pos])), float(np.sum(iv.pose_travel[pos]))
+def _chord_travel(log: WheelLog, lim: PlausibilityLimits, noise: float) -> tuple[float, float]:
+    """Wheel travel and position travel over chained chords of ``lim.travel_chord`` m, m.
+
+    Each chord runs from a position to the first one ``travel_chord`` m of
+    wheel travel later, within a run and ``max_chord_time`` s; its measured
+    length loses ``2 noise^2`` in quadrature (both ends are noisy).
+    """
+    wheel, pose = 0.0, 0.0
+    for run in log.run_ranges():
+        rows = np.arange(run.start, run.stop)
+        t = log.t[rows]
+        travel = np.r_[
+            0.0, np.cumsum(0.5 * np.abs(log.v_l[rows] + log.v_r[rows])[:-1] * np.diff(t))
+        ]
+        fix = np.flatnonzero(np.isfinite(log.pose[rows, 0]) & np.isfinite(log.pose[rows, 1]))
+        chain = fix[_chain(travel[fix], lim.travel_chord)]
+        a, b = chain[:-1], chain[1:]
+        keep = t[b] - t[a] <= lim.max_chord_time
+        a, b = a[keep], b[keep]
+        d2 = np.sum((log.pose[rows[b], :2] - log.pose[rows[a], :2]) ** 2, axis=1)
+        wheel += float(np.sum(travel[b] - travel[a]))
+        pose += float(np.sum(np.sqrt(np.maximum(d2 - 2.0 * noise**2, 0.0))))
+    return wheel, pose
+
+
+def _travel(wheel: float, pose: float, lim: PlausibilityLimits) -> list[Finding]:
     if min(wheel, pose) < lim.min_travel:
         return []
     ratio = pose / wheel
@@ -301,8 +339,9 @@ def _travel(iv: _Intervals, pos: np.ndarray, lim: PlausibilityLimits) -> list[Fi
     return [
         Finding(
             "travel",
-            f"the poses travel {pose:.1f} m where the wheels say {wheel:.1f} m (x{ratio:.2f}): "
-            "check the wheel radius, and whether the speeds are rad/s (omega_*) or m/s (v_*)",
+            f"the poses travel {pose:.1f} m where the wheels say {wheel:.1f} m (x{ratio:.2f}, "
+            f"over {lim.travel_chord:g}-m chords): check the wheel radius, and whether the "
+            "speeds are rad/s (omega_*) or m/s (v_*)",
         )
     ]
 
