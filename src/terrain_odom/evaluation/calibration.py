@@ -102,7 +102,7 @@ class CalibrationLimits:
 
     window: float = 6.0
     min_fixes: int = 5
-    min_extent: float = 1.0
+    min_extent: float = 0.5
     max_delay: float = 1.5
     step: float = 0.02
     parabola: float = 0.2
@@ -355,33 +355,48 @@ def _wsum(x: np.ndarray, window: np.ndarray, n: int) -> np.ndarray:
     return np.bincount(window, x.real, minlength=n) + 1j * np.bincount(window, x.imag, minlength=n)
 
 
-def _fit_windows(track: _Track, fixes: _Fixes, delay: float, *, lever: bool) -> _WindowFit:
-    """Fit ``m = c_w q + T_w (+ exp(i theta) a)`` at one position delay (see the module)."""
+def _fit_windows(
+    track: _Track, fixes: _Fixes, delay: float, *, lever: bool, rounds: int = 3
+) -> _WindowFit:
+    """Fit ``m = c_w q + T_w (+ exp(i theta) a)`` at one position delay (see the module).
+
+    With the lever arm, ``a`` is fitted jointly with the windows' ``c_w, T_w``
+    (the windows projected out); the robot's heading in ``exp(i theta)``
+    takes the rotations of the previous round, ``rounds`` times.
+    """
     n = int(fixes.window.max()) + 1
     w = fixes.window
     q, psi = _at(track, fixes.t - delay)
     qc, mc = _centred(q, w, n), _centred(fixes.m, w, n)
     info = np.bincount(w, np.abs(qc) ** 2, minlength=n)
-    rot = np.exp(1j * np.angle(_wsum(np.conj(qc) * mc, w, n)))
-    scale = float(np.sum((np.conj(rot[w] * qc) * mc).real)) / max(float(np.sum(info)), 1e-12)
-    c = scale * rot
-    r = mc - c[w] * qc
-    a, a_info, kept = 0j, np.zeros((2, 2)), 0.0
-    if lever:
-        u = _centred(np.exp(1j * (psi + np.angle(c[w]))), w, n)
-        u = u - (_wsum(np.conj(qc) * u, w, n) / np.maximum(info, 1e-12))[w] * qc
-        # real least squares in (a_x, a_y): u a = (u_re a_x - u_im a_y) + i (u_im a_x + u_re a_y)
-        ux = np.concatenate([u.real, u.imag])
-        uy = np.concatenate([-u.imag, u.real])
-        design = np.column_stack([ux, uy])
+    c = _wsum(np.conj(qc) * mc, w, n) / np.maximum(info, 1e-12)
+    r, a, a_info, kept = mc - c[w] * qc, 0j, np.zeros((2, 2)), 0.0
+    for _ in range(rounds if lever else 0):
+        uc = _centred(np.exp(1j * (psi + np.angle(c[w]))), w, n)
+        # what is left of the regressor after each window's similarity: 0 on straight
+        # stretches and steady arcs (the lever arm's information)
+        u = uc - (_wsum(np.conj(qc) * uc, w, n) / np.maximum(info, 1e-12))[w] * qc
+        design = _lever_design(u)
         a_info = design.T @ design
-        total = float(np.sum(np.abs(_centred(np.exp(1j * psi), w, n)) ** 2))
-        kept = float(np.sum(np.abs(u) ** 2)) / max(total, 1e-12)
-        rhs = design.T @ np.concatenate([r.real, r.imag])
-        sol = np.linalg.lstsq(a_info, rhs, rcond=None)[0]
-        a = complex(sol[0], sol[1])
-        r = r - a * u
+        kept = float(np.sum(np.abs(u) ** 2)) / max(float(np.sum(np.abs(uc) ** 2)), 1e-12)
+        a = _lever(u, mc - c[w] * qc)
+        c = _wsum(np.conj(qc) * (mc - a * uc), w, n) / np.maximum(info, 1e-12)
+        r = mc - c[w] * qc - a * uc
     return _WindowFit(float(np.sum(np.abs(r) ** 2)), r, c, info, a, a_info, kept)
+
+
+def _lever_design(u: np.ndarray) -> np.ndarray:
+    """Real design of ``u a`` in ``(a_x, a_y)``: ``(u_re a_x - u_im a_y) + i (u_im a_x + u_re a_y)``."""
+    return np.column_stack(
+        [np.concatenate([u.real, u.imag]), np.concatenate([-u.imag, u.real])]
+    )
+
+
+def _lever(u: np.ndarray, r: np.ndarray) -> complex:
+    """Least-squares ``a`` of ``r = u a`` (complex), 0 where ``u`` is all 0."""
+    design = _lever_design(u)
+    sol = np.linalg.lstsq(design, np.concatenate([r.real, r.imag]), rcond=None)[0]
+    return complex(sol[0], sol[1])
 
 
 def _position_delay(
