@@ -78,7 +78,7 @@ class Found:
     def line(self) -> str:
         """Return one printed line."""
         if not np.isfinite(self.value):
-            return f"{self.key}: not observable ({self.how})"
+            return f"{self.key}: not observable: {self.how}"
         std = f" +- {self.std:.3g}" if np.isfinite(self.std) and self.std > 0 else ""
         deg = f" ({np.degrees(self.value):+.1f} deg)" if self.unit == "rad" else ""
         note = "" if self.applied else " (not used: the configuration's value is larger)"
@@ -403,10 +403,14 @@ def calibrate_inputs(
     try:
         resolved, found, timing = calibrate_config(log, cfg, everything=everything)
     except (InputFileError, EstimationError):
-        check_plausible(log, _numbers(cfg))  # a unit mistake explains it better
+        unjudged = Found("pose_sensor.heading_offset", np.nan, np.nan, "rad", "", False)
+        lever = dataclasses.replace(unjudged, key="pose_sensor.antenna_x")
+        # a unit mistake explains the failure better (the mounting is not judged)
+        check_plausible(log, _numbers(cfg), SensorCalibration((unjudged, lever)))
         raise
     delayed = apply_delays(log, timing)
-    check_plausible(delayed, resolved, found)
+    notes = check_plausible(delayed, resolved, found)
+    found = dataclasses.replace(found, notes=(*found.notes, *notes))
     return delayed, resolved, found, timing
 
 
@@ -419,12 +423,16 @@ def _numbers(cfg: Config) -> Config:
     return dataclasses.replace(cfg, pose_sensor=dataclasses.replace(sensor, **numbers))
 
 
-def check_plausible(log: WheelLog, cfg: Config, found: SensorCalibration | None = None) -> None:
+def check_plausible(
+    log: WheelLog, cfg: Config, found: SensorCalibration | None = None
+) -> list[str]:
     """Stop on the first finding of :func:`~terrain_odom.evaluation.check_log` (if ``cfg.checks``).
 
-    ``found``: what a calibration found; a mounting it estimated is not
-    judged again (the checks' chords are cruder than its fit), and its
-    position noise shortens the measured path of a slow robot.
+    ``found``: what a calibration found. A mounting it looked at is not
+    judged again (it is measured, or reported not observable, by a finer
+    fit than the checks' chords): such findings are returned instead (one
+    line each) for the calibration's notes. Its position noise shortens the
+    measured path of a slow robot in the travel check.
 
     Raises
     ------
@@ -432,10 +440,10 @@ def check_plausible(log: WheelLog, cfg: Config, found: SensorCalibration | None 
         One line: the finding, the robot geometry it was judged with, and the way out.
     """
     if not cfg.checks.enabled:
-        return
+        return []
     sensor = cfg.pose_sensor
-    calibrated = {f.key for f in found.found if f.applied} if found is not None else set()
-    noise = cfg.ekf.sigma_r.x if "ekf.sigma_r.x" in calibrated else 0.0
+    looked = {f.key for f in found.found} if found is not None else set()
+    noise = cfg.ekf.sigma_r.x if "ekf.sigma_r.x" in looked else 0.0
     result = check_log(
         log,
         cfg.robot.track_width,
@@ -444,13 +452,14 @@ def check_plausible(log: WheelLog, cfg: Config, found: SensorCalibration | None 
         position_noise=noise,
     )
     skip = set()
-    if "pose_sensor.heading_offset" in calibrated:
+    if "pose_sensor.heading_offset" in looked:
         skip.add("heading_offset")
-    if calibrated & {"pose_sensor.antenna_x", "pose_sensor.antenna_y"}:
+    if looked & {"pose_sensor.antenna_x", "pose_sensor.antenna_y"}:
         skip.add("lever_arm")
-    found_lines = [f for f in result.findings if f.check not in skip]
-    if found_lines:
+    refused = [f for f in result.findings if f.check not in skip]
+    if refused:
         raise InputFileError(
-            f"{log.source}: {found_lines[0].message} (wheel radius {cfg.robot.wheel_radius:g} m, "
+            f"{log.source}: {refused[0].message} (wheel radius {cfg.robot.wheel_radius:g} m, "
             f"track width {cfg.robot.track_width:g} m); --no-checks runs anyway"
         )
+    return [f"check {f.check}: {f.message}" for f in result.findings if f.check in skip]

@@ -83,9 +83,10 @@ class CalibrationLimits:
     min_extent : float
         Least RMS distance of a window's wheel path from its centre, m, for
         its rotation to count towards the heading offset.
-    max_delay, step : float
+    max_delay, coarse_step, step : float
         The position delay is searched in ``[-max_delay, max_delay]`` s on
-        a grid of ``step`` s.
+        a grid of ``coarse_step`` s, then of ``step`` s within ``parabola``
+        of the best.
     parabola : float
         A parabola is fitted to the costs within this many s of the best
         delay of the grid: its vertex is the estimate, its curvature the
@@ -104,7 +105,8 @@ class CalibrationLimits:
     min_fixes: int = 5
     min_extent: float = 0.5
     max_delay: float = 1.5
-    step: float = 0.02
+    coarse_step: float = 0.05
+    step: float = 0.01
     parabola: float = 0.2
     max_delay_std: float = 0.15
     max_antenna_std: float = 0.1
@@ -273,13 +275,15 @@ def fit_sensors(
         )
     delay = _position_delay(track, fixes, lim, position_delay)
     fit = _fit_windows(track, fixes, delay.value if delay.observable else 0.0, lever=True)
+    # the wheel path drawn with the measured heading is turned by the offset: c_w undoes it
+    offsets = -np.angle(fit.c) if has_heading else None
     return SensorFit(
         delay,
-        _heading_offset(fit, fixes, lim) if has_heading else _no_heading(),
+        _heading_offset(fit, offsets, fixes, lim) if offsets is not None else _no_heading(),
         *_antenna(fit, lim),
         _position_noise(fit, fixes),
         _heading_noise(log, time, track_width, scale) if has_heading else _no_heading(),
-        _heading_wander(fit, fixes, lim) if has_heading else _no_heading(),
+        _heading_wander(fit, offsets, fixes, lim) if offsets is not None else _no_heading(),
         scale,
         used,
     )
@@ -405,14 +409,19 @@ def _position_delay(
     """Least-squares position delay: a grid, then a parabola fitted to the costs near its best."""
     if given is not None:
         return Estimate(float(given), 0.0, True, "given")
-    grid = np.arange(-lim.max_delay, lim.max_delay + 0.5 * lim.step, lim.step)
-    costs = np.array([_fit_windows(track, fixes, d, lever=True).cost for d in grid])
-    i = int(np.argmin(costs))
-    near = np.abs(grid - grid[i]) <= lim.parabola + 1e-9
-    if i in (0, grid.size - 1) or int(near.sum()) < 3:
+    def costs_at(delays: np.ndarray) -> np.ndarray:
+        return np.array([_fit_windows(track, fixes, d, lever=True, rounds=1).cost for d in delays])
+
+    coarse = np.arange(-lim.max_delay, lim.max_delay + 0.5 * lim.coarse_step, lim.coarse_step)
+    best = int(np.argmin(costs_at(coarse)))
+    if best in (0, coarse.size - 1):
         return _delay_unobservable(
             f"the best position delay lies at the edge of +-{lim.max_delay:g} s", float("nan")
         )
+    grid = coarse[best] + np.arange(-lim.parabola, lim.parabola + 0.5 * lim.step, lim.step)
+    costs = costs_at(grid)
+    i = int(np.argmin(costs))
+    near = np.abs(grid - grid[i]) <= lim.parabola + 1e-9
     curve, slope, _ = np.polyfit(grid[near] - grid[i], costs[near], 2)
     dof = max(2 * fixes.t.size - 4 * (int(fixes.window.max()) + 1) - 2, 1)
     sigma2 = float(costs[i]) / dof  # noise variance per component, m^2
@@ -442,7 +451,9 @@ def _delay_unobservable(why: str, value: float) -> Estimate:
     )
 
 
-def _heading_offset(fit: _WindowFit, fixes: _Fixes, lim: CalibrationLimits) -> Estimate:
+def _heading_offset(
+    fit: _WindowFit, offsets: np.ndarray, fixes: _Fixes, lim: CalibrationLimits
+) -> Estimate:
     """Circular median of the windows' rotations (measured heading minus the robot's)."""
     use = fit.info / np.maximum(np.bincount(fixes.window), 1) >= lim.min_extent**2
     if int(use.sum()) < lim.min_windows:
@@ -453,7 +464,7 @@ def _heading_offset(fit: _WindowFit, fixes: _Fixes, lim: CalibrationLimits) -> E
             f"only {int(use.sum())} windows of {lim.window:g} s moving {lim.min_extent:g} m "
             f"(at least {lim.min_windows}): drive further with positions and headings",
         )
-    rot = -np.angle(fit.c[use])
+    rot = wrap_angle(offsets[use])
     weight = fit.info[use]
     value = circular_median(rot, weight)
     dev = wrap_angle(rot - value)
@@ -508,10 +519,10 @@ def _antenna(fit: _WindowFit, lim: CalibrationLimits) -> tuple[Estimate, Estimat
                     float("nan"),
                     float("nan"),
                     False,
-                    f"antenna_{name} not observable (standard error {s:.2f} m > "
-                    f"{lim.max_antenna_std:g} m; {100 * fit.u_kept:.0f} % of the turning "
-                    "is not straight driving or steady arcs): drive S-bends and turns "
-                    "of changing sharpness",
+                    f"standard error of antenna_{name} {s:.2f} m > {lim.max_antenna_std:g} m "
+                    f"(least squares gives {value:+.2f} m; {100 * fit.u_kept:.0f} % of the "
+                    "turning is neither straight driving nor steady arcs): drive longer, with "
+                    "S-bends and turns of changing sharpness",
                 )
             )
     return out[0], out[1]
@@ -582,12 +593,14 @@ def _heading_noise(log: WheelLog, time: np.ndarray, track_width: float, scale: f
     )
 
 
-def _heading_wander(fit: _WindowFit, fixes: _Fixes, lim: CalibrationLimits) -> Estimate:
+def _heading_wander(
+    fit: _WindowFit, offsets: np.ndarray, fixes: _Fixes, lim: CalibrationLimits
+) -> Estimate:
     """Spread of the windows' heading offsets beyond their own standard errors (rad)."""
     use = fit.info / np.maximum(np.bincount(fixes.window), 1) >= lim.min_extent**2
     if int(use.sum()) < lim.min_windows:
         return Estimate(float("nan"), float("nan"), False, "too few moving windows")
-    rot = -np.angle(fit.c[use])
+    rot = wrap_angle(offsets[use])
     dev = wrap_angle(rot - circular_median(rot, fit.info[use]))
     dof = max(2 * fit.residual.size - 4 * fit.c.size - 2, 1)
     own = fit.cost / dof / fit.info[use]  # variance of each window's rotation, rad^2
