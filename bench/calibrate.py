@@ -52,7 +52,7 @@ QUIET = {"gps_noise": 0.0, "gps_walk": 0.0, "heading_wander": 0.0, "heading_nois
 
 
 def sim_log(seconds: float, seed: int = 0, rate: float = 50.0) -> tuple[WheelLog, Config]:
-    """A simulated run's wheel speeds with its true poses on every row, and its config."""
+    """Return a simulated run's wheel speeds with its true poses on every row, and its config."""
     scenario = dataclasses.replace(
         get_scenario("mixed"), duration=seconds, wheel_rate=rate, pose_rate=rate / 5
     )
@@ -95,8 +95,9 @@ def row(name: str, clean: WheelLog, cfg: Config, seed: int, quiet: bool) -> None
     base = (0.0, 0.0)
     if name != "sim":
         own, _ = _values(cfg, clean)
-        base = (own["pose_sensor.antenna_x"][0], own["pose_sensor.antenna_y"][0])
-    ax, ay = v["pose_sensor.antenna_x"], v["pose_sensor.antenna_y"]
+        base = tuple(own.get(f"pose_sensor.antenna_{k}", (0.0, 0.0))[0] for k in "xy")
+    nan = (np.nan, np.nan)
+    ax, ay = v.get("pose_sensor.antenna_x", nan), v.get("pose_sensor.antenna_y", nan)
     off = v.get("pose_sensor.heading_offset", (np.nan, np.nan))
     print(
         f"{name[:34]:34s} {seed:2d} | latency {_fmt(*v['latency'])} ({d.latency:.2f}) | "
@@ -104,7 +105,8 @@ def row(name: str, clean: WheelLog, cfg: Config, seed: int, quiet: bool) -> None
         f"realised {np.degrees(_realised_offset(out.log, clean)):.1f}) | "
         f"antenna {_fmt(ax[0] - base[0], ax[1])} {_fmt(ay[0] - base[1], ay[1])} "
         f"({d.antenna[0]:+.1f} {d.antenna[1]:+.1f}) | "
-        f"noise {v['ekf.sigma_r.x'][0]:.2f} m ({d.gps_noise:.2f}) | {seconds:.2f} s"
+        f"noise {_fmt(*v.get('ekf.sigma_r.x', (np.nan, np.nan)))} m ({d.gps_noise:.2f}) | "
+        f"{seconds:.2f} s"
     )
 
 

@@ -101,7 +101,7 @@ class CalibrationLimits:
         Range of the scale ``k`` of the ideal yaw searched without headings.
     """
 
-    window: float = 6.0
+    window: float = 10.0
     min_fixes: int = 5
     min_extent: float = 0.5
     max_delay: float = 1.5
@@ -110,7 +110,7 @@ class CalibrationLimits:
     parabola: float = 0.2
     max_delay_std: float = 0.15
     max_antenna_std: float = 0.1
-    min_windows: int = 10
+    min_windows: int = 8
     yaw_scales: tuple[float, float] = (0.3, 1.5)
 
 
