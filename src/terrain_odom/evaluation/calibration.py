@@ -410,7 +410,7 @@ def _position_delay(
     if given is not None:
         return Estimate(float(given), 0.0, True, "given")
     def costs_at(delays: np.ndarray) -> np.ndarray:
-        return np.array([_fit_windows(track, fixes, d, lever=True, rounds=1).cost for d in delays])
+        return np.array([_fit_windows(track, fixes, d, lever=True, rounds=2).cost for d in delays])
 
     coarse = np.arange(-lim.max_delay, lim.max_delay + 0.5 * lim.coarse_step, lim.coarse_step)
     best = int(np.argmin(costs_at(coarse)))
@@ -422,11 +422,17 @@ def _position_delay(
     costs = costs_at(grid)
     i = int(np.argmin(costs))
     near = np.abs(grid - grid[i]) <= lim.parabola + 1e-9
-    curve, slope, _ = np.polyfit(grid[near] - grid[i], costs[near], 2)
+    curve = float(np.polyfit(grid[near] - grid[i], costs[near], 2)[0])
     dof = max(2 * fixes.t.size - 4 * (int(fixes.window.max()) + 1) - 2, 1)
     sigma2 = float(costs[i]) / dof  # noise variance per component, m^2
     std = float(np.sqrt(sigma2 / curve)) if curve > 0 else float("inf")
-    value = float(grid[i] - 0.5 * slope / curve) if curve > 0 else float(grid[i])
+    # the vertex from the grid's best and its neighbours (a wide parabola misplaces a sharp
+    # minimum); the curvature, for the standard error, from the wide one (robust to noise)
+    j = int(np.clip(i, 1, grid.size - 2))
+    c_minus, c_0, c_plus = costs[j - 1 : j + 2]
+    bend = c_minus - 2.0 * c_0 + c_plus
+    step = 0.5 * lim.step * (c_minus - c_plus) / bend if bend > 0 else 0.0
+    value = float(grid[j] + np.clip(step, -lim.step, lim.step))
     if not std <= lim.max_delay_std:
         return _delay_unobservable(
             f"too little change of speed and heading against the position noise to time the "
