@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from terrain_odom.evaluation import check_log
+from terrain_odom.evaluation.plausibility import _position_noise
 from terrain_odom.io import read_wheel_log
 from terrain_odom.records import WheelLog
 from terrain_odom.sim.degrade import Degradation, degrade_log
@@ -30,12 +31,19 @@ def test_a_slow_robots_noisy_gps_is_not_taken_for_a_wrong_wheel_radius(slow, see
     gps = degrade_log(slow, Degradation(**{**GPS.__dict__, "seed": seed})).log
     found = check_log(gps, 1.08)
     assert "travel" not in [f.check for f in found.findings]
-    # over 4-m chords the path is near the wheels' (it was x4.3 over 0.5-s intervals); a
-    # turning path's chords are shorter than its arcs, so below 1
-    assert 0.7 < found.pose_travel / found.wheel_travel < 1.2
-    # the noise known, each chord loses it in quadrature: shorter, still no finding
-    known = check_log(gps, 1.08, position_noise=0.8)
-    assert known.pose_travel < found.pose_travel and known.ok
+    # over chords of 5 noise stds (the noise estimated from the fixes) the path is near the
+    # wheels' (it was x4.3 over 0.5-s intervals); a turning path's chords are shorter than
+    # its arcs, so below 1
+    assert 0.6 < found.pose_travel / found.wheel_travel < 1.2
+    known = check_log(gps, 1.08, position_noise=0.8)  # the noise as a calibration found it
+    assert known.ok and 0.6 < known.pose_travel / known.wheel_travel < 1.2
+
+
+def test_the_noise_is_estimated_from_the_fixes(slow):
+    for noise in (0.3, 0.8):
+        gps = degrade_log(slow, Degradation(**{**GPS.__dict__, "gps_noise": noise})).log
+        assert _position_noise(gps) == pytest.approx(noise, rel=0.3)
+    assert _position_noise(slow) < 0.01  # the ICP poses
 
 
 def test_a_wrong_wheel_radius_is_still_found_through_the_noise(slow):

@@ -187,8 +187,9 @@ def add_log_options(p: argparse.ArgumentParser) -> None:
         "--pose-delay",
         metavar="{auto,SECONDS}",
         help="the pose stamps lag the wheel speeds by this many seconds (the wheel speeds are "
-        "delayed to match), or auto: estimate it from the whole log's heading (offline "
-        "calibration); default: the configuration's time.pose_delay, 0",
+        "delayed to match), or auto: estimate it from the whole log's heading, or its "
+        "positions without headings (offline calibration); default: the configuration's "
+        "time.pose_delay, 0",
     )
 
 

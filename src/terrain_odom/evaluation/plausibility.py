@@ -13,8 +13,8 @@ the likely cause instead of giving a plausible-looking wrong answer:
   another robot or run);
 - ``travel``: distance from the wheels against distance from the positions
   far from 1 (wheel radius, rad/s against m/s), over chords of at least
-  ``travel_chord`` m of wheel travel, each chord's length less the
-  positions' noise (in quadrature): the noise of a GPS would otherwise
+  five noise standard deviations of wheel travel, each chord's length less
+  the positions' noise (in quadrature): the noise of a GPS would otherwise
   lengthen a slow robot's measured path many times over;
 - ``yaw_sign``: the heading turns against the wheels' turn (left and right
   swapped, or a clockwise yaw);
@@ -74,10 +74,12 @@ class PlausibilityLimits:
         Plausible range of pose distance / wheel distance.
     min_travel : float
         Least distance, m, from the wheels and from the poses, for the travel check.
-    travel_chord : float
-        Least wheel travel of a chord of the travel check, m.
+    travel_chords : float
+        Least wheel travel of a chord of the travel check, in standard
+        deviations of the positions' noise.
     max_chord_time : float
-        Longest chord of the travel check, s (longer: a stop or a gap).
+        Longest chord of the travel check, s, where the noise asks for
+        chords longer than ``max_interval`` (longer: a stop or a gap).
     min_turn : float
         Least total turn, rad, from the wheels and from the poses, for the yaw checks.
     min_correlation : float
@@ -95,7 +97,7 @@ class PlausibilityLimits:
     min_moving_time: float = 10.0
     travel_ratio: tuple[float, float] = (0.5, 2.0)
     min_travel: float = 5.0
-    travel_chord: float = 4.0
+    travel_chords: float = 5.0
     max_chord_time: float = 60.0
     min_turn: float = 1.0
     min_correlation: float = 0.3
@@ -304,13 +306,37 @@ def _still(iv: _Intervals, pos: np.ndarray, lim: PlausibilityLimits) -> list[Fin
     return []
 
 
-def _chord_travel(log: WheelLog, lim: PlausibilityLimits, noise: float) -> tuple[float, float]:
-    """Wheel travel and position travel over chained chords of ``lim.travel_chord`` m, m.
+def _position_noise(log: WheelLog) -> float:
+    """Robust std of the positions per axis, m, from second differences of consecutive fixes.
 
-    Each chord runs from a position to the first one ``travel_chord`` m of
-    wheel travel later, within a run and ``max_chord_time`` s; its measured
-    length loses ``2 noise^2`` in quadrature (both ends are noisy).
+    Over a few tenths of a second a robot's path is nearly straight at constant
+    speed, so ``p_(k+1) - 2 p_k + p_(k-1)`` is mostly noise, of variance
+    ``6 sigma^2`` (an upper bound where fixes are sparse or the robot turns).
     """
+    parts = []
+    for run in log.run_ranges():
+        pose = log.pose[run.start : run.stop]
+        xy = pose[np.isfinite(pose[:, 0]) & np.isfinite(pose[:, 1]), :2]
+        if xy.shape[0] >= 3:
+            parts.append((xy[2:] - 2.0 * xy[1:-1] + xy[:-2]).ravel())
+    if not parts:
+        return 0.0
+    return 1.4826 * float(np.median(np.abs(np.concatenate(parts)))) / np.sqrt(6.0)
+
+
+def _chord_travel(log: WheelLog, lim: PlausibilityLimits, noise: float) -> tuple[float, float]:
+    """Wheel travel and position travel over chained chords, m.
+
+    Each chord runs from a position to the first one at least ``lim.span``
+    s and ``travel_chords`` noise standard deviations of wheel travel later,
+    within a run and ``max_chord_time`` s; its measured length loses
+    ``2 sigma^2`` in quadrature (both ends are noisy). ``sigma`` is
+    ``noise`` if given (> 0), else estimated (:func:`_position_noise`): a
+    precise pose gives the short intervals of the other checks, a GPS chords
+    of a few metres.
+    """
+    sigma = noise if noise > 0.0 else _position_noise(log)
+    chord = lim.travel_chords * sigma
     wheel, pose = 0.0, 0.0
     for run in log.run_ranges():
         rows = np.arange(run.start, run.stop)
@@ -319,13 +345,14 @@ def _chord_travel(log: WheelLog, lim: PlausibilityLimits, noise: float) -> tuple
             0.0, np.cumsum(0.5 * np.abs(log.v_l[rows] + log.v_r[rows])[:-1] * np.diff(t))
         ]
         fix = np.flatnonzero(np.isfinite(log.pose[rows, 0]) & np.isfinite(log.pose[rows, 1]))
-        chain = fix[_chain(travel[fix], lim.travel_chord)]
+        chain = fix[_chain(travel[fix], chord)] if chord > 0.0 else fix
+        chain = chain[_chain(t[chain], lim.span)]
         a, b = chain[:-1], chain[1:]
-        keep = t[b] - t[a] <= lim.max_chord_time
+        keep = t[b] - t[a] <= max(lim.max_chord_time if chord > 0.0 else lim.max_interval, 0.0)
         a, b = a[keep], b[keep]
         d2 = np.sum((log.pose[rows[b], :2] - log.pose[rows[a], :2]) ** 2, axis=1)
         wheel += float(np.sum(travel[b] - travel[a]))
-        pose += float(np.sum(np.sqrt(np.maximum(d2 - 2.0 * noise**2, 0.0))))
+        pose += float(np.sum(np.sqrt(np.maximum(d2 - 2.0 * sigma**2, 0.0))))
     return wheel, pose
 
 
@@ -339,9 +366,8 @@ def _travel(wheel: float, pose: float, lim: PlausibilityLimits) -> list[Finding]
     return [
         Finding(
             "travel",
-            f"the poses travel {pose:.1f} m where the wheels say {wheel:.1f} m (x{ratio:.2f}, "
-            f"over {lim.travel_chord:g}-m chords): check the wheel radius, and whether the "
-            "speeds are rad/s (omega_*) or m/s (v_*)",
+            f"the poses travel {pose:.1f} m where the wheels say {wheel:.1f} m (x{ratio:.2f}): "
+            "check the wheel radius, and whether the speeds are rad/s (omega_*) or m/s (v_*)",
         )
     ]
 
