@@ -76,7 +76,9 @@ def _realised_offset(out: WheelLog, truth: WheelLog) -> float:
     """Circular mean of measured heading minus the true yaw at the headings' stamps, rad."""
     yaw = out.has_yaw
     t, true = truth.t[truth.has_pose], np.unwrap(truth.pose[truth.has_pose, 2])
-    return float(np.angle(np.mean(np.exp(1j * (out.pose[yaw, 2] - np.interp(out.t[yaw], t, true))))))
+    return float(
+        np.angle(np.mean(np.exp(1j * (out.pose[yaw, 2] - np.interp(out.t[yaw], t, true)))))
+    )
 
 
 def _fmt(value: float, std: float, scale: float = 1.0) -> str:
@@ -149,7 +151,9 @@ def main() -> None:
     logs: list[tuple[str, WheelLog, Config]] = []
     if DRIVE.is_dir():
         for path in sorted(DRIVE.glob("warthog_wheels_*.csv")):
-            logs.append((path.name, read_wheel_log(path, wheel_radius=warthog.robot.wheel_radius), warthog))
+            logs.append(
+                (path.name, read_wheel_log(path, wheel_radius=warthog.robot.wheel_radius), warthog)
+            )
     logs.append(("sim", *sim_log(args.sim_seconds)))
     for name, clean, cfg in logs:
         for seed in range(args.seeds):

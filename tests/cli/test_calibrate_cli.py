@@ -15,17 +15,27 @@ from terrain_odom.records import WheelLog
 from terrain_odom.sim.degrade import Degradation, degrade_log
 from terrain_odom.sim.model_log import constant_model_log
 
-TRUE = Degradation(gps_noise=0.3, gps_walk=0.0, latency=0.4, antenna=(-0.8, 0.0),
-                   heading_offset=2.9, heading_wander=0.0, heading_noise=0.01, seed=0)
+TRUE = Degradation(
+    gps_noise=0.3,
+    gps_walk=0.0,
+    latency=0.4,
+    antenna=(-0.8, 0.0),
+    heading_offset=2.9,
+    heading_wander=0.0,
+    heading_noise=0.01,
+    seed=0,
+)
 
 
 @pytest.fixture(scope="module")
 def files(tmp_path_factory):
-    """A degraded 10-minute log (GPS + IMU rows), a config claiming 0.05 m, and bad logs."""
+    """Write a degraded 10-minute log (GPS + IMU rows), a config claiming 0.05 m, bad logs."""
     root = tmp_path_factory.mktemp("calibrate")
     clean = constant_model_log("idd", [], seconds=600.0, track_width=1.0, noise=(0.0, 0.0, 0.0))
     write_wheel_log(root / "log.csv", degrade_log(clean, TRUE).log)
-    (root / "robot.yaml").write_text("robot: {track_width: 1.0}\nekf: {sigma_r: {x: 0.05, y: 0.05}}\n")
+    (root / "robot.yaml").write_text(
+        "robot: {track_width: 1.0}\nekf: {sigma_r: {x: 0.05, y: 0.05}}\n"
+    )
     t = np.arange(0.0, 60.0, 0.1)
     still = np.zeros((t.size, 3))
     write_wheel_log(root / "still.csv", WheelLog(t, 0 * t, 0 * t, still, None, 0 * t.astype(int)))
@@ -79,7 +89,9 @@ def test_run_with_auto_values_calibrates_inline_and_records_it(files, tmp_path, 
     assert "# calibrated" in (out / "config.yaml").read_text()
     report = json.loads((out / "report.json").read_text())
     assert report["calibration"]["values"]["pose_sensor.heading_offset"]["applied"]
-    assert report["time_calibration"]["heading_delay_s"] != report["time_calibration"]["pose_delay_s"]
+    assert (
+        report["time_calibration"]["heading_delay_s"] != report["time_calibration"]["pose_delay_s"]
+    )
 
 
 def test_positions_without_motion_are_one_line(files, tmp_path, capsys):
@@ -99,8 +111,14 @@ def test_auto_heading_offset_without_headings_is_one_line(files, tmp_path, capsy
 
 def test_auto_antenna_on_a_straight_drive_is_one_line(tmp_path, capsys):
     t = np.arange(0.0, 300.0, 0.05)
-    clean = WheelLog(t, np.ones(t.size), np.ones(t.size),
-                     np.column_stack([t, 0 * t, 0 * t]), None, np.zeros(t.size, int))
+    clean = WheelLog(
+        t,
+        np.ones(t.size),
+        np.ones(t.size),
+        np.column_stack([t, 0 * t, 0 * t]),
+        None,
+        np.zeros(t.size, int),
+    )
     write_wheel_log(tmp_path / "straight.csv", degrade_log(clean, Degradation(seed=0)).log)
     config = tmp_path / "c.yaml"
     config.write_text("robot: {track_width: 1.0}\npose_sensor: {antenna_x: auto}\n")

@@ -51,14 +51,15 @@ def test_headings_move_to_the_positions_clock_and_speeds_keep_their_integral():
         np.testing.assert_array_equal(out.pose[new & out.has_yaw, 2], log.pose[yaw, 2][inside])
         # between any two output rows the distance is the recorded speeds' over [t - 0.5]
         t_out = out.t[new]
-        cum = np.interp(t_out - 0.5, log.t[rows],
-                        np.r_[0.0, np.cumsum(log.v_l[rows][:-1] * np.diff(log.t[rows]))])
+        cum = np.interp(
+            t_out - 0.5,
+            log.t[rows],
+            np.r_[0.0, np.cumsum(log.v_l[rows][:-1] * np.diff(log.t[rows]))],
+        )
         # before the run's first row the first speed is held
         cum = np.where(t_out - 0.5 < t0, (t_out - 0.5 - t0) * log.v_l[rows][0], cum)
         idx = np.flatnonzero(new)
-        np.testing.assert_allclose(
-            out.v_l[idx[:-1]] * np.diff(t_out), np.diff(cum), atol=1e-9
-        )
+        np.testing.assert_allclose(out.v_l[idx[:-1]] * np.diff(t_out), np.diff(cum), atol=1e-9)
         assert np.all(np.diff(t_out) > 0)
 
 

@@ -73,8 +73,15 @@ def test_noise_free_mounting_and_latency_are_recovered(clean):
 
 @pytest.mark.parametrize("seed", [0, 1])
 def test_noise_of_each_sensor_is_recovered_within_30_percent(clean, seed):
-    d = Degradation(gps_noise=0.5, gps_walk=0.02, heading_noise=0.03, heading_wander=0.0,
-                    latency=0.3, antenna=(0.0, 0.0), seed=seed)
+    d = Degradation(
+        gps_noise=0.5,
+        gps_walk=0.02,
+        heading_noise=0.03,
+        heading_wander=0.0,
+        latency=0.3,
+        antenna=(0.0, 0.0),
+        seed=seed,
+    )
     fit = fit_sensors(degrade_log(clean, d).log, TRACK)
     assert fit.position_noise.value == pytest.approx(0.5, rel=0.3)
     assert fit.heading_noise.value == pytest.approx(0.03, rel=0.3)
@@ -84,8 +91,15 @@ def test_noise_of_each_sensor_is_recovered_within_30_percent(clean, seed):
 
 
 def test_heading_wander_is_measured_beside_the_white_noise(clean):
-    d = Degradation(gps_noise=0.2, gps_walk=0.0, heading_noise=0.01, heading_wander=0.2,
-                    wander_time=30.0, antenna=(0.0, 0.0), seed=3)
+    d = Degradation(
+        gps_noise=0.2,
+        gps_walk=0.0,
+        heading_noise=0.01,
+        heading_wander=0.2,
+        wander_time=30.0,
+        antenna=(0.0, 0.0),
+        seed=3,
+    )
     fit = fit_sensors(degrade_log(clean, d).log, TRACK)
     assert fit.heading_noise.value == pytest.approx(0.01, rel=0.3)
     assert fit.heading_wander.value == pytest.approx(0.2, rel=0.5)

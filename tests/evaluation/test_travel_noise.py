@@ -15,8 +15,15 @@ from terrain_odom.sim.degrade import Degradation, degrade_log
 
 DRIVE = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "drive"
 SLOW = DRIVE / "warthog_wheels_grass_2024_7_29_14h4s53.csv"  # the issue's: 48 m in 114 s
-GPS = Degradation(gps_rate=2.5, gps_noise=0.8, gps_walk=0.05, latency=0.5, antenna=(-1.0, 0.0),
-                  imu_rate=0.0, seed=0)
+GPS = Degradation(
+    gps_rate=2.5,
+    gps_noise=0.8,
+    gps_walk=0.05,
+    latency=0.5,
+    antenna=(-1.0, 0.0),
+    imu_rate=0.0,
+    seed=0,
+)
 
 
 @pytest.fixture(scope="module")

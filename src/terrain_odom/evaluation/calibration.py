@@ -391,9 +391,7 @@ def _fit_windows(
 
 def _lever_design(u: np.ndarray) -> np.ndarray:
     """Real design of ``u a`` in ``(a_x, a_y)``: ``(u_re a_x - u_im a_y) + i (u_im a_x + u_re a_y)``."""
-    return np.column_stack(
-        [np.concatenate([u.real, u.imag]), np.concatenate([-u.imag, u.real])]
-    )
+    return np.column_stack([np.concatenate([u.real, u.imag]), np.concatenate([-u.imag, u.real])])
 
 
 def _lever(u: np.ndarray, r: np.ndarray) -> complex:
@@ -409,6 +407,7 @@ def _position_delay(
     """Least-squares position delay: a grid, then a parabola fitted to the costs near its best."""
     if given is not None:
         return Estimate(float(given), 0.0, True, "given")
+
     def costs_at(delays: np.ndarray) -> np.ndarray:
         return np.array([_fit_windows(track, fixes, d, lever=True, rounds=2).cost for d in delays])
 
