@@ -64,6 +64,7 @@ __all__ = [
     "SensorFit",
     "circular_median",
     "fit_sensors",
+    "run_time",
 ]
 
 _MAD = 1.4826
@@ -256,7 +257,7 @@ def fit_sensors(
         the reason in their ``how``.
     """
     lim = limits or CalibrationLimits()
-    time = _run_time(log)
+    time = run_time(log)
     has_heading = int(log.has_yaw.sum()) >= 2
     fixes = _fixes(log, time, lim)
     if has_heading:
@@ -298,8 +299,12 @@ def _no_heading() -> Estimate:
     return Estimate(float("nan"), float("nan"), False, "the log has no headings")
 
 
-def _run_time(log: WheelLog) -> np.ndarray:
-    """Return the log's times made increasing across runs, with a 1e6-s jump at each new run."""
+def run_time(log: WheelLog) -> np.ndarray:
+    """Return the log's times made increasing across runs, with a 1e6-s jump at each new run.
+
+    On that time axis no window, chord or interpolation crosses from one run
+    to the next (it jumps by far more than any of them spans).
+    """
     jump = np.zeros(len(log))
     starts = log.run_starts()[1:]
     jump[starts] = log.t[starts - 1] - log.t[starts] + 1e6
@@ -456,21 +461,30 @@ def _delay_unobservable(why: str, value: float) -> Estimate:
     )
 
 
+def _moving(
+    fit: _WindowFit, offsets: np.ndarray, fixes: _Fixes, lim: CalibrationLimits
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """Heading offsets (rad) and weights of the windows moving enough; None if too few."""
+    use = fit.info / np.maximum(np.bincount(fixes.window), 1) >= lim.min_extent**2
+    if int(use.sum()) < lim.min_windows:
+        return None
+    return wrap_angle(offsets[use]), fit.info[use]
+
+
 def _heading_offset(
     fit: _WindowFit, offsets: np.ndarray, fixes: _Fixes, lim: CalibrationLimits
 ) -> Estimate:
     """Circular median of the windows' rotations (measured heading minus the robot's)."""
-    use = fit.info / np.maximum(np.bincount(fixes.window), 1) >= lim.min_extent**2
-    if int(use.sum()) < lim.min_windows:
+    moving = _moving(fit, offsets, fixes, lim)
+    if moving is None:
         return Estimate(
             float("nan"),
             float("nan"),
             False,
-            f"only {int(use.sum())} windows of {lim.window:g} s moving {lim.min_extent:g} m "
-            f"(at least {lim.min_windows}): drive further with positions and headings",
+            f"fewer than {lim.min_windows} windows of {lim.window:g} s moving "
+            f"{lim.min_extent:g} m: drive further with positions and headings",
         )
-    rot = wrap_angle(offsets[use])
-    weight = fit.info[use]
+    rot, weight = moving
     value = circular_median(rot, weight)
     dev = wrap_angle(rot - value)
     spread = _MAD * float(np.median(np.abs(dev)))
@@ -602,13 +616,13 @@ def _heading_wander(
     fit: _WindowFit, offsets: np.ndarray, fixes: _Fixes, lim: CalibrationLimits
 ) -> Estimate:
     """Spread of the windows' heading offsets beyond their own standard errors (rad)."""
-    use = fit.info / np.maximum(np.bincount(fixes.window), 1) >= lim.min_extent**2
-    if int(use.sum()) < lim.min_windows:
+    moving = _moving(fit, offsets, fixes, lim)
+    if moving is None:
         return Estimate(float("nan"), float("nan"), False, "too few moving windows")
-    rot = wrap_angle(offsets[use])
-    dev = wrap_angle(rot - circular_median(rot, fit.info[use]))
+    rot, weight = moving
+    dev = wrap_angle(rot - circular_median(rot, weight))
     dof = max(2 * fit.residual.size - 4 * fit.c.size - 2, 1)
-    own = fit.cost / dof / fit.info[use]  # variance of each window's rotation, rad^2
+    own = fit.cost / dof / weight  # variance of each window's rotation, rad^2
     spread2 = (_MAD * float(np.median(np.abs(dev)))) ** 2
     value = float(np.sqrt(max(spread2 - float(np.median(own)), 0.0)))
     return Estimate(

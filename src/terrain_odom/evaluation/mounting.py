@@ -27,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from terrain_odom.evaluation.calibration import circular_median
+from terrain_odom.evaluation.calibration import circular_median, run_time
 from terrain_odom.kinematics import wrap_angle
 from terrain_odom.records import WheelLog
 
@@ -212,7 +212,7 @@ def _chords(
     """
     if len(log) < 2:
         return _Chords(*(np.zeros(0) for _ in range(6)))
-    t = _run_time(log)
+    t = run_time(log)
     dt = np.diff(t) * (np.diff(log.segment_runs()) == 0)
     speed = 0.5 * (log.v_l + log.v_r)[:-1]
     signed = np.r_[0.0, np.cumsum(speed * dt)]
@@ -242,14 +242,6 @@ def _chords(
     off_course = wrap_angle(heading - np.arctan2(back * d[:, 1], back * d[:, 0]))
     moved = np.hypot(d[:, 0], d[:, 1]) / (travel[j] - travel[i])
     return _Chords(forward, lateral, back * dyaw, turn[fix[j]] - turn[fix[i]], off_course, moved)
-
-
-def _run_time(log: WheelLog) -> np.ndarray:
-    """Return the log's times made increasing across runs, with a 1e6-s jump at each new run."""
-    jump = np.zeros(len(log))
-    starts = log.run_starts()[1:]
-    jump[starts] = log.t[starts - 1] - log.t[starts] + 1e6
-    return log.t + np.cumsum(jump)
 
 
 def x_icr_limit(track_width: float, limits: MountingLimits | None = None) -> float:
