@@ -82,9 +82,10 @@ def _realised_offset(out: WheelLog, truth: WheelLog) -> float:
 
 
 def _fmt(value: float, std: float, scale: float = 1.0) -> str:
-    if not np.isfinite(value):
-        return "     n/o"
-    return f"{value * scale:+6.2f}" + (f"±{std * scale:.2f}" if np.isfinite(std) else "")
+    """``value±std``, or ``n/o`` (not observable: no value, or no standard error)."""
+    if not (np.isfinite(value) and np.isfinite(std)):
+        return "      n/o"
+    return f"{value * scale:+6.2f}±{std * scale:.2f}"
 
 
 def row(name: str, clean: WheelLog, cfg: Config, seed: int, quiet: bool) -> None:
