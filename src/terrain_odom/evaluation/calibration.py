@@ -269,8 +269,9 @@ def fit_sensors(
     used = int(np.unique(fixes.window).size)
     if used < lim.min_windows:
         return _unobservable(
-            f"only {used} windows of {lim.window:g} s with {lim.min_fixes} positions "
-            f"(at least {lim.min_windows}): record longer with positions while driving",
+            f"only {used} windows of {lim.window:g} s with {lim.min_fixes} positions over "
+            f"{0.5 * lim.window:g} s or more (at least {lim.min_windows}; runs of the log "
+            "shorter than that count none): record longer with positions while driving",
             scale,
             used,
         )
@@ -312,12 +313,21 @@ def run_time(log: WheelLog) -> np.ndarray:
 
 
 def _fixes(log: WheelLog, time: np.ndarray, lim: CalibrationLimits) -> _Fixes:
-    """Positions grouped into windows of ``lim.window`` s (runs never share a window)."""
+    """Positions grouped into windows of ``lim.window`` s (runs never share a window).
+
+    A window is used with ``min_fixes`` positions spread over at least half
+    its length.
+    """
     rows = np.flatnonzero(log.has_position)
     t = time[rows]
     raw = np.floor(t / lim.window).astype(np.int64)
     _, window, counts = np.unique(raw, return_inverse=True, return_counts=True)
-    keep = counts[window] >= lim.min_fixes
+    span = np.zeros(counts.size)
+    np.maximum.at(span, window, t - raw * lim.window)  # time covered (from the window's start)
+    first = np.full(counts.size, np.inf)
+    np.minimum.at(first, window, t - raw * lim.window)
+    # enough fixes over at least half the window (a short run's similarity is not a rotation)
+    keep = (counts[window] >= lim.min_fixes) & ((span - first)[window] >= 0.5 * lim.window)
     _, window = np.unique(window[keep], return_inverse=True)
     m = log.pose[rows[keep], 0] + 1j * log.pose[rows[keep], 1]
     return _Fixes(t[keep], m, window)
