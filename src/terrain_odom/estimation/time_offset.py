@@ -50,7 +50,7 @@ __all__ = [
 
 MIN_PAIRS = 20
 """Fewest heading changes an estimate is made from."""
-MAX_STARTS = 20000
+MAX_STARTS = 10000
 """Most heading changes per run (beyond it, every k-th heading starts one)."""
 
 

@@ -423,17 +423,18 @@ def _position_delay(
     if given is not None:
         return Estimate(float(given), 0.0, True, "given")
 
-    def costs_at(delays: np.ndarray) -> np.ndarray:
-        return np.array([_fit_windows(track, fixes, d, lever=True, rounds=2).cost for d in delays])
+    def costs_at(delays: np.ndarray, rounds: int) -> np.ndarray:
+        fits = (_fit_windows(track, fixes, d, lever=True, rounds=rounds) for d in delays)
+        return np.array([fit.cost for fit in fits])
 
     coarse = np.arange(-lim.max_delay, lim.max_delay + 0.5 * lim.coarse_step, lim.coarse_step)
-    best = int(np.argmin(costs_at(coarse)))
+    best = int(np.argmin(costs_at(coarse, 1)))  # where the minimum lies; refined below
     if best in (0, coarse.size - 1):
         return _delay_unobservable(
             f"the best position delay lies at the edge of +-{lim.max_delay:g} s", float("nan")
         )
     grid = coarse[best] + np.arange(-lim.parabola, lim.parabola + 0.5 * lim.step, lim.step)
-    costs = costs_at(grid)
+    costs = costs_at(grid, 2)
     i = int(np.argmin(costs))
     near = np.abs(grid - grid[i]) <= lim.parabola + 1e-9
     curve = float(np.polyfit(grid[near] - grid[i], costs[near], 2)[0])
