@@ -195,6 +195,11 @@ def calibrate_config(
         cfg = _mounting(cfg, fit, wants, found, log)
         if wants["noise"]:
             cfg = _noise(cfg, fit, found, notes)
+    elif wants["noise"]:
+        notes.append(
+            "noise not estimated: the log has no positions to compare the sensors with the "
+            "wheels' path; ekf.sigma_r kept"
+        )
     position_std = next(
         (f.std for f in found if f.key == "time.position_delay" and f.applied), None
     )
