@@ -49,7 +49,7 @@ def test_a_gps_and_an_imu_get_a_delay_each(clean):
 def test_a_noise_claimed_larger_than_found_is_kept_and_said(clean):
     # the delays and the antenna as configured (0): a GPS on time at the reference point
     quiet = {"gps_walk": 0.0, "latency": 0.0, "antenna": (0.0, 0.0), "heading_wander": 0.0}
-    log = degrade_log(clean, Degradation(gps_noise=0.2, seed=0, **quiet)).log  # type: ignore[arg-type]
+    log = degrade_log(clean, Degradation(gps_noise=0.2, seed=0, **quiet)).log
     ekf = dataclasses.replace(Config().ekf, sigma_r=PoseSigmas(1.0, 1.0, 0.5))
     cfg = Config(robot=ROBOT, ekf=ekf, pose_sensor=PoseSensorConfig(noise="auto"))
     resolved, found, _ = calibrate_config(log, cfg)
