@@ -63,6 +63,7 @@ __all__ = [
     "Estimate",
     "SensorFit",
     "circular_median",
+    "correlation_time",
     "fit_sensors",
     "run_time",
 ]
@@ -499,7 +500,7 @@ def _heading_offset(
     value = circular_median(rot, weight)
     dev = wrap_angle(rot - value)
     spread = _MAD * float(np.median(np.abs(dev)))
-    std = spread * np.sqrt(_correlation_time(dev) / rot.size)
+    std = spread * np.sqrt(correlation_time(dev) / rot.size)
     return Estimate(
         value,
         float(std),
@@ -508,7 +509,7 @@ def _heading_offset(
     )
 
 
-def _correlation_time(x: np.ndarray) -> float:
+def correlation_time(x: np.ndarray) -> float:
     """Integrated autocorrelation time of a sequence, in samples (>= 1; Geyer's initial sum)."""
     x = x - np.mean(x)
     var = float(x @ x)
@@ -638,7 +639,7 @@ def _heading_wander(
     value = float(np.sqrt(max(spread2 - float(np.median(own)), 0.0)))
     return Estimate(
         value,
-        value / np.sqrt(2.0 * max(rot.size / _correlation_time(dev), 1.0)),
+        value / np.sqrt(2.0 * max(rot.size / correlation_time(dev), 1.0)),
         True,
         f"spread of the heading offset over {rot.size} windows beyond their own error",
     )

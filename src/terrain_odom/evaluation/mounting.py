@@ -27,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from terrain_odom.evaluation.calibration import circular_median, run_time
+from terrain_odom.evaluation.calibration import circular_median, correlation_time, run_time
 from terrain_odom.kinematics import wrap_angle
 from terrain_odom.records import WheelLog
 
@@ -65,6 +65,10 @@ class MountingLimits:
         Largest time from a position to the nearest heading, s.
     min_straight : int
         Fewest straight chords for a heading offset.
+    min_judged : int
+        Fewest straight chords for the check to judge the heading offset
+        (fewer, with a GPS's noise and a heading's slow wander, misjudge it
+        by tens of degrees).
     heading_offset : float
         Heading offset beyond which the check reports, rad.
     x_icr_fraction, min_x_icr : float
@@ -81,6 +85,7 @@ class MountingLimits:
     max_turn: float = 1.0
     yaw_gap: float = 0.5
     min_straight: int = 5
+    min_judged: int = 20
     heading_offset: float = float(np.radians(5.0))
     x_icr_fraction: float = 0.5
     min_x_icr: float = 0.35
@@ -105,6 +110,11 @@ class MountingFit:
         Its standard error, m.
     chords : int
         Chords with a heading at both ends.
+    correlation : float
+        How many straight chords in a row are as one, from the correlation of
+        their offsets in time order (a heading that wanders slowly, a GPS
+        bias): the offset's standard error is ``spread sqrt(correlation /
+        straight)``.
     """
 
     heading_offset: float
@@ -113,6 +123,7 @@ class MountingFit:
     x_icr: float
     x_icr_std: float
     chords: int
+    correlation: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -160,13 +171,16 @@ def fit_mounting(
     straight &= ch.moved > lim.min_moved
     course = ch.off_course[straight]
     nan = float("nan")
-    value, spread = nan, nan
+    value, spread, correlation = nan, nan, 1.0
     if course.size >= lim.min_straight:
         value = circular_median(course)  # near +-180 deg a plain median splits the cluster
         spread = float(1.4826 * np.median(np.abs(wrap_angle(course - value))))
+        correlation = correlation_time(wrap_angle(course - value))
     lever = _chords(log, track_width, arm, offset, lim, lim.lever_chord)
     x_icr, x_std = _lever_arm(lever, lim)
-    return MountingFit(value, spread, int(course.size), x_icr, x_std, int(lever.turn.size))
+    return MountingFit(
+        value, spread, int(course.size), x_icr, x_std, int(lever.turn.size), correlation
+    )
 
 
 def _lever_arm(ch: _Chords, lim: MountingLimits) -> tuple[float, float]:
@@ -256,13 +270,16 @@ def mounting_findings(
     """Return ``(check, message)`` for a heading offset or lever arm left unexplained.
 
     A heading offset is reported beyond ``limits.heading_offset`` and three
-    standard errors of its median; an apparent ``|x_icr|`` beyond
+    standard errors of its median (the chords counted as correlated as they
+    are); an apparent ``|x_icr|`` beyond
     :func:`x_icr_limit` and three standard errors.
     """
     lim = limits or MountingLimits()
     out = []
     off, n = fit.heading_offset, fit.straight
-    if np.isfinite(off) and abs(off) > max(lim.heading_offset, 3.76 * fit.heading_spread / n**0.5):
+    std = fit.heading_spread * (fit.correlation / n) ** 0.5 if n else float("nan")
+    judged = np.isfinite(off) and n >= lim.min_judged
+    if judged and abs(off) > max(lim.heading_offset, 3.76 * std):
         out.append(
             (
                 "heading_offset",
