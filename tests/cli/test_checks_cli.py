@@ -20,7 +20,7 @@ def test_forgetting_the_config_stops_run_with_the_wheel_radius_named(grass, tmp_
     assert main(["run", "--wheels", str(grass), "--out", str(out)]) == 2
     err = capsys.readouterr().err.strip()
     assert "\n" not in err and "Traceback" not in err
-    assert "wheel radius 0.1 m" in err and "--no-checks" in err and "(x2.89)" in err
+    assert "wheel radius 0.1 m" in err and "--no-checks" in err and "(x2.87)" in err
     assert not (out / "trajectory.csv").exists()
     assert grass.read_bytes() == before
 

@@ -192,7 +192,7 @@ def test_run_with_the_simulated_mounting_converges_without_it_stops(
     without = [*args, "--out", str(tmp_path / "without"), "--config", str(mounted / "without.yaml")]
     assert main(without) == 2
     err = capsys.readouterr().err.strip()
-    assert "\n" not in err and "pose_sensor.heading_offset" in err and "+8.1 deg" in err
+    assert "\n" not in err and "pose_sensor.heading_offset" in err and "+8.0 deg" in err
     out = tmp_path / "with"
     assert main([*args, "--out", str(out), "--config", str(mounted / "config.yaml")]) == 0
     truth, run = _columns(mounted / "groundtruth.csv"), _columns(out / "trajectory.csv")

@@ -16,7 +16,7 @@ import math
 import numpy as np
 import pytest
 
-from terrain_odom.app.run import resolve_heading_offset
+from terrain_odom.app.calibration import calibrate_config
 from terrain_odom.config import Config, PoseChangeSigmas, PoseSensorConfig, PoseSigmas
 from terrain_odom.estimation.odometry import run_icr_ekf, run_slip_ekf
 from terrain_odom.evaluation import check_log
@@ -122,11 +122,15 @@ def test_with_the_mounting_the_checks_pass(sim_log):
     assert check_log(sim_log, TRACK, antenna=(ANTENNA, 0.0), heading_offset=OFFSET).ok
 
 
-def test_auto_heading_offset_finds_the_imu_offset(sim_log):
-    cfg, calibration = resolve_heading_offset(sim_log, _config(ANTENNA, "auto"))
-    assert calibration is not None and calibration.stretches >= 50
+def test_auto_mounting_finds_the_imu_offset_and_the_antenna(sim_log):
+    cfg, found, _ = calibrate_config(sim_log, _config("auto", "auto"))
     assert cfg.pose_sensor.heading_offset == pytest.approx(OFFSET, abs=math.radians(1.0))
-    assert calibration.spread == pytest.approx(math.radians(11.0), abs=math.radians(3.0))
+    # the antenna from the point that does not slide sideways: ANTENNA - x_icr
+    assert cfg.pose_sensor.antenna_x == pytest.approx(ANTENNA - GRASS.x_icr, abs=0.1)
+    assert cfg.pose_sensor.antenna_y == pytest.approx(0.0, abs=0.1)
+    values = {f.key: f for f in found.found}
+    assert 0.0 < values["pose_sensor.antenna_x"].std < 0.1
+    assert values["pose_sensor.heading_offset"].applied
 
 
 def _slip(sim: Simulation, cfg: Config) -> tuple[np.ndarray, float]:

@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from tqdm import tqdm
 
+from terrain_odom.app.calibration import SensorCalibration, calibrate_inputs, check_plausible
 from terrain_odom.app.frames import FRAME_COLUMNS, FramePipeline, FrameRecord, one_thread
 from terrain_odom.app.groundtruth import GroundTruthReport, groundtruth_section
 from terrain_odom.app.plots import write_run_plots
@@ -41,9 +42,8 @@ from terrain_odom.estimation.icr_ekf import IcrPriors
 from terrain_odom.estimation.odometry import OdometryBlock, OdometryResult, run_odometry
 from terrain_odom.estimation.online import ESTIMATORS, Estimator, OnlineOdometry
 from terrain_odom.estimation.pose_measurement import PoseUse
-from terrain_odom.estimation.time_offset import TimeCalibration, calibrate_pose_delay
-from terrain_odom.evaluation import check_log
-from terrain_odom.evaluation.mounting import MountingLimits, fit_mounting, x_icr_limit
+from terrain_odom.estimation.time_offset import TimeCalibration
+from terrain_odom.evaluation.mounting import x_icr_limit
 from terrain_odom.io import TrajectoryWriter, read_wheel_log
 from terrain_odom.io.atomic import write_text_atomic
 from terrain_odom.io.groundtruth import read_groundtruth
@@ -66,8 +66,7 @@ __all__ = [
     "images_config",
     "read_calibrated_log",
     "calibrate_log",
-    "HeadingCalibration",
-    "resolve_heading_offset",
+    "calibrate_inputs",
     "run_config",
     "check_plausible",
 ]
@@ -122,8 +121,9 @@ class RunSummary:
         in the log's labels, or not a class of the terrain classifier).
     pose_use : PoseUse or None
         Measured pose components used and dropped (by reason).
-    heading : HeadingCalibration or None
-        The heading offset estimated (``pose_sensor.heading_offset: auto``).
+    calibration : SensorCalibration or None
+        The ``auto`` values found before the run (heading offset, antenna,
+        delays, noise), each with its standard error.
     warnings : tuple of str
         What the finished run's estimate makes doubtful (one line each).
     recording : Path or None
@@ -145,66 +145,29 @@ class RunSummary:
     frames: FrameCounts | None = None
     unused_priors: tuple[str, ...] = ()
     pose_use: PoseUse | None = None
-    heading: HeadingCalibration | None = None
+    calibration: SensorCalibration | None = None
     warnings: tuple[str, ...] = ()
     recording: Path | None = None
 
 
-@dataclass(frozen=True)
-class HeadingCalibration:
-    """A heading offset estimated from a log (``pose_sensor.heading_offset: auto``).
+def _write_run_config(
+    out: Path, cfg: Config, timing: TimeCalibration, calibration: SensorCalibration | None
+) -> Path:
+    """Write the configuration used into the run's folder, its delays and ``auto`` values resolved.
 
-    Attributes
-    ----------
-    offset : float
-        Measured heading minus the robot's, rad: the median over straight stretches.
-    spread : float
-        Robust standard deviation of single stretches, rad.
-    stretches : int
-        Straight stretches used.
+    Each value the run calibrated has a comment saying how it was found.
     """
-
-    offset: float
-    spread: float
-    stretches: int
-
-
-def resolve_heading_offset(log: WheelLog, cfg: Config) -> tuple[Config, HeadingCalibration | None]:
-    """Return ``cfg`` with ``pose_sensor.heading_offset: auto`` estimated from ``log``.
-
-    The estimate is the median of measured heading minus the positions'
-    course over the log's straight stretches
-    (:func:`~terrain_odom.evaluation.mounting.fit_mounting`), the antenna
-    lever arm of ``cfg`` applied. A numeric offset is returned as it is.
-
-    Raises
-    ------
-    InputFileError
-        ``auto`` on a log with too few straight stretches.
-    """
-    sensor = cfg.pose_sensor
-    if sensor.heading_offset != "auto":
-        return cfg, None
-    antenna = (sensor.antenna_x, sensor.antenna_y)
-    fit = fit_mounting(log, cfg.robot.track_width, antenna=antenna)
-    if not np.isfinite(fit.heading_offset):
-        lim = MountingLimits()
-        raise InputFileError(
-            f"{log.source}: pose_sensor.heading_offset auto needs {lim.min_straight} straight "
-            f"stretches of {lim.chord:g} m with positions and headings, the log has "
-            f"{fit.straight}; give the offset in radians"
-        )
-    resolved = dataclasses.replace(sensor, heading_offset=fit.heading_offset)
-    calibration = HeadingCalibration(fit.heading_offset, fit.heading_spread, fit.straight)
-    return dataclasses.replace(cfg, pose_sensor=resolved), calibration
-
-
-def _write_run_config(out: Path, cfg: Config, timing: TimeCalibration) -> Path:
-    """Write the configuration used into the run's folder, its pose delay resolved, s."""
-    resolved = dataclasses.replace(cfg, time=TimeConfig(pose_delay=timing.pose_delay))
+    position, heading = timing.pose_delay, timing.heading_delay_applied
+    time_cfg = (
+        TimeConfig(pose_delay=position)
+        if heading == position
+        else TimeConfig(pose_delay=position, position_delay=position, heading_delay=heading)
+    )
+    resolved = dataclasses.replace(cfg, time=time_cfg)
     path = out / RUN_CONFIG
     header = "# The configuration this run used (terrain-odom run); evaluate --run reads it.\n"
-    write_text_atomic(path, header + dump_config(resolved))
+    comments = calibration.comments() if calibration is not None else None
+    write_text_atomic(path, header + dump_config(resolved, comments))
     return path
 
 
@@ -215,56 +178,27 @@ def run_config(run_dir: str | Path) -> Path | None:
 
 
 def read_calibrated_log(wheels: str | Path, cfg: Config) -> tuple[WheelLog, TimeCalibration]:
-    """Read a wheel log and apply ``cfg.time.pose_delay`` to it (estimated if ``auto``).
+    """Read a wheel log and apply its pose delays (:func:`calibrate_log`).
 
     Raises
     ------
     InputFileError
-        If the file is missing or malformed, or its wheels and poses disagree
-        (:func:`check_plausible`).
-    EstimationError
-        ``auto`` on a log whose delay cannot be estimated.
+        If the file is missing or malformed, its wheels and poses disagree
+        (:func:`check_plausible`), or an ``auto`` value cannot be estimated.
     """
     return calibrate_log(read_wheel_log(wheels, wheel_radius=cfg.robot.wheel_radius), cfg)
 
 
 def calibrate_log(log: WheelLog, cfg: Config) -> tuple[WheelLog, TimeCalibration]:
-    """Check a log read with ``cfg`` (:func:`check_plausible`), then apply its pose delay.
+    """Calibrate a log read with ``cfg`` and apply its delays (:func:`calibrate_inputs`).
 
     Raises
     ------
     InputFileError
-        Its wheels and poses disagree.
-    EstimationError
-        ``auto`` on a log whose delay cannot be estimated.
+        Its wheels and poses disagree, or an ``auto`` value cannot be estimated.
     """
-    check_plausible(log, cfg)
-    return calibrate_pose_delay(log, cfg.time.pose_delay, cfg.robot.track_width)
-
-
-def check_plausible(log: WheelLog, cfg: Config) -> None:
-    """Stop on the first finding of :func:`~terrain_odom.evaluation.check_log` (if ``cfg.checks``).
-
-    Raises
-    ------
-    InputFileError
-        One line: the finding, the robot geometry it was judged with, and the way out.
-    """
-    if not cfg.checks.enabled:
-        return
-    cfg, _ = resolve_heading_offset(log, cfg)
-    sensor = cfg.pose_sensor
-    found = check_log(
-        log,
-        cfg.robot.track_width,
-        antenna=(sensor.antenna_x, sensor.antenna_y),
-        heading_offset=float(sensor.heading_offset),
-    ).findings
-    if found:
-        raise InputFileError(
-            f"{log.source}: {found[0].message} (wheel radius {cfg.robot.wheel_radius:g} m, "
-            f"track width {cfg.robot.track_width:g} m); --no-checks runs anyway"
-        )
+    log, _, _, timing = calibrate_inputs(log, cfg)
+    return log, timing
 
 
 def _labels(log: WheelLog, source: TerrainSource) -> np.ndarray | None:
@@ -294,7 +228,7 @@ class _Inputs:
     frames: FrameList | None
     classifier: TerrainClassifier | None
     model: str | Path | None
-    heading: HeadingCalibration | None = None
+    calibration: SensorCalibration | None = None
 
 
 def _read_inputs(
@@ -322,8 +256,7 @@ def _read_inputs(
     cfg = config if config is not None else load_config(config_path)
     icr_priors = None if priors is None else read_priors(priors, cfg.robot)
     log = read_wheel_log(wheels, wheel_radius=cfg.robot.wheel_radius)
-    cfg, heading = resolve_heading_offset(log, cfg)
-    log, timing = calibrate_log(log, cfg)
+    log, cfg, calibration, timing = calibrate_inputs(log, cfg)
     gt = _read_groundtruth(groundtruth, log) if groundtruth is not None else None
     use_frames = images is not None and terrain is not TerrainSource.NONE
     labels = None if use_frames else _labels(log, terrain)
@@ -354,7 +287,7 @@ def _read_inputs(
         frame_list,
         classifier,
         model,
-        heading,
+        calibration,
     )
 
 
@@ -507,7 +440,7 @@ def run(
         updates=result.n_updates,
         terrain_changes=len(result.changes),
         pose_use=odometry.pose_use,
-        heading=inputs.heading,
+        calibration=inputs.calibration,
         warnings=tuple(report["warnings"]),
         recording=recording,
     )  # fmt: skip
@@ -521,14 +454,14 @@ def _add_sections(
     groundtruth: str | Path | None,
     use_roi: bool,
 ) -> GroundTruthReport | None:
-    """Add the heading, frames and ground-truth sections to ``report``.
+    """Add the calibration, frames and ground-truth sections to ``report``.
 
     ``camera`` is the frame pipeline, its records and the frames' folder.
     Returns the run scored against its ground truth, if one was given.
     """
     pipeline, records, root = camera
-    if inputs.heading is not None:
-        report["heading_calibration"] = asdict(inputs.heading)
+    if inputs.calibration is not None and inputs.calibration.found:
+        report["calibration"] = inputs.calibration.to_dict()
     if root is not None:
         _add_frames_report(report, root, inputs, result, pipeline, use_roi)
     if inputs.gt is None or groundtruth is None:
@@ -576,7 +509,7 @@ def _start(
 
     Returns the configuration's path and the ``inputs`` section of the report.
     """
-    config_yaml = _write_run_config(out, inputs.cfg, inputs.timing)
+    config_yaml = _write_run_config(out, inputs.cfg, inputs.timing, inputs.calibration)
     read = _report_inputs(inputs, wheels, priors)
     mark_running(out, read)
     return config_yaml, read

@@ -17,6 +17,7 @@ from collections.abc import Sequence
 from terrain_odom import __version__
 from terrain_odom.cli import (
     bag_import,
+    calibrate,
     compare,
     degrade,
     evaluate,
@@ -34,6 +35,7 @@ from terrain_odom.errors import TerrainOdomError
 # One module per subcommand, each with ``add_parser(subparsers)``.
 SUBCOMMANDS = (
     run,
+    calibrate,
     evaluate,
     train,
     report,

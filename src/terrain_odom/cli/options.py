@@ -25,6 +25,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypedDict, overload
 
 if TYPE_CHECKING:
+    from terrain_odom.app.calibration import SensorCalibration
     from terrain_odom.config import Config
     from terrain_odom.config.classifier import ClassifierConfig
     from terrain_odom.estimation.time_offset import TimeCalibration
@@ -186,8 +187,9 @@ def add_log_options(p: argparse.ArgumentParser) -> None:
         "--pose-delay",
         metavar="{auto,SECONDS}",
         help="the pose stamps lag the wheel speeds by this many seconds (the wheel speeds are "
-        "delayed to match), or auto: estimate it from the whole log's heading (offline "
-        "calibration); default: the configuration's time.pose_delay, 0",
+        "delayed to match), or auto: estimate it from the whole log's heading, or its "
+        "positions without headings (offline calibration); default: the configuration's "
+        "time.pose_delay, 0",
     )
 
 
@@ -213,13 +215,31 @@ def load_config_option(args: argparse.Namespace, path: str | Path | None = None)
 
 def pose_delay_line(timing: TimeCalibration) -> str:
     """Return one line on the pose delay applied to a log."""
-    line = f"pose delay: {timing.pose_delay:.3f} s"
-    if timing.estimate is not None:
+    separate = timing.heading_delay_applied != timing.pose_delay
+    line = f"{'position' if separate else 'pose'} delay: {timing.pose_delay:.3f} s"
+    if timing.position_std is not None:
+        line += f" (estimated, +-{timing.position_std:.3f} s, from the positions)"
+    elif timing.estimate is not None and not separate:
         line += (
             f" (estimated, +-{timing.estimate.std:.3f} s, from {timing.estimate.pairs} "
             "heading changes)"
         )
+    if separate:
+        line += f"; heading delay: {timing.heading_delay_applied:.3f} s"
+        if timing.estimate is not None:
+            line += f" (estimated, +-{timing.estimate.std:.3f} s)"
     return line
+
+
+def print_calibration(calibration: SensorCalibration | None) -> None:
+    """Print each value a calibration found (or could not), then its notes (noise overrides)."""
+    if calibration is None:
+        return
+    for found in calibration.found:
+        if not found.key.startswith("time.") and not found.key.startswith("ekf.sigma_r"):
+            print(f"calibrated: {found.line()}")
+    for note in calibration.notes:
+        print(f"calibrated: {note}")
 
 
 def print_pose_delay(timing: TimeCalibration | None) -> None:

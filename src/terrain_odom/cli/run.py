@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import math
 from typing import TYPE_CHECKING
 
 from terrain_odom.cli.bag_import import add_bag_topic_options, wheels_from_bag
@@ -15,6 +14,7 @@ from terrain_odom.cli.options import (
     add_wheels_option,
     find_input,
     load_config_option,
+    print_calibration,
     print_pose_delay,
     print_written,
 )
@@ -163,12 +163,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
         plots=not args.no_plots,
     )
     print_pose_delay(summary.time_calibration)
-    if summary.heading is not None:
-        h = summary.heading
-        print(
-            f"heading offset: {math.degrees(h.offset):+.2f} deg (auto: median of {h.stretches} "
-            f"straight stretches, spread {math.degrees(h.spread):.2f} deg)"
-        )
+    print_calibration(summary.calibration)
     print(f"{summary.rows} rows in {summary.seconds:.2f} s")
     if summary.pose_use is not None:
         print(f"pose:       {summary.pose_use.summary()}")

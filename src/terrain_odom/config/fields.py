@@ -72,8 +72,10 @@ def _check_value(hint: Any, raw: Any, key: str, allowed: str) -> Any:
     if origin in (typing.Union, types.UnionType) and type(None) in args:
         if raw is None:
             return None
-        (inner,) = [a for a in args if a is not type(None)]
-        return _check_value(inner, raw, key, allowed)
+        inner = [a for a in args if a is not type(None)]
+        if len(inner) == 1:
+            return _check_value(inner[0], raw, key, allowed)
+        args = tuple(inner)  # e.g. float | Literal["auto"] | None: one of the others
     if origin in (typing.Union, types.UnionType):  # e.g. float | Literal["auto"]
         for option in args:
             with contextlib.suppress(ConfigError):

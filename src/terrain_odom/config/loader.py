@@ -77,7 +77,7 @@ def with_pose_delay(cfg: Config, text: str | None, where: str = "--pose-delay") 
 def _check_pose_sensor(sensor: PoseSensorConfig) -> None:
     for name in ("antenna_x", "antenna_y"):
         value = getattr(sensor, name)
-        if not abs(value) <= MAX_ANTENNA_OFFSET:
+        if value != "auto" and not abs(value) <= MAX_ANTENNA_OFFSET:
             raise ConfigError(
                 f"pose_sensor.{name}: {value:g} m is not an antenna offset on a robot "
                 f"(|offset| <= {MAX_ANTENNA_OFFSET:g} m); give metres"
@@ -111,7 +111,10 @@ def _check_consistency(cfg: Config) -> None:
         raise ConfigError("slip_ekf.limits.half_width_min must be < half_width_max")
     if not slip.limits.alpha_min <= slip.initial.alpha <= slip.limits.alpha_max:
         raise ConfigError("slip_ekf.initial.alpha must lie in [limits.alpha_min, alpha_max]")
-    _check_pose_delay(cfg.time.pose_delay, "time.pose_delay")
+    for name in ("pose_delay", "position_delay", "heading_delay"):
+        delay = getattr(cfg.time, name)
+        if delay is not None:
+            _check_pose_delay(delay, f"time.{name}")
     _check_pose_sensor(cfg.pose_sensor)
     if cfg.format_version != FORMAT_VERSION:
         raise ConfigError(
@@ -256,9 +259,30 @@ def config_to_dict(cfg: Config) -> dict[str, Any]:
     return dataclasses.asdict(cfg)
 
 
-def dump_config(cfg: Config) -> str:
-    """Return the configuration as YAML text that :func:`load_config` reads back equal."""
-    return yaml.safe_dump(_plain(config_to_dict(cfg)), sort_keys=False)
+def dump_config(cfg: Config, comments: Mapping[str, str] | None = None) -> str:
+    """Return the configuration as YAML text that :func:`load_config` reads back equal.
+
+    ``comments`` maps dotted keys (``pose_sensor.antenna_x``) to a comment
+    written at the end of that key's line.
+
+    Examples
+    --------
+    >>> text = dump_config(Config(), {"robot.track_width": "measured"})
+    >>> [line for line in text.splitlines() if "track_width" in line]
+    ['  track_width: 0.5  # measured']
+    """
+    text = yaml.safe_dump(_plain(config_to_dict(cfg)), sort_keys=False)
+    if not comments:
+        return text
+    lines, path = text.splitlines(), list[str]()
+    for i, line in enumerate(lines):
+        depth = (len(line) - len(line.lstrip(" "))) // 2
+        key = line.strip().split(":", 1)[0]
+        path = [*path[:depth], key]
+        note = comments.get(".".join(path))
+        if note is not None:
+            lines[i] = f"{line}  # {note}"
+    return "\n".join(lines) + "\n"
 
 
 def _plain(value: Any) -> Any:

@@ -335,12 +335,30 @@ class TimeConfig:
         ``d``, s: a pose stamped ``t`` was measured at wheel time ``t - d``;
         the wheel speeds are delayed by ``d`` when the log is read
         (:func:`~terrain_odom.estimation.time_offset.delay_wheel_speeds`).
-        ``auto``: estimated offline from the whole log's heading changes
-        (:func:`~terrain_odom.estimation.time_offset.estimate_pose_delay`).
+        ``auto``: estimated offline from the whole log (the heading changes,
+        :func:`~terrain_odom.estimation.time_offset.estimate_pose_delay`, or
+        without headings the positions,
+        :func:`~terrain_odom.evaluation.calibration.fit_sensors`).
         0 (default): the stamps are taken as they are.
+    position_delay, heading_delay : float, "auto" or None
+        The delay of the position rows and of the heading rows, s, where
+        they differ (a GPS ~0.5 s late, an IMU on time): ``auto`` estimates
+        each from the whole log; None (default) takes ``pose_delay``. With
+        two different delays each heading is moved onto the positions'
+        clock when the log is read
+        (:func:`~terrain_odom.estimation.time_offset.delay_sensors`).
     """
 
     pose_delay: float | Literal["auto"] = field(default=0.0, metadata=SIGNED)
+    position_delay: float | Literal["auto"] | None = field(default=None, metadata=SIGNED)
+    heading_delay: float | Literal["auto"] | None = field(default=None, metadata=SIGNED)
+
+    @property
+    def delays(self) -> tuple[float | Literal["auto"], float | Literal["auto"]]:
+        """The position and heading delays in effect (``pose_delay`` where not set)."""
+        position = self.pose_delay if self.position_delay is None else self.position_delay
+        heading = self.pose_delay if self.heading_delay is None else self.heading_delay
+        return position, heading
 
 
 @dataclass(frozen=True)
@@ -365,21 +383,31 @@ class PoseSensorConfig:
 
     Attributes
     ----------
-    antenna_x, antenna_y : float
+    antenna_x, antenna_y : float or "auto"
         Position of the position sensor (GPS antenna) in the robot frame, m
         (x forward, y left, from the reference point whose pose is
-        estimated); the measured ``x, y`` are the antenna's.
+        estimated); the measured ``x, y`` are the antenna's. ``auto``:
+        estimated from the whole log before the run, by least squares of
+        the positions against the wheel path
+        (:func:`~terrain_odom.evaluation.calibration.fit_sensors`; needs
+        turns of changing sharpness, reported as not observable otherwise).
     heading_offset : float or "auto"
         Measured ``yaw`` minus the robot's yaw, rad (an IMU's mounting, the
         magnetic declination). ``auto``: estimated from the whole log before
-        the run, as the median of measured heading minus position course on
-        straight stretches
-        (:func:`~terrain_odom.evaluation.plausibility.heading_offset`).
+        the run, as the circular median over windows of the measured heading
+        minus the heading of the path the positions draw
+        (:func:`~terrain_odom.evaluation.calibration.fit_sensors`).
+    noise : {"config", "auto"}
+        ``auto``: estimate each pose sensor's noise from the log (a robust
+        scale of its disagreement with short stretches of wheel odometry)
+        and use it for ``ekf.sigma_r`` and ``slip_ekf.sigma_r`` where they
+        claim less; ``config`` (default): use them as they are.
     """
 
-    antenna_x: float = field(default=0.0, metadata=SIGNED)
-    antenna_y: float = field(default=0.0, metadata=SIGNED)
+    antenna_x: float | Literal["auto"] = field(default=0.0, metadata=SIGNED)
+    antenna_y: float | Literal["auto"] = field(default=0.0, metadata=SIGNED)
     heading_offset: float | Literal["auto"] = field(default=0.0, metadata=SIGNED)
+    noise: Literal["config", "auto"] = "config"
 
 
 @dataclass(frozen=True)

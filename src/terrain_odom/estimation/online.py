@@ -461,12 +461,14 @@ class OnlineOdometry:
 def _mounting(config: Config) -> Mounting:
     """Return the pose sensors' mounting of ``config`` (``pose_sensor``) as numbers."""
     sensor = config.pose_sensor
-    if sensor.heading_offset == "auto":
+    values = {k: getattr(sensor, k) for k in ("antenna_x", "antenna_y", "heading_offset")}
+    auto = [k for k, v in values.items() if v == "auto"]
+    if auto:
         raise ConfigError(
-            "pose_sensor.heading_offset: auto is estimated from a whole log (terrain-odom run, "
-            "evaluation.plausibility.heading_offset); give OnlineOdometry radians"
+            f"pose_sensor.{', '.join(auto)}: auto is estimated from a whole log (terrain-odom "
+            "run or calibrate, app.calibration.calibrate_config); give OnlineOdometry numbers"
         )
-    return Mounting(sensor.antenna_x, sensor.antenna_y, sensor.heading_offset)
+    return Mounting(*(float(v) for v in values.values()))
 
 
 def _valid_from(t: np.ndarray, v_l: np.ndarray, v_r: np.ndarray) -> np.ndarray:

@@ -43,12 +43,15 @@ __all__ = [
     "TimeCalibration",
     "estimate_pose_delay",
     "delay_wheel_speeds",
+    "delay_sensors",
     "calibrate_pose_delay",
     "shows_pose_delay",
 ]
 
 MIN_PAIRS = 20
 """Fewest heading changes an estimate is made from."""
+MAX_STARTS = 10000
+"""Most heading changes per run (beyond it, every k-th heading starts one)."""
 
 
 @dataclass(frozen=True)
@@ -169,8 +172,11 @@ def _heading_changes(
         t = log.t[rows]
         speeds = np.c_[log.v_r[rows] - log.v_l[rows]]
         yaw_rows = np.flatnonzero(np.isfinite(log.pose[rows, 2]))
-        end = np.searchsorted(t[yaw_rows], t[yaw_rows] + span)
-        a, b = yaw_rows[end < yaw_rows.size], yaw_rows[end[end < yaw_rows.size]]
+        # a long log at a high rate: every k-th start (overlapping changes add cost, not
+        # information); logs of up to MAX_STARTS headings keep every start
+        starts = yaw_rows[:: max(1, -(-yaw_rows.size // MAX_STARTS))]
+        end = np.searchsorted(t[yaw_rows], t[starts] + span)
+        a, b = starts[end < yaw_rows.size], yaw_rows[end[end < yaw_rows.size]]
         keep = (
             (t[b] - t[a] <= max_span) & (t[a] - lags.max() >= t[0]) & (t[b] - lags.min() <= t[-1])
         )
@@ -229,12 +235,102 @@ def delay_wheel_speeds(log: WheelLog, delay: float) -> WheelLog:
     speeds = np.c_[log.v_l, log.v_r]
     out = speeds.copy()  # single-row segments keep their speeds (nothing is integrated)
     for rows in _segment_rows(log):
-        t = log.t[rows]
-        shifted = _integral(t, speeds[rows], t - delay)
-        out[rows[:-1]] = np.diff(shifted, axis=0) / np.diff(t)[:, None]
-        last = np.clip(np.searchsorted(t, t[-1] - delay, side="right") - 1, 0, t.size - 1)
-        out[rows[-1]] = speeds[rows[last]]
+        out[rows] = _held_means(log.t[rows], speeds[rows], log.t[rows] - delay)
     return WheelLog(log.t, out[:, 0], out[:, 1], log.pose, log.terrain, log.segment, log.source)
+
+
+def _held_means(t: np.ndarray, speeds: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """Mean of zero-order-held ``speeds`` (rows at ``t``) over ``[s_k, s_(k+1)]``; the last at ``s``."""
+    shifted = _integral(t, speeds, s)
+    out = np.empty((s.size, speeds.shape[1]))
+    out[:-1] = np.diff(shifted, axis=0) / np.diff(s)[:, None]
+    last = np.clip(np.searchsorted(t, s[-1], side="right") - 1, 0, t.size - 1)
+    out[-1] = speeds[last]
+    return out
+
+
+def delay_sensors(log: WheelLog, position_delay: float, heading_delay: float) -> WheelLog:
+    """Apply a position delay and a different heading delay to a log.
+
+    A fix stamped ``t`` was measured at wheel time ``t - position_delay``, a
+    heading stamped ``t`` at ``t - heading_delay``. The positions keep their
+    stamps and the wheel speeds are delayed by ``position_delay``
+    (:func:`delay_wheel_speeds`); each heading moves to the stamp
+    ``t + position_delay - heading_delay`` of that clock, on a row of its own
+    (or onto a row at that time without a heading), within its run
+    (headings moved beyond a run's first or last row are dropped). Every
+    row's speeds are then the recorded speeds' mean over its delayed
+    interval, so travel and turn between any two rows stay exact.
+
+    Parameters
+    ----------
+    log : WheelLog
+        The log as recorded.
+    position_delay, heading_delay : float
+        s.
+
+    Returns
+    -------
+    WheelLog
+        ``delay_wheel_speeds(log, position_delay)`` when the delays are equal.
+    """
+    if heading_delay == position_delay:
+        return delay_wheel_speeds(log, position_delay)
+    shift = position_delay - heading_delay
+    parts = [
+        _moved_headings(log.take(np.asarray(rows)), shift, position_delay)
+        for rows in log.run_ranges()
+    ]
+    t, v_l, v_r, pose, segment = (
+        np.concatenate([getattr(p, name) for p in parts])
+        for name in ("t", "v_l", "v_r", "pose", "segment")
+    )
+    labels = [p.terrain for p in parts if p.terrain is not None]
+    terrain = np.concatenate(labels) if log.terrain is not None else None
+    return WheelLog(t, v_l, v_r, pose, terrain, segment, log.source)
+
+
+_SAME_STAMP = 1e-6
+"""Stamps closer than this (s) are one row."""
+
+
+def _moved_headings(run: WheelLog, shift: float, delay: float) -> WheelLog:
+    """One run with its headings moved ``shift`` s later and its speeds delayed ``delay`` s."""
+    yaw_rows = np.flatnonzero(run.has_yaw)
+    moved_t = run.t[yaw_rows] + shift
+    inside = (moved_t >= run.t[0]) & (moved_t <= run.t[-1])
+    yaw_rows, moved_t = yaw_rows[inside], moved_t[inside]
+    stay = np.flatnonzero(run.has_position | ~run.has_yaw)  # rows that keep their stamp
+    pose = run.pose[stay].copy()
+    pose[:, 2] = np.nan
+    t = np.concatenate([run.t[stay], moved_t])
+    pose = np.concatenate(
+        [pose, np.column_stack([np.full((moved_t.size, 2), np.nan), run.pose[yaw_rows, 2]])]
+    )
+    order = np.argsort(t, kind="stable")
+    t, pose = t[order], pose[order]
+    new = np.r_[True, np.diff(t) > _SAME_STAMP]  # a heading landing on a row joins it
+    group = np.cumsum(new) - 1
+    merged = np.full((int(group[-1]) + 1 if t.size else 0, 3), np.nan)
+    for col in range(3):
+        ok = np.isfinite(pose[:, col])
+        merged[group[ok][::-1], col] = pose[ok, col][::-1]  # the first finite value of a group
+    t = t[new]
+    source = np.clip(np.searchsorted(run.t, t + _SAME_STAMP, side="right") - 1, 0, len(run) - 1)
+    speeds = (
+        _held_means(run.t, np.c_[run.v_l, run.v_r], t - delay)
+        if t.size > 1
+        else np.c_[run.v_l[source], run.v_r[source]]
+    )
+    return WheelLog(
+        t,
+        speeds[:, 0],
+        speeds[:, 1],
+        merged,
+        None if run.terrain is None else run.terrain[source],
+        run.segment[source],
+        run.source,
+    )
 
 
 @dataclass(frozen=True)
@@ -244,23 +340,43 @@ class TimeCalibration:
     Attributes
     ----------
     pose_delay : float
-        ``d`` applied, s.
+        ``d`` applied, s (to the positions where the headings have their own).
     estimate : PoseDelayEstimate or None
-        The estimate when ``d`` was estimated (``auto``); None when given.
+        The heading-based estimate when a delay was estimated from the
+        headings (``auto``); None otherwise.
+    heading_delay : float or None
+        The headings' own delay, s; None: ``pose_delay``.
+    position_std : float or None
+        Standard error of ``pose_delay`` where it was estimated from the
+        positions (:func:`~terrain_odom.evaluation.calibration.fit_sensors`), s.
     """
 
     pose_delay: float
     estimate: PoseDelayEstimate | None = None
+    heading_delay: float | None = None
+    position_std: float | None = None
+
+    @property
+    def heading_delay_applied(self) -> float:
+        """The headings' delay, s (``pose_delay`` unless they have their own)."""
+        return self.pose_delay if self.heading_delay is None else self.heading_delay
 
     def to_dict(self) -> dict[str, Any]:
-        """Plain data for reports: ``pose_delay_s``, ``estimated`` and the estimate's figures."""
+        """Plain data for reports: ``pose_delay_s``, ``estimated`` and the estimate's figures.
+
+        ``heading_delay_s`` too where the headings have a delay of their own.
+        """
         out: dict[str, Any] = {
             "pose_delay_s": self.pose_delay,
-            "estimated": self.estimate is not None,
+            "estimated": self.estimate is not None or self.position_std is not None,
         }
+        if self.heading_delay_applied != self.pose_delay:
+            out["heading_delay_s"] = self.heading_delay_applied
         if self.estimate is not None:
             e = self.estimate
             out.update(std_s=e.std, yaw_rate_scale=e.yaw_rate_scale, heading_changes=e.pairs)
+        if self.position_std is not None:  # pose_delay is the positions' own estimate
+            out.update(std_s=self.position_std, from_positions=True)
         return out
 
 

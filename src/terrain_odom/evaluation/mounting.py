@@ -7,10 +7,9 @@ measured heading at both ends:
 - on straight chords (the wheels and the heading turn less than
   ``straight_turn`` from end to end), the measured heading (averaged
   along the chord, weighted by travel) minus the course of the chord is
-  the sensor's heading offset (an IMU mounted turned, the magnetic
-  declination); its median over the log is :func:`heading_offset`
-  (``pose_sensor.heading_offset: auto``), its spread the robust standard
-  deviation of the single chords;
+  the sensor's heading offset left unexplained (an IMU mounted turned,
+  the magnetic declination): its circular median over the log, its spread
+  the robust standard deviation of the single chords;
 - on every chord, the sideways displacement in the frame of the mean
   heading is ``-x * dyaw`` for a point whose velocity is ``-x * omega``
   sideways: the apparent ``x_icr`` of the position sensor. A GPS antenna
@@ -28,6 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from terrain_odom.evaluation.calibration import circular_median, correlation_time, run_time
 from terrain_odom.kinematics import wrap_angle
 from terrain_odom.records import WheelLog
 
@@ -35,7 +35,6 @@ __all__ = [
     "MountingFit",
     "MountingLimits",
     "fit_mounting",
-    "heading_offset",
     "mounting_findings",
     "x_icr_limit",
 ]
@@ -66,6 +65,10 @@ class MountingLimits:
         Largest time from a position to the nearest heading, s.
     min_straight : int
         Fewest straight chords for a heading offset.
+    min_judged : int
+        Fewest straight chords for the check to judge the heading offset
+        (fewer, with a GPS's noise and a heading's slow wander, misjudge it
+        by tens of degrees).
     heading_offset : float
         Heading offset beyond which the check reports, rad.
     x_icr_fraction, min_x_icr : float
@@ -82,6 +85,7 @@ class MountingLimits:
     max_turn: float = 1.0
     yaw_gap: float = 0.5
     min_straight: int = 5
+    min_judged: int = 20
     heading_offset: float = float(np.radians(5.0))
     x_icr_fraction: float = 0.5
     min_x_icr: float = 0.35
@@ -94,7 +98,7 @@ class MountingFit:
     Attributes
     ----------
     heading_offset : float
-        Median measured heading minus course over the straight chords, rad
+        Circular median of measured heading minus course over the straight chords, rad
         (NaN with fewer than ``min_straight``).
     heading_spread : float
         Robust standard deviation of that difference over single chords, rad.
@@ -106,6 +110,11 @@ class MountingFit:
         Its standard error, m.
     chords : int
         Chords with a heading at both ends.
+    correlation : float
+        How many straight chords in a row are as one, from the correlation of
+        their offsets in time order (a heading that wanders slowly, a GPS
+        bias): the offset's standard error is ``spread sqrt(correlation /
+        straight)``.
     """
 
     heading_offset: float
@@ -114,6 +123,7 @@ class MountingFit:
     x_icr: float
     x_icr_std: float
     chords: int
+    correlation: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -161,24 +171,16 @@ def fit_mounting(
     straight &= ch.moved > lim.min_moved
     course = ch.off_course[straight]
     nan = float("nan")
-    value, spread = nan, nan
+    value, spread, correlation = nan, nan, 1.0
     if course.size >= lim.min_straight:
-        value = float(np.median(course))
-        spread = float(1.4826 * np.median(np.abs(course - value)))
+        value = circular_median(course)  # near +-180 deg a plain median splits the cluster
+        spread = float(1.4826 * np.median(np.abs(wrap_angle(course - value))))
+        correlation = correlation_time(wrap_angle(course - value))
     lever = _chords(log, track_width, arm, offset, lim, lim.lever_chord)
     x_icr, x_std = _lever_arm(lever, lim)
-    return MountingFit(value, spread, int(course.size), x_icr, x_std, int(lever.turn.size))
-
-
-def heading_offset(
-    log: WheelLog, track_width: float, limits: MountingLimits | None = None
-) -> tuple[float, float, int]:
-    """Return the heading offset of a log (rad), its spread (rad) and the straight chords used.
-
-    The offset is NaN with too few straight chords (see :class:`MountingFit`).
-    """
-    fit = fit_mounting(log, track_width, limits=limits)
-    return fit.heading_offset, fit.heading_spread, fit.straight
+    return MountingFit(
+        value, spread, int(course.size), x_icr, x_std, int(lever.turn.size), correlation
+    )
 
 
 def _lever_arm(ch: _Chords, lim: MountingLimits) -> tuple[float, float]:
@@ -224,7 +226,7 @@ def _chords(
     """
     if len(log) < 2:
         return _Chords(*(np.zeros(0) for _ in range(6)))
-    t = _run_time(log)
+    t = run_time(log)
     dt = np.diff(t) * (np.diff(log.segment_runs()) == 0)
     speed = 0.5 * (log.v_l + log.v_r)[:-1]
     signed = np.r_[0.0, np.cumsum(speed * dt)]
@@ -256,14 +258,6 @@ def _chords(
     return _Chords(forward, lateral, back * dyaw, turn[fix[j]] - turn[fix[i]], off_course, moved)
 
 
-def _run_time(log: WheelLog) -> np.ndarray:
-    """Return the log's times made increasing across runs, with a 1e6-s jump at each new run."""
-    jump = np.zeros(len(log))
-    starts = log.run_starts()[1:]
-    jump[starts] = log.t[starts - 1] - log.t[starts] + 1e6
-    return log.t + np.cumsum(jump)
-
-
 def x_icr_limit(track_width: float, limits: MountingLimits | None = None) -> float:
     """Return the ``|x_icr|`` (m) beyond which a lever arm is suspected (see :class:`MountingLimits`)."""
     lim = limits or MountingLimits()
@@ -276,13 +270,16 @@ def mounting_findings(
     """Return ``(check, message)`` for a heading offset or lever arm left unexplained.
 
     A heading offset is reported beyond ``limits.heading_offset`` and three
-    standard errors of its median; an apparent ``|x_icr|`` beyond
+    standard errors of its median (the chords counted as correlated as they
+    are); an apparent ``|x_icr|`` beyond
     :func:`x_icr_limit` and three standard errors.
     """
     lim = limits or MountingLimits()
     out = []
     off, n = fit.heading_offset, fit.straight
-    if np.isfinite(off) and abs(off) > max(lim.heading_offset, 3.76 * fit.heading_spread / n**0.5):
+    std = fit.heading_spread * (fit.correlation / n) ** 0.5 if n else float("nan")
+    judged = np.isfinite(off) and n >= lim.min_judged
+    if judged and abs(off) > max(lim.heading_offset, 3.76 * std):
         out.append(
             (
                 "heading_offset",

@@ -11,8 +11,11 @@ the likely cause instead of giving a plausible-looking wrong answer:
 - ``still_wheels`` / ``still_poses``: the poses move while the wheels stand
   still over most of the log, or the reverse (wrong columns, or poses of
   another robot or run);
-- ``travel``: distance from the wheels against distance from the poses far
-  from 1 (wheel radius, rad/s against m/s);
+- ``travel``: distance from the wheels against distance from the positions
+  far from 1 (wheel radius, rad/s against m/s), over chords of at least
+  five noise standard deviations of wheel travel, each chord's length less
+  the positions' noise (in quadrature): the noise of a GPS would otherwise
+  lengthen a slow robot's measured path many times over;
 - ``yaw_sign``: the heading turns against the wheels' turn (left and right
   swapped, or a clockwise yaw);
 - ``yaw_follow``: the heading does not follow the wheels' turn at all, or
@@ -71,6 +74,12 @@ class PlausibilityLimits:
         Plausible range of pose distance / wheel distance.
     min_travel : float
         Least distance, m, from the wheels and from the poses, for the travel check.
+    travel_chords : float
+        Least wheel travel of a chord of the travel check, in standard
+        deviations of the positions' noise.
+    max_chord_time : float
+        Longest chord of the travel check, s, where the noise asks for
+        chords longer than ``max_interval`` (longer: a stop or a gap).
     min_turn : float
         Least total turn, rad, from the wheels and from the poses, for the yaw checks.
     min_correlation : float
@@ -88,6 +97,8 @@ class PlausibilityLimits:
     min_moving_time: float = 10.0
     travel_ratio: tuple[float, float] = (0.5, 2.0)
     min_travel: float = 5.0
+    travel_chords: float = 5.0
+    max_chord_time: float = 60.0
     min_turn: float = 1.0
     min_correlation: float = 0.3
     yaw_scale: tuple[float, float] = (0.1, 3.0)
@@ -114,7 +125,7 @@ class Plausibility:
     max_speed : float
         Largest absolute track speed, m/s.
     wheel_travel, pose_travel : float
-        Distances over the compared pose intervals, m (NaN without positions).
+        Distances over the travel check's chords, m (0 without positions).
     yaw_scale, yaw_correlation : float
         Least-squares ratio of measured to ideal heading changes, and their
         correlation (NaN without headings).
@@ -156,6 +167,7 @@ def check_log(
     *,
     antenna: tuple[float, float] = (0.0, 0.0),
     heading_offset: float = 0.0,
+    position_noise: float = 0.0,
 ) -> Plausibility:
     """Compare a log's wheel speeds with its poses (see the module).
 
@@ -171,6 +183,9 @@ def check_log(
         Configured position antenna in the robot frame, m (``pose_sensor``).
     heading_offset : float
         Configured heading offset, rad.
+    position_noise : float
+        Standard deviation of the positions per axis, m, where known (the
+        travel check takes it out of each chord's length).
 
     Returns
     -------
@@ -185,7 +200,8 @@ def check_log(
         return Plausibility(tuple(findings), step, top, nan, nan, nan, nan)
     iv = _intervals(log, track_width, lim.span, lim.max_interval)
     pos, yaw = np.isfinite(iv.pose_travel), np.isfinite(iv.pose_turn)
-    findings = _still(iv, pos, lim) or _travel(iv, pos, lim)
+    wheel_travel, pose_travel = _chord_travel(log, lim, position_noise)
+    findings = _still(iv, pos, lim) or _travel(wheel_travel, pose_travel, lim)
     scale, corr = _yaw_fit(iv, yaw)
     findings += _yaw(iv, yaw, scale, corr, lim)
     mounting = fit_mounting(log, track_width, antenna=antenna, offset=heading_offset)
@@ -195,8 +211,8 @@ def check_log(
         tuple(findings),
         step,
         top,
-        float(np.sum(iv.wheel_travel[pos])),
-        float(np.sum(iv.pose_travel[pos])),
+        wheel_travel,
+        pose_travel,
         scale,
         corr,
         mounting,
@@ -290,8 +306,57 @@ def _still(iv: _Intervals, pos: np.ndarray, lim: PlausibilityLimits) -> list[Fin
     return []
 
 
-def _travel(iv: _Intervals, pos: np.ndarray, lim: PlausibilityLimits) -> list[Finding]:
-    wheel, pose = float(np.sum(iv.wheel_travel[pos])), float(np.sum(iv.pose_travel[pos]))
+def _position_noise(log: WheelLog) -> float:
+    """Robust std of the positions per axis, m, from second differences of consecutive fixes.
+
+    Over a few tenths of a second a robot's path is nearly straight at constant
+    speed, so ``p_(k+1) - 2 p_k + p_(k-1)`` is mostly noise, of variance
+    ``6 sigma^2`` (an upper bound where fixes are sparse or the robot turns).
+    """
+    parts = []
+    for run in log.run_ranges():
+        pose = log.pose[run.start : run.stop]
+        xy = pose[np.isfinite(pose[:, 0]) & np.isfinite(pose[:, 1]), :2]
+        if xy.shape[0] >= 3:
+            parts.append((xy[2:] - 2.0 * xy[1:-1] + xy[:-2]).ravel())
+    if not parts:
+        return 0.0
+    return 1.4826 * float(np.median(np.abs(np.concatenate(parts)))) / np.sqrt(6.0)
+
+
+def _chord_travel(log: WheelLog, lim: PlausibilityLimits, noise: float) -> tuple[float, float]:
+    """Wheel travel and position travel over chained chords, m.
+
+    Each chord runs from a position to the first one at least ``lim.span``
+    s and ``travel_chords`` noise standard deviations of wheel travel later,
+    within a run and ``max_chord_time`` s; its measured length loses
+    ``2 sigma^2`` in quadrature (both ends are noisy). ``sigma`` is
+    ``noise`` if given (> 0), else estimated (:func:`_position_noise`): a
+    precise pose gives the short intervals of the other checks, a GPS chords
+    of a few metres.
+    """
+    sigma = noise if noise > 0.0 else _position_noise(log)
+    chord = lim.travel_chords * sigma
+    wheel, pose = 0.0, 0.0
+    for run in log.run_ranges():
+        rows = np.arange(run.start, run.stop)
+        t = log.t[rows]
+        travel = np.r_[
+            0.0, np.cumsum(0.5 * np.abs(log.v_l[rows] + log.v_r[rows])[:-1] * np.diff(t))
+        ]
+        fix = np.flatnonzero(np.isfinite(log.pose[rows, 0]) & np.isfinite(log.pose[rows, 1]))
+        chain = fix[_chain(travel[fix], chord)] if chord > 0.0 else fix
+        chain = chain[_chain(t[chain], lim.span)]
+        a, b = chain[:-1], chain[1:]
+        keep = t[b] - t[a] <= max(lim.max_chord_time if chord > 0.0 else lim.max_interval, 0.0)
+        a, b = a[keep], b[keep]
+        d2 = np.sum((log.pose[rows[b], :2] - log.pose[rows[a], :2]) ** 2, axis=1)
+        wheel += float(np.sum(travel[b] - travel[a]))
+        pose += float(np.sum(np.sqrt(np.maximum(d2 - 2.0 * sigma**2, 0.0))))
+    return wheel, pose
+
+
+def _travel(wheel: float, pose: float, lim: PlausibilityLimits) -> list[Finding]:
     if min(wheel, pose) < lim.min_travel:
         return []
     ratio = pose / wheel
