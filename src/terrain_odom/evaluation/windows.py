@@ -16,6 +16,12 @@ windows never cross a ``segment`` change.
 - :func:`non_overlapping`: windows chained end to start (training segments).
 - :func:`padded_steps`: the wheel rows of windows as a padded block, for
   vectorised integration.
+
+Logs whose positions and headings come on different rows (a GPS and an IMU)
+have no full-pose row: ``anchor`` chooses the rows windows run between
+(``"pose"``: full poses, the default; ``"position"``: any measured ``x, y``;
+``"heading"``: any measured ``yaw``, the path then measured by the wheels,
+:func:`wheel_path`).
 """
 
 from __future__ import annotations
@@ -37,11 +43,50 @@ __all__ = [
     "prediction_windows",
     "non_overlapping",
     "padded_steps",
+    "ANCHORS",
+    "anchor_mask",
+    "wheel_path",
 ]
 
 DEFAULT_HORIZON = 2.0  # m, Baril et al.'s spatial window h_e
 MIN_HORIZON = 1e-3  # m: shorter windows are lost in the rounding of the path length
 PREDICTION_HORIZON = 2.0  # s, the 2016 slip-model paper's prediction horizon
+ANCHORS = ("pose", "position", "heading")
+"""What the rows a window starts and ends on measure (see the module docstring)."""
+
+
+def anchor_mask(log: WheelLog, anchor: str) -> np.ndarray:
+    """Rows windows may start and end on, shape (N,): full poses, positions or headings.
+
+    Examples
+    --------
+    >>> pose = np.array([[0.0, 0.0, np.nan], [np.nan, np.nan, 0.1], [1.0, 0.0, 0.2]])
+    >>> log = WheelLog(np.arange(3.0), np.ones(3), np.ones(3), pose, None, np.zeros(3, int))
+    >>> [anchor_mask(log, a).tolist() for a in ANCHORS]
+    [[False, False, True], [True, False, True], [False, True, True]]
+    """
+    masks = {"pose": log.has_pose, "position": log.has_position, "heading": log.has_yaw}
+    if anchor not in masks:
+        raise ValueError(f"window anchor must be one of {ANCHORS}, got {anchor!r}")
+    return masks[anchor]
+
+
+def wheel_path(log: WheelLog) -> np.ndarray:
+    """Cumulative path length by the wheels per row, shape (N,), m (frozen across segments).
+
+    Row ``k``'s mean track speed ``|v_l + v_r| / 2`` held until ``t[k+1]``;
+    what a window between heading rows is as long as (no positions to measure it).
+
+    Examples
+    --------
+    >>> log = WheelLog(np.arange(4.0), np.ones(4), np.full(4, 3.0), np.full((4, 3), np.nan),
+    ...                None, np.array([0, 0, 1, 1]))
+    >>> wheel_path(log).tolist()
+    [0.0, 2.0, 2.0, 4.0]
+    """
+    runs = log.segment_runs()
+    step = np.abs(log.v_l[:-1] + log.v_r[:-1]) / 2.0 * np.diff(log.t)
+    return np.concatenate([[0.0], np.cumsum(np.where(runs[1:] == runs[:-1], step, 0.0))])
 
 
 @dataclass(frozen=True)
@@ -80,7 +125,14 @@ def _measured_path(log: WheelLog, runs: np.ndarray) -> np.ndarray:
     return path
 
 
-def spatial_windows(log: WheelLog, horizon: float = DEFAULT_HORIZON) -> Windows:
+def _path(log: WheelLog, runs: np.ndarray, anchor: str) -> np.ndarray:
+    """Path length per row as windows between ``anchor`` rows measure it, m."""
+    return wheel_path(log) if anchor == "heading" else _measured_path(log, runs)
+
+
+def spatial_windows(
+    log: WheelLog, horizon: float = DEFAULT_HORIZON, *, anchor: str = "pose"
+) -> Windows:
     """Find the spatial evaluation windows of a log.
 
     Parameters
@@ -89,11 +141,14 @@ def spatial_windows(log: WheelLog, horizon: float = DEFAULT_HORIZON) -> Windows:
         Log with pose measurements (``N`` rows).
     horizon : float, optional
         Minimum measured path length of a window ``h_e``, m (> 0).
+    anchor : {"pose", "position", "heading"}, optional
+        The rows windows run between (:func:`anchor_mask`); ``"heading"``
+        measures the path by the wheels (:func:`wheel_path`).
 
     Returns
     -------
     Windows
-        One window per full-pose row that reaches ``horizon`` within its
+        One window per anchor row that reaches ``horizon`` within its
         segment, in row order.
 
     Examples
@@ -110,9 +165,10 @@ def spatial_windows(log: WheelLog, horizon: float = DEFAULT_HORIZON) -> Windows:
     """
     if not horizon >= MIN_HORIZON:
         raise ValueError(f"window horizon must be >= {MIN_HORIZON:g} m, got {horizon}")
+    rows = anchor_mask(log, anchor)
     runs = log.segment_runs()
-    path = _measured_path(log, runs)
-    return _windows_reaching(log, runs, path, path, horizon)
+    path = _path(log, runs, anchor)
+    return _windows_reaching(rows, runs, path, path, horizon)
 
 
 def time_windows(log: WheelLog, duration: float) -> Windows:
@@ -147,18 +203,18 @@ def time_windows(log: WheelLog, duration: float) -> Windows:
     runs = log.segment_runs()
     same_run = runs[1:] == runs[:-1]
     clock = np.concatenate([[0.0], np.cumsum(np.where(same_run, np.diff(log.t), 0.0))])
-    return _windows_reaching(log, runs, clock, _measured_path(log, runs), duration)
+    return _windows_reaching(log.has_pose, runs, clock, _measured_path(log, runs), duration)
 
 
 def _windows_reaching(
-    log: WheelLog, runs: np.ndarray, measure: np.ndarray, path: np.ndarray, horizon: float
+    anchor: np.ndarray, runs: np.ndarray, measure: np.ndarray, path: np.ndarray, horizon: float
 ) -> Windows:
-    """Windows from each full-pose row to the first one of its run ``horizon`` further.
+    """Windows from each ``anchor`` row to the first one of its run ``horizon`` further.
 
     ``measure`` is a per-row quantity that never decreases (path length or
     time, frozen across segment changes); ``path`` gives the window lengths.
     """
-    rows = np.flatnonzero(log.has_pose)
+    rows = np.flatnonzero(anchor)
     m = measure[rows]
     j = np.searchsorted(m, m + horizon, side="left")
     inside = j < rows.size
@@ -206,8 +262,9 @@ def prediction_windows(
     *,
     starts: ArrayLike | None = None,
     tolerance: float = 0.25,
+    anchor: str = "pose",
 ) -> Windows:
-    """Time windows of ``horizon`` seconds between full pose measurements.
+    """Time windows of ``horizon`` seconds between full pose measurements (or ``anchor`` rows).
 
     Parameters
     ----------
@@ -220,6 +277,8 @@ def prediction_windows(
         every full-pose row if omitted. Rows without a full pose are skipped.
     tolerance : float
         Largest accepted ``|t_end - t_start - horizon|``, s.
+    anchor : {"pose", "position", "heading"}, optional
+        The rows windows run between (:func:`anchor_mask`).
 
     Returns
     -------
@@ -238,9 +297,10 @@ def prediction_windows(
     """
     if not horizon > 0.0:
         raise ValueError(f"prediction horizon must be > 0 s, got {horizon}")
-    rows = np.flatnonzero(log.has_pose)
+    mask = anchor_mask(log, anchor)
+    rows = np.flatnonzero(mask)
     cand = rows if starts is None else np.asarray(starts, dtype=int)
-    cand = cand[log.has_pose[cand]]
+    cand = cand[mask[cand]]
     runs = log.segment_runs()
     t_rows = log.t[rows]
     target = log.t[cand] + horizon
@@ -254,7 +314,7 @@ def prediction_windows(
         & (runs[end] == runs[cand])
         & (np.abs(log.t[end] - target) <= tolerance)
     )  # fmt: skip
-    path = _measured_path(log, runs)
+    path = _path(log, runs, anchor)
     start, end = cand[keep], end[keep]
     return Windows(start=start, end=end, length=path[end] - path[start])
 
