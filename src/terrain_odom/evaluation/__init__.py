@@ -13,8 +13,8 @@
 
 from terrain_odom.evaluation import metrics, outage, plausibility, prediction, sparse, windows
 from terrain_odom.evaluation.metrics import *  # noqa: F403  (re-exports metrics.__all__)
-from terrain_odom.evaluation.plausibility import *  # noqa: F403  (re-exports plausibility.__all__)
 from terrain_odom.evaluation.outage import *  # noqa: F403  (re-exports outage.__all__)
+from terrain_odom.evaluation.plausibility import *  # noqa: F403  (re-exports plausibility.__all__)
 from terrain_odom.evaluation.prediction import *  # noqa: F403  (re-exports prediction.__all__)
 from terrain_odom.evaluation.sparse import *  # noqa: F403  (re-exports sparse.__all__)
 from terrain_odom.evaluation.windows import *  # noqa: F403  (re-exports windows.__all__)

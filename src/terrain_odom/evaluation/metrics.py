@@ -328,7 +328,14 @@ def window_errors(log: WheelLog, windows: Windows, twist_fn: TwistFn) -> WindowE
 
 
 def error_stats(values: np.ndarray) -> ErrorStats:
-    """Median, quartiles, mean and count of some errors (NaN statistics for none)."""
+    """Median, quartiles, mean and count of some errors; NaN (not measured) left out.
+
+    Examples
+    --------
+    >>> error_stats(np.array([1.0, np.nan, 3.0])).median, error_stats(np.zeros(0)).count
+    (2.0, 0)
+    """
+    values = values[~np.isnan(values)]
     if values.size == 0:
         return ErrorStats(math.nan, math.nan, math.nan, math.nan, 0)
     q25, median, q75 = np.percentile(values, [25.0, 50.0, 75.0])

@@ -31,7 +31,7 @@ later (within ``tolerance``), in the same segment.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -56,6 +56,9 @@ __all__ = [
     "OutageErrors",
     "outage_windows",
     "outage_errors",
+    "outage_table",
+    "outage_starts",
+    "ModelAt",
     "is_sparse",
 ]
 
@@ -65,6 +68,8 @@ OUTAGE_EVERY = 10.0
 """An outage window starts every this many seconds of a segment, s."""
 OUTAGE_TOLERANCE = 1.0
 """Largest ``|t_end - t_start - duration|`` of an outage window, s."""
+ModelAt = Callable[[Windows], TwistFn]
+"""The frozen model of each window (its start row's estimate): ``model_at(windows) -> twist_fn``."""
 SPARSE_INTERVAL = 0.15
 """Median time between position fixes from which poses count as sparse (GPS-like), s."""
 
@@ -250,3 +255,61 @@ def outage_errors(
         position=np.linalg.norm(predicted - measured, axis=1),
         heading=np.abs(wrap_angle(relative[:, 2] - change)),
     )
+
+
+def outage_starts(
+    log: WheelLog, durations: Sequence[float], every: float = OUTAGE_EVERY
+) -> np.ndarray:
+    """Start rows of the outage windows of every duration, sorted, each once.
+
+    What a running estimator keeps its state of (:func:`outage_table` reads
+    only these rows' estimates).
+    """
+    starts = [outage_windows(log, d, every=every).start for d in durations]
+    return np.unique(np.concatenate([np.zeros(0, dtype=int), *starts]))
+
+
+def outage_table(
+    log: WheelLog,
+    durations: Sequence[float],
+    start_yaw: Callable[[np.ndarray], np.ndarray],
+    models: Mapping[str, ModelAt],
+    *,
+    antenna: Sequence[float] = (0.0, 0.0),
+    every: float = OUTAGE_EVERY,
+) -> dict[float, dict[str, OutageErrors]]:
+    """Outage errors of several models from the same start poses, per duration.
+
+    Parameters
+    ----------
+    log : WheelLog
+        The log.
+    durations : sequence of float
+        Outage durations, s.
+    start_yaw : callable
+        ``start_yaw(rows) -> yaw`` (rad): the estimator's heading at window start rows.
+    models : mapping of str to ModelAt
+        Per model name, its frozen model of each window.
+    antenna : sequence of 2 floats
+        Where the measured positions are in the robot frame, m.
+    every : float
+        Time between window starts, s.
+
+    Returns
+    -------
+    dict of float to dict of str to OutageErrors
+        Per duration (with at least one window), per model.
+    """
+    table: dict[float, dict[str, OutageErrors]] = {}
+    for duration in durations:
+        windows = outage_windows(log, duration, every=every)
+        if len(windows) == 0:
+            continue
+        yaw = start_yaw(windows.start)
+        table[float(duration)] = {
+            name: outage_errors(
+                log, windows, yaw, model_at(windows), duration=duration, antenna=antenna
+            )
+            for name, model_at in models.items()
+        }
+    return table

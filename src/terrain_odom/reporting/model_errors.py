@@ -97,9 +97,11 @@ def window_errors_figure(
             v = values[k]
             ax.scatter(distance[start][pick], _positive(v)[pick], s=4, lw=0,
                        c=[colour_of(colours, s) for s in labels[start][pick]])  # fmt: skip
-            median = float(np.median(v)) if v.size else float("nan")
+            measured = v[~np.isnan(v)]  # NaN: not measured (a heading on position windows)
+            median = float(np.median(measured)) if measured.size else float("nan")
             ax.axhline(median, color="black", lw=1.2)
-            ax.set_title(f"median {median:.3g} {_UNITS[k]}", fontsize=8, loc="right")
+            shown = f"median {median:.3g} {_UNITS[k]}" if measured.size else "not measured"
+            ax.set_title(shown, fontsize=8, loc="right")
             ax.set_yscale("log")
             ax.grid(True, alpha=0.3)
             ax.set_ylabel(unit, fontsize=8)
@@ -163,6 +165,7 @@ def error_boxes_figure(
     for ax, (unit, k) in zip(axes, _MEASURES, strict=True):
         for j, g in enumerate(groups):
             data = [values[n].get(g, (np.zeros(0), np.zeros(0)))[k] for n in names]
+            data = [d[~np.isnan(d)] for d in data]  # NaN: not measured
             pos = np.arange(len(names)) + (j - (len(groups) - 1) / 2) * width
             keep = [i for i, d in enumerate(data) if d.size]
             if not keep:
