@@ -81,7 +81,8 @@ def _format_stats(entry: ModelErrors) -> str:
 
 
 def _print_outages(result: EvaluationResult) -> None:
-    from terrain_odom.reporting.outage import HEADER, outage_rows
+    from terrain_odom.reporting.markdown import OUTAGE_HEADER, outage_rows
+    from terrain_odom.reporting.outage import outage_section
 
     if not result.outages:
         return
@@ -91,8 +92,8 @@ def _print_outages(result: EvaluationResult) -> None:
         "no pose updates; displacement error"
     )
     widths = (8, 9, 32, 30, 30)
-    print("".join(f"{h:<{w}}" for h, w in zip(HEADER, widths, strict=True)).rstrip())
-    for row in outage_rows(result.outages):
+    print("".join(f"{h:<{w}}" for h, w in zip(OUTAGE_HEADER, widths, strict=True)).rstrip())
+    for row in outage_rows(outage_section(result.outages)):
         print("".join(f"{c:<{w}}" for c, w in zip(row, widths, strict=True)).rstrip())
 
 

@@ -42,11 +42,14 @@ from terrain_odom.evaluation.metrics import (
     ErrorStats,
     TwistFn,
     error_stats,
+    icr_twist_per_window,
     predict_window_ends,
+    window_poses,
 )
 from terrain_odom.evaluation.sparse import HEADING_TOLERANCE, antenna_displacement, heading_change
 from terrain_odom.evaluation.windows import Windows, prediction_windows
-from terrain_odom.kinematics.integration import wrap_angle
+from terrain_odom.kinematics.integration import integrate, relative_pose, wrap_angle
+from terrain_odom.kinematics.models import twist_icr
 from terrain_odom.records import WheelLog
 
 __all__ = [
@@ -58,7 +61,9 @@ __all__ = [
     "outage_errors",
     "outage_table",
     "outage_starts",
+    "frozen_icr_table",
     "ModelAt",
+    "RowsTwist",
     "is_sparse",
 ]
 
@@ -70,6 +75,8 @@ OUTAGE_TOLERANCE = 1.0
 """Largest ``|t_end - t_start - duration|`` of an outage window, s."""
 ModelAt = Callable[[Windows], TwistFn]
 """The frozen model of each window (its start row's estimate): ``model_at(windows) -> twist_fn``."""
+RowsTwist = tuple[np.ndarray, np.ndarray, np.ndarray]
+"""A model that is the same in every window: its body twist at every log row, m/s, m/s, rad/s."""
 SPARSE_INTERVAL = 0.15
 """Median time between position fixes from which poses count as sparse (GPS-like), s."""
 
@@ -242,8 +249,21 @@ def outage_errors(
     >>> round(float(idd.heading[0]), 9)
     1.0
     """
-    start_yaw = np.asarray(start_yaw, dtype=float)
     relative = predict_window_ends(log, windows, twist_fn, start=np.zeros((len(windows), 3)))
+    return _compared(log, windows, relative, start_yaw, duration, antenna, tolerance)
+
+
+def _compared(
+    log: WheelLog,
+    windows: Windows,
+    relative: np.ndarray,
+    start_yaw: ArrayLike,
+    duration: float,
+    antenna: Sequence[float],
+    tolerance: float = HEADING_TOLERANCE,
+) -> OutageErrors:
+    """Errors of the dead-reckoned end poses ``relative`` (in each start frame) of the windows."""
+    start_yaw = np.asarray(start_yaw, dtype=float)
     q = antenna_displacement(relative, antenna)
     c, s = np.cos(start_yaw), np.sin(start_yaw)
     predicted = np.c_[c * q[:, 0] - s * q[:, 1], s * q[:, 0] + c * q[:, 1]]
@@ -273,12 +293,19 @@ def outage_table(
     log: WheelLog,
     durations: Sequence[float],
     start_yaw: Callable[[np.ndarray], np.ndarray],
-    models: Mapping[str, ModelAt],
+    models: Mapping[str, ModelAt | RowsTwist],
     *,
     antenna: Sequence[float] = (0.0, 0.0),
     every: float = OUTAGE_EVERY,
 ) -> dict[float, dict[str, OutageErrors]]:
     """Outage errors of several models from the same start poses, per duration.
+
+    The same numbers as :func:`outage_errors` window by window, computed
+    cheaper: a model given by its per-row twist (:data:`RowsTwist`, the same
+    in every window) is integrated once over each segment and each window's
+    motion read off as a relative pose; a model frozen per window
+    (:data:`ModelAt`) is integrated once from each start, over its longest
+    window, the shorter ones read on the way.
 
     Parameters
     ----------
@@ -288,8 +315,8 @@ def outage_table(
         Outage durations, s.
     start_yaw : callable
         ``start_yaw(rows) -> yaw`` (rad): the estimator's heading at window start rows.
-    models : mapping of str to ModelAt
-        Per model name, its frozen model of each window.
+    models : mapping of str to ModelAt or RowsTwist
+        Per model name: its frozen model of each window, or its twist at every row.
     antenna : sequence of 2 floats
         Where the measured positions are in the robot frame, m.
     every : float
@@ -300,16 +327,110 @@ def outage_table(
     dict of float to dict of str to OutageErrors
         Per duration (with at least one window), per model.
     """
-    table: dict[float, dict[str, OutageErrors]] = {}
-    for duration in durations:
-        windows = outage_windows(log, duration, every=every)
-        if len(windows) == 0:
-            continue
-        yaw = start_yaw(windows.start)
-        table[float(duration)] = {
-            name: outage_errors(
-                log, windows, yaw, model_at(windows), duration=duration, antenna=antenna
-            )
-            for name, model_at in models.items()
-        }
+    found = {float(d): outage_windows(log, d, every=every) for d in durations}
+    windows = {d: w for d, w in found.items() if len(w)}
+    if not windows:
+        return {}
+    starts = np.unique(np.concatenate([w.start for w in windows.values()]))
+    longest = np.zeros(starts.size, dtype=int)
+    for w in windows.values():
+        np.maximum.at(longest, np.searchsorted(starts, w.start), w.end)
+    combined = Windows(starts, longest, np.zeros(starts.size))
+    table: dict[float, dict[str, OutageErrors]] = {d: {} for d in windows}
+    for name, model in models.items():
+        if isinstance(model, tuple):
+            relative = _relative_by_rows(log, windows, model)
+        else:
+            relative = _relative_by_windows(log, windows, combined, model(combined))
+        for d, w in windows.items():
+            yaw = start_yaw(w.start)
+            table[d][name] = _compared(log, w, relative[d], yaw, d, antenna)
     return table
+
+
+def _relative_by_rows(
+    log: WheelLog, windows: Mapping[float, Windows], twist: RowsTwist
+) -> dict[float, np.ndarray]:
+    """End pose of each window in its start frame, from one integration of each segment run."""
+    reckoned = np.zeros((len(log), 3))
+    for run in log.run_ranges():
+        a, b = run.start, run.stop
+        v_x, v_y, omega = (np.asarray(c, dtype=float)[a : b - 1] for c in twist)
+        reckoned[a:b] = integrate(v_x, v_y, omega, np.diff(log.t[a:b]))
+    return {d: relative_pose(reckoned[w.start], reckoned[w.end]) for d, w in windows.items()}
+
+
+def _relative_by_windows(
+    log: WheelLog, windows: Mapping[float, Windows], combined: Windows, twist_fn: TwistFn
+) -> dict[float, np.ndarray]:
+    """End pose of each window in its start frame, integrating each start once (``combined``)."""
+    relative = {d: np.empty((len(w), 3)) for d, w in windows.items()}
+    where = {d: np.searchsorted(combined.start, w.start) for d, w in windows.items()}
+    zero = np.zeros((len(combined), 3))
+    slot = np.full(len(combined), -1)
+    for idx, _, _, poses in window_poses(log, combined, twist_fn, start=zero):
+        slot[idx] = np.arange(idx.size)
+        for d, w in windows.items():
+            mine = np.flatnonzero(slot[where[d]] >= 0)
+            column = w.end[mine] - w.start[mine]
+            relative[d][mine] = poses[slot[where[d][mine]], column]
+        slot[idx] = -1
+    return relative
+
+
+def frozen_icr_table(
+    log: WheelLog,
+    durations: Sequence[float],
+    starts: np.ndarray,
+    states: np.ndarray,
+    nominal: ArrayLike,
+    *,
+    track_width: float,
+    antenna: Sequence[float] = (0.0, 0.0),
+    every: float = OUTAGE_EVERY,
+) -> dict[float, dict[str, OutageErrors]]:
+    """Outage errors of an ICR EKF's learned model, the nominal one and the ideal differential drive.
+
+    All three are dead-reckoned from the filter's pose at each window start
+    (:func:`outage_table`): ``learned`` with the filter's ICRs there,
+    ``nominal`` with the ICR model it started from, ``idd`` with ``y = +-B/2``.
+
+    Parameters
+    ----------
+    log : WheelLog
+        The log the filter ran over.
+    durations : sequence of float
+        Outage durations, s.
+    starts : ndarray of int, shape (S,)
+        Sorted rows whose states are given (at least :func:`outage_starts` of ``durations``).
+    states : ndarray, shape (S, 5)
+        The filter's ``yaw, y_l, y_r, x_icr, alpha`` after each of those rows
+        (rad, m, m, m, -).
+    nominal : array_like, shape (4,)
+        ``y_l, y_r, x_icr, alpha`` of the nominal model (m, m, m, -).
+    track_width : float
+        Nominal track width ``B`` of the ideal differential drive, m.
+    antenna : sequence of 2 floats
+        Where the measured positions are in the robot frame, m.
+    every : float
+        Time between window starts, s.
+
+    Returns
+    -------
+    dict of float to dict of str to OutageErrors
+        Per duration with a window: ``learned``, ``nominal``, ``idd``.
+    """
+    half = track_width / 2.0
+    fixed = np.asarray(nominal, dtype=float)
+
+    def at(rows: np.ndarray) -> np.ndarray:
+        return states[np.searchsorted(starts, rows)]
+
+    models: dict[str, ModelAt | RowsTwist] = {
+        "learned": lambda w: icr_twist_per_window(*at(w.start)[:, 1:5].T),
+        "nominal": twist_icr(log.v_l, log.v_r, *fixed),
+        "idd": twist_icr(log.v_l, log.v_r, half, -half, 0.0),
+    }
+    return outage_table(
+        log, durations, lambda rows: at(rows)[:, 0], models, antenna=antenna, every=every
+    )

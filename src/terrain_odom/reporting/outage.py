@@ -1,4 +1,6 @@
-"""Outage-window errors as reports show them: a JSON section, a table, a figure.
+"""Outage-window errors as reports show them: a JSON section and a figure.
+
+Their table is :func:`terrain_odom.reporting.markdown.outage_rows`.
 
 Shared by ``evaluate`` (the run's model beside the ideal differential
 drive and parameter files) and ``run``'s guard (the learned model beside the
@@ -7,35 +9,22 @@ nominal one it started from); see :mod:`terrain_odom.evaluation.outage`.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
 
-from terrain_odom.evaluation.metrics import ErrorStats
 from terrain_odom.evaluation.outage import OUTAGE_EVERY, OutageErrors
 from terrain_odom.reporting.figure import new_figure, wrap
-from terrain_odom.reporting.markdown import table
 
 __all__ = [
     "Outages",
     "outage_section",
-    "outage_rows",
-    "outage_markdown",
     "outage_figure",
 ]
 
 Outages = Mapping[float, Mapping[str, OutageErrors]]
 """Per outage duration (s), per model name: its errors."""
-
-HEADER = (
-    "outage",
-    "windows",
-    "model",
-    "position m median [q25-q75]",
-    "heading deg median [q25-q75]",
-)
 
 
 def outage_section(outages: Outages, **extra: Any) -> dict[str, Any]:
@@ -51,40 +40,6 @@ def outage_section(outages: Outages, **extra: Any) -> dict[str, Any]:
             "models": {name: e.to_dict() for name, e in models.items()},
         }
     return {"every_s": OUTAGE_EVERY, "durations": durations, **extra}
-
-
-def _quartiles(stats: ErrorStats, digits: int) -> str:
-    if stats.count == 0 or math.isnan(stats.median):
-        return "n/a"
-    return f"{stats.median:.{digits}f} [{stats.q25:.{digits}f}-{stats.q75:.{digits}f}]"
-
-
-def outage_rows(outages: Outages) -> list[list[str]]:
-    """Rows of :data:`HEADER`: one per duration and model."""
-    rows = []
-    for duration, models in outages.items():
-        for name, e in models.items():
-            rows.append(
-                [
-                    f"{duration:g} s",
-                    str(len(e.windows)),
-                    name,
-                    _quartiles(e.position_stats, 2),
-                    _quartiles(e.heading_stats, 1),
-                ]
-            )
-    return rows
-
-
-def outage_markdown(outages: Outages, title: str) -> list[str]:
-    """Return a Markdown heading, how the windows are made, and the table."""
-    return [
-        f"## {title}",
-        f"A window starts at a position fix every {OUTAGE_EVERY:g} s; each model is frozen at "
-        "the run's state there and dead-reckoned with the logged wheel speeds, no pose "
-        "update; its displacement (of the position sensor) is compared with the measured one.",
-        table(list(HEADER), outage_rows(outages)),
-    ]
 
 
 def outage_figure(outages: Outages) -> Any:
