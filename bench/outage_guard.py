@@ -50,7 +50,7 @@ def _speeds(n: int, dt: float, rng: np.random.Generator) -> tuple[np.ndarray, np
 
 
 def make_log(minutes: float, rate: float, seed: int = 0) -> WheelLog:
-    """A GPS + IMU log (positions and headings on their own rows, wheel rows between)."""
+    """Make a GPS + IMU log (positions and headings on their own rows, wheel rows between)."""
     rng = np.random.default_rng(seed)
     dt = 1.0 / rate
     n = int(minutes * 60.0 * rate)

@@ -27,6 +27,7 @@ from terrain_odom.evaluation import (
     ModelAt,
     OutageErrors,
     PredictionSummary,
+    RowsTwist,
     SE2Alignment,
     TwistFn,
     WindowErrors,
@@ -75,13 +76,10 @@ EVALUATION_MD = "evaluation.md"
 JSON_SUFFIXES = (".json",)
 """Suffixes by which ``out`` names the file itself (the old form)."""
 
-RowsTwist = tuple[np.ndarray, np.ndarray, np.ndarray]
-"""Per-row body twist ``(v_x, v_y, omega)`` of a model, m/s and rad/s."""
-
 WINDOW_KINDS = {
     "pose": "between full poses",
-    "position": "between position fixes (start heading fitted to the fixes; heading change "
-    "from the heading rows where present)",
+    "position": "between position fixes, length from the wheels (start heading fitted to "
+    "the fixes; heading change from the heading rows where present)",
     "heading": "between heading rows (length from the wheels; heading change only)",
 }
 """What each window anchor means, as the printout and reports say it."""
@@ -247,7 +245,7 @@ def _evaluation_windows(log: WheelLog, h_e: float, cfg: Config) -> _Scoring:
         measured = {"pose": "full poses", "position": "position fixes", "heading": "heading rows"}
         raise InputFileError(
             f"{log.source}: no {h_e:g} m window between {measured[anchor]}"
-            f"{' (length by the wheels)' if anchor == 'heading' else ''}; nothing to evaluate "
+            f"{'' if anchor == 'pose' else ' (length by the wheels)'}; nothing to evaluate "
             "(a shorter --horizon?)"
         )
     return _Scoring(windows, anchor, antenna)
@@ -449,8 +447,9 @@ def _evaluation(
     idd = get_model("idd")
     nominal = f"idd (B={b:g} m)"
     idd_twist = model_twist(idd, [], b)
-    models = {nominal: _model_errors(log, scoring, idd_twist, idd.twist(log.v_l, log.v_r, [], b))}
-    at: dict[str, ModelAt] = {nominal: lambda w: idd_twist}
+    idd_rows = idd.twist(log.v_l, log.v_r, [], b)
+    models = {nominal: _model_errors(log, scoring, idd_twist, idd_rows)}
+    at: dict[str, ModelAt | RowsTwist] = {nominal: idd_rows}
     ahead = prediction_windows(log)
     prediction = {nominal: prediction_errors(log, ahead, idd_twist)}
     traj = None if run_dir is None else _read_run(Path(run_dir), log)
@@ -475,7 +474,7 @@ def _evaluation(
 def _outages(
     log: WheelLog,
     traj: dict[str, np.ndarray] | None,
-    models: dict[str, ModelAt],
+    models: dict[str, ModelAt | RowsTwist],
     antenna: tuple[float, float],
     durations: Sequence[float] | None,
 ) -> dict[float, dict[str, OutageErrors]]:

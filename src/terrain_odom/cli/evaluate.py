@@ -73,11 +73,9 @@ def _fmt(value: float, digits: int) -> str:
 
 def _format_stats(entry: ModelErrors) -> str:
     t, r = entry.errors.translation, entry.errors.rotation
-    return (
-        f"{_fmt(t.median, 4):>8} [{_fmt(t.q25, 3)}-{_fmt(t.q75, 3)}]"
-        f"  {_fmt(r.median, 3):>7} [{_fmt(r.q25, 2)}-{_fmt(r.q75, 2)}]"
-        f"  {_fmt(entry.ate.rmse, 2):>8}"
-    )
+    translation = f"{_fmt(t.median, 4)} [{_fmt(t.q25, 3)}-{_fmt(t.q75, 3)}]" if t.count else "n/a"
+    rotation = f"{_fmt(r.median, 3)} [{_fmt(r.q25, 2)}-{_fmt(r.q75, 2)}]" if r.count else "n/a"
+    return f"{translation:>22}  {rotation:>21}  {_fmt(entry.ate.rmse, 2):>8}"
 
 
 def _print_outages(result: EvaluationResult) -> None:

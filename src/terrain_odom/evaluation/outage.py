@@ -90,7 +90,7 @@ class OutageErrors:
     duration : float
         Outage duration, s.
     windows : Windows
-        The windows (``W``; ``length`` is the measured path, m).
+        The windows (``W``; ``length`` is the wheels' path, m).
     position : ndarray, shape (W,)
         Displacement error at the end, m.
     heading : ndarray, shape (W,)
@@ -163,7 +163,7 @@ def outage_windows(
     -------
     Windows
         Start and end rows (both position fixes of one segment run) and the
-        measured path length between them, m.
+        path length between them by the wheels, m.
 
     Examples
     --------

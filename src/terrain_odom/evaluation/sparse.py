@@ -17,7 +17,8 @@ measures:
   error of the start heading cannot be told from the model's: only the
   shape of the path is scored.
 - the **heading change** between the window's ends, where heading rows lie
-  within ``tolerance`` s of both (the nearest ones): the angular error is
+  within ``tolerance`` s of both (interpolated between the heading rows
+  around each end, :func:`heading_at`): the angular error is
   ``|wrap(psi_end - (yaw_end - yaw_start))|``; a constant mounting offset of
   the heading sensor cancels. NaN where there is no heading.
 - **heading windows** (``anchor="heading"``, a log without positions): the
@@ -40,13 +41,13 @@ from terrain_odom.records import WheelLog
 __all__ = [
     "HEADING_TOLERANCE",
     "antenna_displacement",
-    "nearest_rows",
+    "heading_at",
     "heading_change",
     "sparse_window_errors",
 ]
 
 HEADING_TOLERANCE = 0.5
-"""Largest time between a window's end and the heading row taken for it, s."""
+"""Largest time between a window's end and the heading rows taken for it, s."""
 
 
 def antenna_displacement(relative: ArrayLike, antenna: Sequence[float] = (0.0, 0.0)) -> np.ndarray:
@@ -79,48 +80,41 @@ def antenna_displacement(relative: ArrayLike, antenna: Sequence[float] = (0.0, 0
     )
 
 
-def nearest_rows(log: WheelLog, mask: np.ndarray, rows: ArrayLike, tolerance: float) -> np.ndarray:
-    """For each row, the ``mask`` row of the same segment run nearest in time (-1: none within ``tolerance``).
+def heading_at(log: WheelLog, rows: ArrayLike, tolerance: float = HEADING_TOLERANCE) -> np.ndarray:
+    """Measured heading at rows' times, from the heading rows around them, rad (NaN: none).
 
-    Parameters
-    ----------
-    log : WheelLog
-        Times and segments.
-    mask : ndarray of bool, shape (N,)
-        Candidate rows (e.g. ``log.has_yaw``).
-    rows : array_like of int, shape (W,)
-        Rows to find a candidate for.
-    tolerance : float
-        Largest accepted time difference, s.
-
-    Returns
-    -------
-    ndarray of int, shape (W,)
+    The row's own heading if it has one; else interpolated (along the wrapped
+    difference) between the heading rows just before and after it in the same
+    segment run, both within ``tolerance`` s; else the nearer one within it.
 
     Examples
     --------
-    >>> log = WheelLog(np.arange(5.0), np.ones(5), np.ones(5), np.full((5, 3), np.nan),
-    ...                None, np.zeros(5, int))
-    >>> nearest_rows(log, np.array([0, 1, 0, 0, 0], bool), [0, 3], 1.0).tolist()
-    [1, -1]
+    >>> pose = np.full((5, 3), np.nan)
+    >>> pose[[0, 2], 2] = [3.0, -3.0]  # through +-pi
+    >>> log = WheelLog(np.arange(5.0), np.ones(5), np.ones(5), pose, None, np.zeros(5, int))
+    >>> heading_at(log, [1, 2, 3, 4], tolerance=1.0).round(4).tolist()
+    [3.1416, -3.0, -3.0, nan]
     """
     rows = np.asarray(rows, dtype=int)
-    cand = np.flatnonzero(mask)
+    cand = np.flatnonzero(log.has_yaw)
     if cand.size == 0 or rows.size == 0:
-        return np.full(rows.shape, -1)
+        return np.full(rows.shape, np.nan)
     runs = log.segment_runs()
-    after = np.clip(np.searchsorted(cand, rows), 0, cand.size - 1)
-    before = np.clip(np.searchsorted(cand, rows, side="right") - 1, 0, cand.size - 1)
-    gap = [np.abs(log.t[cand[j]] - log.t[rows]) for j in (before, after)]
-    best = np.where(gap[0] <= gap[1], cand[before], cand[after])
-    ok = (np.minimum(*gap) <= tolerance) & (runs[best] == runs[rows])
-    return np.where(ok, best, -1)
+    j = np.searchsorted(cand, rows, side="right")
+    before, after = cand[np.maximum(j - 1, 0)], cand[np.minimum(j, cand.size - 1)]
+    ok_b = (j > 0) & (runs[before] == runs[rows]) & (log.t[rows] - log.t[before] <= tolerance)
+    ok_a = (j < cand.size) & (runs[after] == runs[rows]) & (log.t[after] - log.t[rows] <= tolerance)
+    yaw_b, yaw_a = log.pose[before, 2], log.pose[after, 2]
+    span = log.t[after] - log.t[before]
+    share = np.divide(log.t[rows] - log.t[before], span, out=np.zeros(rows.size), where=span > 0)
+    between = wrap_angle(yaw_b + share * wrap_angle(yaw_a - yaw_b))
+    return np.where(ok_b & ok_a, between, np.where(ok_b, yaw_b, np.where(ok_a, yaw_a, np.nan)))
 
 
 def heading_change(
     log: WheelLog, start: ArrayLike, end: ArrayLike, tolerance: float = HEADING_TOLERANCE
 ) -> np.ndarray:
-    """Measured heading change between rows, from the nearest heading rows, rad (NaN: none).
+    """Measured heading change between rows (:func:`heading_at` both ends), rad (NaN: none).
 
     Parameters
     ----------
@@ -129,17 +123,14 @@ def heading_change(
     start, end : array_like of int, shape (W,)
         Window rows.
     tolerance : float
-        Largest time between a window row and its heading row, s.
+        Largest time between a window row and the heading rows taken for it, s.
 
     Returns
     -------
     ndarray, shape (W,)
-        ``wrap(yaw_end - yaw_start)``, rad.
+        ``wrap(yaw_end - yaw_start)``, rad; a constant mounting offset cancels.
     """
-    first = nearest_rows(log, log.has_yaw, start, tolerance)
-    last = nearest_rows(log, log.has_yaw, end, tolerance)
-    change = wrap_angle(log.pose[last, 2] - log.pose[first, 2])
-    return np.where((first >= 0) & (last >= 0), change, np.nan)
+    return wrap_angle(heading_at(log, end, tolerance) - heading_at(log, start, tolerance))
 
 
 def _fitted_turn(q: np.ndarray, d: np.ndarray, fixes: np.ndarray) -> np.ndarray:

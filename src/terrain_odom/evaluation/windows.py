@@ -20,8 +20,9 @@ windows never cross a ``segment`` change.
 Logs whose positions and headings come on different rows (a GPS and an IMU)
 have no full-pose row: ``anchor`` chooses the rows windows run between
 (``"pose"``: full poses, the default; ``"position"``: any measured ``x, y``;
-``"heading"``: any measured ``yaw``, the path then measured by the wheels,
-:func:`wheel_path`).
+``"heading"``: any measured ``yaw``). Windows between position fixes or
+heading rows are as long as the wheels say (:func:`wheel_path`): the noise
+of a GPS lengthens the path of its fixes several times over on a slow robot.
 """
 
 from __future__ import annotations
@@ -126,8 +127,13 @@ def _measured_path(log: WheelLog, runs: np.ndarray) -> np.ndarray:
 
 
 def _path(log: WheelLog, runs: np.ndarray, anchor: str) -> np.ndarray:
-    """Path length per row as windows between ``anchor`` rows measure it, m."""
-    return wheel_path(log) if anchor == "heading" else _measured_path(log, runs)
+    """Path length per row as windows between ``anchor`` rows measure it, m.
+
+    Full poses measure it along their positions; windows between position
+    fixes or heading rows by the wheels (a GPS's noise lengthens the path of
+    its fixes several times over on a slow robot).
+    """
+    return _measured_path(log, runs) if anchor == "pose" else wheel_path(log)
 
 
 def spatial_windows(
@@ -142,8 +148,8 @@ def spatial_windows(
     horizon : float, optional
         Minimum measured path length of a window ``h_e``, m (> 0).
     anchor : {"pose", "position", "heading"}, optional
-        The rows windows run between (:func:`anchor_mask`); ``"heading"``
-        measures the path by the wheels (:func:`wheel_path`).
+        The rows windows run between (:func:`anchor_mask`); other than
+        ``"pose"`` the path is measured by the wheels (:func:`wheel_path`).
 
     Returns
     -------
