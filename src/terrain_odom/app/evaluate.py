@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 
 from terrain_odom.app.cluster import dask_cluster, run_jobs
-from terrain_odom.app.fit import format_error_stats
+from terrain_odom.app.fit import antenna_of, format_error_stats
 from terrain_odom.app.locate import check_out, create_folder, output_file
 from terrain_odom.app.plots import EVALUATION_PLOTS, PLOTS_DIR, write_evaluation_plots
 from terrain_odom.app.run import read_calibrated_log, run_config
@@ -33,18 +33,18 @@ from terrain_odom.evaluation import (
     WindowErrors,
     Windows,
     absolute_trajectory_error,
+    anchored_window_errors,
     dead_reckon,
     icr_twist_from_rows,
     is_sparse,
+    log_anchor,
     model_twist,
     outage_table,
     prediction_errors,
     prediction_windows,
     slip_twist_from_rows,
-    sparse_window_errors,
     spatial_windows,
     summarize,
-    window_errors,
 )
 from terrain_odom.io import read_trajectory_csv
 from terrain_odom.io.atomic import write_text_atomic
@@ -210,9 +210,7 @@ class _Scoring:
     antenna: tuple[float, float]
 
     def errors(self, log: WheelLog, twist_fn: TwistFn) -> WindowErrors:
-        if self.anchor == "pose":
-            return window_errors(log, self.windows, twist_fn)
-        return sparse_window_errors(
+        return anchored_window_errors(
             log, self.windows, twist_fn, anchor=self.anchor, antenna=self.antenna
         )
 
@@ -234,8 +232,8 @@ def _model_errors(
 
 def _evaluation_windows(log: WheelLog, h_e: float, cfg: Config) -> _Scoring:
     """Windows between full poses, else between position fixes, else between heading rows."""
-    antenna = (float(cfg.pose_sensor.antenna_x), float(cfg.pose_sensor.antenna_y))
-    anchor = "pose" if log.has_pose.any() else "position" if log.has_position.any() else "heading"
+    antenna = antenna_of(cfg)
+    anchor = log_anchor(log)
     if not log.has_yaw.any() and anchor == "heading":
         raise InputFileError(
             f"{log.source}: no pose measurements (x, y or yaw); nothing to evaluate"

@@ -33,7 +33,7 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import ArrayLike
 
-from terrain_odom.evaluation.metrics import TwistFn, WindowErrors, window_poses
+from terrain_odom.evaluation.metrics import TwistFn, WindowErrors, window_errors, window_poses
 from terrain_odom.evaluation.windows import Windows
 from terrain_odom.kinematics.integration import wrap_angle
 from terrain_odom.records import WheelLog
@@ -43,7 +43,9 @@ __all__ = [
     "antenna_displacement",
     "heading_at",
     "heading_change",
+    "fitted_turn",
     "sparse_window_errors",
+    "anchored_window_errors",
 ]
 
 HEADING_TOLERANCE = 0.5
@@ -133,10 +135,31 @@ def heading_change(
     return wrap_angle(heading_at(log, end, tolerance) - heading_at(log, start, tolerance))
 
 
-def _fitted_turn(q: np.ndarray, d: np.ndarray, fixes: np.ndarray) -> np.ndarray:
-    """Rotation of the start frame that best maps ``q`` onto ``d`` at the fixes, rad, shape (C,)."""
-    cross = np.where(fixes, q[..., 0] * d[..., 1] - q[..., 1] * d[..., 0], 0.0).sum(axis=1)
-    dot = np.where(fixes, q[..., 0] * d[..., 0] + q[..., 1] * d[..., 1], 0.0).sum(axis=1)
+def fitted_turn(q: np.ndarray, d: np.ndarray, fixes: np.ndarray) -> np.ndarray:
+    """Rotation about the start that best maps predicted displacements onto measured ones.
+
+    Parameters
+    ----------
+    q : ndarray, shape (..., K, 2)
+        Predicted displacements from the start in the start frame, m.
+    d : ndarray, shape (..., K, 2)
+        Measured displacements from the start fix, m (anything where not ``fixes``).
+    fixes : ndarray of bool, shape (..., K)
+        Where ``d`` was measured.
+
+    Returns
+    -------
+    ndarray, shape (...)
+        ``theta = atan2(sum q x d, sum q . d)`` (least squares), rad.
+
+    Examples
+    --------
+    >>> q = np.array([[1.0, 0.0], [2.0, 1.0]])
+    >>> float(fitted_turn(q, q @ np.array([[0.0, 1.0], [-1.0, 0.0]]), np.ones(2, bool)))
+    1.5707963267948966
+    """
+    cross = np.where(fixes, q[..., 0] * d[..., 1] - q[..., 1] * d[..., 0], 0.0).sum(axis=-1)
+    dot = np.where(fixes, q[..., 0] * d[..., 0] + q[..., 1] * d[..., 1], 0.0).sum(axis=-1)
     return np.arctan2(cross, dot)
 
 
@@ -189,7 +212,7 @@ def sparse_window_errors(
         fixes = np.concatenate([valid, np.ones((idx.size, 1), bool)], axis=1)
         fixes &= log.has_position[at]
         d = log.pose[at, :2] - start_xy[idx, None, :]
-        theta = _fitted_turn(q, np.where(fixes[..., None], d, 0.0), fixes)
+        theta = fitted_turn(q, np.where(fixes[..., None], d, 0.0), fixes)
         c, s = np.cos(theta), np.sin(theta)
         q_end = q[:, -1]
         predicted[idx, 0] = start_xy[idx, 0] + c * q_end[:, 0] - s * q_end[:, 1]
@@ -201,3 +224,21 @@ def sparse_window_errors(
         translation=np.linalg.norm(predicted[:, :2] - log.pose[windows.end, :2], axis=1),
         rotation=np.abs(wrap_angle(predicted[:, 2] - measured)),
     )
+
+
+def anchored_window_errors(
+    log: WheelLog,
+    windows: Windows,
+    twist_fn: TwistFn,
+    *,
+    anchor: str,
+    antenna: Sequence[float] = (0.0, 0.0),
+) -> WindowErrors:
+    """Errors of a model on windows between ``anchor`` rows: full poses, positions or headings.
+
+    :func:`~terrain_odom.evaluation.metrics.window_errors` between full
+    poses, :func:`sparse_window_errors` otherwise.
+    """
+    if anchor == "pose":
+        return window_errors(log, windows, twist_fn)
+    return sparse_window_errors(log, windows, twist_fn, anchor=anchor, antenna=antenna)

@@ -46,6 +46,7 @@ __all__ = [
     "padded_steps",
     "ANCHORS",
     "anchor_mask",
+    "log_anchor",
     "wheel_path",
 ]
 
@@ -70,6 +71,21 @@ def anchor_mask(log: WheelLog, anchor: str) -> np.ndarray:
     if anchor not in masks:
         raise ValueError(f"window anchor must be one of {ANCHORS}, got {anchor!r}")
     return masks[anchor]
+
+
+def log_anchor(log: WheelLog) -> str:
+    """Return what a log's windows run between: full poses, else positions, else headings.
+
+    Examples
+    --------
+    >>> pose = np.array([[0.0, 0.0, np.nan], [np.nan, np.nan, 0.1]])
+    >>> log = WheelLog(np.arange(2.0), np.ones(2), np.ones(2), pose, None, np.zeros(2, int))
+    >>> log_anchor(log), log_anchor(log.take([1]))
+    ('position', 'heading')
+    """
+    if log.has_pose.any():
+        return "pose"
+    return "position" if log.has_position.any() else "heading"
 
 
 def wheel_path(log: WheelLog) -> np.ndarray:
@@ -177,7 +193,7 @@ def spatial_windows(
     return _windows_reaching(rows, runs, path, path, horizon)
 
 
-def time_windows(log: WheelLog, duration: float) -> Windows:
+def time_windows(log: WheelLog, duration: float, *, anchor: str = "pose") -> Windows:
     """Find windows of a minimum duration (the time-horizon variant of :func:`spatial_windows`).
 
     Parameters
@@ -186,6 +202,8 @@ def time_windows(log: WheelLog, duration: float) -> Windows:
         Log with pose measurements (``N`` rows).
     duration : float
         Minimum time between the start and end pose measurements, s (> 0).
+    anchor : {"pose", "position", "heading"}, optional
+        The rows windows run between (:func:`anchor_mask`).
 
     Returns
     -------
@@ -209,7 +227,8 @@ def time_windows(log: WheelLog, duration: float) -> Windows:
     runs = log.segment_runs()
     same_run = runs[1:] == runs[:-1]
     clock = np.concatenate([[0.0], np.cumsum(np.where(same_run, np.diff(log.t), 0.0))])
-    return _windows_reaching(log.has_pose, runs, clock, _measured_path(log, runs), duration)
+    path = _path(log, runs, anchor)
+    return _windows_reaching(anchor_mask(log, anchor), runs, clock, path, duration)
 
 
 def _windows_reaching(
