@@ -83,12 +83,16 @@ def test_positions_and_headings_on_different_rows_are_scored_and_labelled(logs, 
 
 def test_fixes_alone_and_headings_alone(logs, tmp_path, capsys):
     cfg = ["--config", str(logs / "config.yaml"), "--horizon", "3m"]
-    code, printed, _ = _evaluate(["--wheels", str(logs / "gps.csv"), *cfg], capsys)
+    out = ["--out", str(tmp_path / "gps")]  # plots with a column of nothing measured
+    code, printed, _ = _evaluate(["--wheels", str(logs / "gps.csv"), *cfg, *out], capsys)
     assert code == 0 and "between position fixes" in printed
+    assert (tmp_path / "gps" / "plots" / "evaluation_boxes.png").stat().st_size > 10_000
     idd = [line for line in printed.splitlines() if line.startswith("idd")][0]  # the table's
     assert idd.split()[5] == "n/a"  # no heading error without headings
-    code, printed, _ = _evaluate(["--wheels", str(logs / "imu.csv"), *cfg], capsys)
+    out = ["--out", str(tmp_path / "imu")]
+    code, printed, _ = _evaluate(["--wheels", str(logs / "imu.csv"), *cfg, *out], capsys)
     assert code == 0 and "between heading rows (length from the wheels" in printed
+    assert (tmp_path / "imu" / "plots" / "evaluation_windows.png").stat().st_size > 10_000
     code, _, err = _evaluate(["--wheels", str(logs / "wheels.csv"), *cfg], capsys)
     assert code == 2 and err.count("\n") == 1 and "no pose measurements (x, y or yaw)" in err
 

@@ -281,9 +281,8 @@ def write_evaluation_plots(
     outages : Outages, optional
         Per duration, per model: outage-window errors.
     """
-    distance = measured_distance(log)
-    if not np.isfinite(distance).any():  # heading windows: no positions, the wheels' path
-        distance = wheel_path(log)
+    # without full poses (a GPS's fixes, or none) the windows are as long as the wheels say
+    distance = measured_distance(log) if log.has_pose.any() else wheel_path(log)
     grouped = {name: _by_terrain(e, log.terrain) for name, e in errors.items()}
     windows_png, boxes_png, outages_png = EVALUATION_PLOTS
     jobs = {

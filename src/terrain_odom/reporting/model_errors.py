@@ -58,6 +58,14 @@ def _positive(values: np.ndarray) -> np.ndarray:
     return np.maximum(values, floor)
 
 
+def _log_scale(ax: Any, measured: bool) -> None:
+    """Put an axis on a log scale, or say in it that nothing was measured (a GPS without heading)."""
+    if measured:
+        ax.set_yscale("log")
+    else:
+        ax.text(0.5, 0.5, "not measured", transform=ax.transAxes, ha="center", va="center")
+
+
 def window_errors_figure(
     errors: Mapping[str, WindowErrors],
     distance: np.ndarray,
@@ -102,7 +110,7 @@ def window_errors_figure(
             ax.axhline(median, color="black", lw=1.2)
             shown = f"median {median:.3g} {_UNITS[k]}" if measured.size else "not measured"
             ax.set_title(shown, fontsize=8, loc="right")
-            ax.set_yscale("log")
+            _log_scale(ax, measured.size > 0)
             ax.grid(True, alpha=0.3)
             ax.set_ylabel(unit, fontsize=8)
         row[0].set_title(wrap(name, 50), fontsize=9, loc="left")
@@ -180,7 +188,7 @@ def error_boxes_figure(
                 line.set_gid("median")
             ax.plot([], [], color=colour_of(colours, g), lw=6, alpha=0.7, label=wrap(g, 20))
         ax.set_ylabel(unit)
-        ax.set_yscale("log")
+        _log_scale(ax, any(v[k][~np.isnan(v[k])].size for m in values.values() for v in m.values()))
         ax.grid(True, axis="y", alpha=0.3)
     _model_ticks(axes[1], names, fig.get_figwidth())
     axes[0].legend(title="terrain", fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
