@@ -191,6 +191,8 @@ def error_boxes_figure(
         _log_scale(ax, any(v[k][~np.isnan(v[k])].size for m in values.values() for v in m.values()))
         ax.grid(True, axis="y", alpha=0.3)
     _model_ticks(axes[1], names, fig.get_figwidth())
-    axes[0].legend(title="terrain", fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    drawn = next((ax for ax in axes if ax.get_legend_handles_labels()[0]), None)
+    if drawn is not None:  # the axis something was measured on (headings alone: the lower one)
+        drawn.legend(title="terrain", fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     axes[0].set_title(f"{title} over h_e = {horizon:g} m windows")
     return fig
