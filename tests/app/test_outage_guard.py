@@ -71,5 +71,5 @@ def test_skipped_runs_say_why():
     cfg = Config()
     assert "no 30 s stretch" in OutageGuard(short, cfg, NAMES, "icr-ekf").result().skipped
     slip = OutageGuard(log, cfg, NAMES, "slip-ekf").result()
-    assert slip.skipped.startswith("the guard compares ICR models")
+    assert slip.skipped.startswith("the guard freezes ICR EKF states; a slip-ekf run's model")
     assert slip.lines() == [f"skipped: {slip.skipped}"]

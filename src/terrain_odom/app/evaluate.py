@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 
 from terrain_odom.app.cluster import dask_cluster, run_jobs
-from terrain_odom.app.fit import antenna_of, format_error_stats
+from terrain_odom.app.fit import format_error_stats
 from terrain_odom.app.locate import check_out, create_folder, output_file
 from terrain_odom.app.plots import EVALUATION_PLOTS, PLOTS_DIR, write_evaluation_plots
 from terrain_odom.app.run import read_calibrated_log, run_config
@@ -34,6 +34,7 @@ from terrain_odom.evaluation import (
     Windows,
     absolute_trajectory_error,
     anchored_window_errors,
+    antenna_of,
     dead_reckon,
     icr_twist_from_rows,
     is_sparse,
@@ -240,11 +241,13 @@ def _evaluation_windows(log: WheelLog, h_e: float, cfg: Config) -> _Scoring:
         )
     windows = spatial_windows(log, h_e, anchor=anchor)
     if len(windows) == 0:
-        measured = {"pose": "full poses", "position": "position fixes", "heading": "heading rows"}
+        between = {
+            "pose": "with pose measurements at both ends",
+            "position": "between position fixes (length by the wheels)",
+            "heading": "between heading rows (length by the wheels)",
+        }
         raise InputFileError(
-            f"{log.source}: no {h_e:g} m window between {measured[anchor]}"
-            f"{'' if anchor == 'pose' else ' (length by the wheels)'}; nothing to evaluate "
-            "(a shorter --horizon?)"
+            f"{log.source}: no {h_e} m window {between[anchor]}; nothing to evaluate"
         )
     return _Scoring(windows, anchor, antenna)
 

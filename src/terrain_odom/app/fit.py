@@ -29,6 +29,7 @@ from terrain_odom.evaluation import (
     WindowErrors,
     Windows,
     anchored_window_errors,
+    antenna_of,
     log_anchor,
     model_twist,
     spatial_windows,
@@ -71,7 +72,6 @@ __all__ = [
     "evaluate_params",
     "compare",
     "params_file_name",
-    "antenna_of",
     "YAML_SUFFIXES",
 ]
 
@@ -405,7 +405,7 @@ def evaluate_params(
     track_width : float
         Nominal ``B``, m (when ``mp`` has none).
     antenna : tuple of 2 floats, optional
-        Where the position sensor is, m (logs of GPS fixes, :func:`antenna_of`).
+        Where the position sensor is, m (logs of GPS fixes, :func:`~terrain_odom.evaluation.antenna_of`).
 
     Returns
     -------
@@ -414,11 +414,6 @@ def evaluate_params(
     """
     groups = _group_errors(mp, logs, h_e, track_width, antenna)
     return {k: summarize(v) for k, v in groups.items()}
-
-
-def antenna_of(cfg: Config) -> tuple[float, float]:
-    """Return the configured position sensor's place in the robot frame, m (``pose_sensor``)."""
-    return float(cfg.pose_sensor.antenna_x), float(cfg.pose_sensor.antenna_y)
 
 
 def _idd(mp: ModelParams, track_width: float) -> ModelParams:

@@ -27,6 +27,7 @@ from terrain_odom.evaluation.outage import (
     frozen_icr_table,
     outage_starts,
 )
+from terrain_odom.evaluation.sparse import antenna_of
 from terrain_odom.records import WheelLog
 from terrain_odom.reporting.outage import outage_section
 
@@ -134,7 +135,10 @@ class OutageGuard:
     @staticmethod
     def _why_not(log: WheelLog, names: tuple[str, ...], estimator: str) -> str | None:
         if estimator != "icr-ekf":
-            return f"the guard compares ICR models; a {estimator} run has none"
+            return (
+                f"the guard freezes ICR EKF states; a {estimator} run's model is its slip "
+                "parameters ('evaluate --run DIR --outage 30s 60s' scores it)"
+            )
         if not log.has_position.any():
             return "no position measurements in the log (a wheel-only run): nothing to compare with"
         missing = [n for n in GUARD_STATES[:4] if n not in names]
@@ -164,7 +168,6 @@ class OutageGuard:
         if self.skipped is not None:
             return GuardResult(skipped=self.skipped, seconds=self.seconds)
         started = time.perf_counter()
-        sensor = self.cfg.pose_sensor
         table = frozen_icr_table(
             self.log,
             self.durations,
@@ -172,6 +175,6 @@ class OutageGuard:
             self.states,
             self.first[1:5],
             track_width=self.cfg.robot.track_width,
-            antenna=(float(sensor.antenna_x), float(sensor.antenna_y)),
+            antenna=antenna_of(self.cfg),
         )
         return GuardResult(table, seconds=self.seconds + time.perf_counter() - started)

@@ -28,11 +28,14 @@ measures:
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike
 
+from terrain_odom.config import Config
+from terrain_odom.errors import ConfigError
 from terrain_odom.evaluation.metrics import TwistFn, WindowErrors, window_errors, window_poses
 from terrain_odom.evaluation.windows import Windows
 from terrain_odom.kinematics.integration import wrap_angle
@@ -46,6 +49,7 @@ __all__ = [
     "fitted_turn",
     "sparse_window_errors",
     "anchored_window_errors",
+    "antenna_of",
 ]
 
 HEADING_TOLERANCE = 0.5
@@ -242,3 +246,27 @@ def anchored_window_errors(
     if anchor == "pose":
         return window_errors(log, windows, twist_fn)
     return sparse_window_errors(log, windows, twist_fn, anchor=anchor, antenna=antenna)
+
+
+def antenna_of(cfg: Config) -> tuple[float, float]:
+    """Return the configured position sensor's place in the robot frame, m (``pose_sensor``).
+
+    Raises
+    ------
+    ConfigError
+        A coordinate that is not a number yet (e.g. one still to be estimated).
+
+    Examples
+    --------
+    >>> antenna_of(Config())
+    (0.0, 0.0)
+    """
+    sensor = cfg.pose_sensor
+    values = {"antenna_x": sensor.antenna_x, "antenna_y": sensor.antenna_y}
+    for name, value in values.items():
+        if isinstance(value, str) or not math.isfinite(value):
+            raise ConfigError(
+                f"pose_sensor.{name} is {value!r}: scoring needs the lever arm in metres "
+                "(a run's config.yaml has the value it used)"
+            )
+    return float(values["antenna_x"]), float(values["antenna_y"])
