@@ -115,7 +115,6 @@ def test_the_run_guards_its_learned_model_on_outages(run_dir, logs, capsys):
     learned = models["learned"]["position_m"]["median"]
     assert learned < models["idd"]["position_m"]["median"]  # gravel skids: idd is far off
     assert (learned > models["nominal"]["position_m"]["median"]) == bool(guard["learned_worse_s"])
-    assert 0.0 < guard["seconds"] < 0.1 * report["run_time_s"]
     assert "## Outage guard" in (run_dir / "report.md").read_text()
 
 

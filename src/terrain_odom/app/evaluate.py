@@ -594,9 +594,17 @@ class BatchEvaluation:
             rows.append([f"all {len(self.logs)} logs", name, windows])
             rows[-1] += [*format_error_stats(pooled.errors), pooled.ate_rmse]
         head = ["log", "model", "windows", "m/m median [q25-q75]", "deg/m median [q25-q75]"]
+        notes = "".join(
+            f"- {r.log.name}: windows {WINDOW_KINDS[r.anchor]}\n"
+            for r in self.logs
+            if r.anchor != "pose"
+        )
         return (
             f"Model-odometry error per metre over h_e = {self.horizon:g} m windows, "
-            "and dead-reckoning ATE\n\n" + table([*head, "ATE DR (m)"], rows) + "\n"
+            "and dead-reckoning ATE\n\n"
+            + table([*head, "ATE DR (m)"], rows)
+            + "\n"
+            + (f"\n{notes}" if notes else "")
         )
 
 

@@ -490,6 +490,9 @@ def fit(
             n: [float(lo), float(hi)] for n, (lo, hi) in zip(m.param_names, m.bounds, strict=True)
         },
     }
+    anchors = {log.source: log_anchor(log) for log in train}
+    if set(anchors.values()) != {"pose"}:  # a GPS and an IMU: say what the segments ran between
+        info["segments_between"] = anchors
     mp = ModelParams(m.name, sets, b, info)
     evaluation = _evaluate_fit(mp, evals, cfg, b) if evals else None
     if evaluation is not None:

@@ -92,14 +92,10 @@ class GuardResult:
         return out
 
     def section(self) -> dict[str, Any]:
-        """Return the ``outage_guard`` entry of ``report.json``."""
+        """Return the ``outage_guard`` entry of ``report.json`` (the same on every run of a log)."""
         if self.skipped is not None:
-            return {"skipped": self.skipped, "seconds": self.seconds}
-        return outage_section(
-            self.outages,
-            learned_worse_s=[d for d, _, _ in self.worse()],
-            seconds=self.seconds,
-        )
+            return {"skipped": self.skipped}
+        return outage_section(self.outages, learned_worse_s=[d for d, _, _ in self.worse()])
 
 
 class OutageGuard:
