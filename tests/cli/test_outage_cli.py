@@ -157,6 +157,7 @@ def test_evaluate_a_sparse_run_scores_outages_by_default(run_dir, logs, capsys):
         (["nan"], "--outage: 'nan' is not a duration"),
         (["30s", "off"], "--outage: 'off' is not a duration"),
         (["1000s"], "--outage 1000s: no outage window of"),
+        (["1e-9s"], "--outage: '1e-9s' is shorter than 1 s"),
     ],
 )
 def test_bad_outage_values_are_one_line(run_dir, logs, capsys, values, message):

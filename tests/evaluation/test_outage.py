@@ -88,13 +88,19 @@ def test_idd_with_the_nominal_track_ends_where_the_chords_say():
 
 
 def test_outage_windows_stay_in_their_segment_and_vanish_when_too_long():
+    """Also where time starts again in each segment (a log's time need only rise within one)."""
     log, _ = _arc_log(segment=lambda t: (t >= 70.0).astype(int))
     w = outage_windows(log, 30.0)
     runs = log.segment_runs()
     assert np.array_equal(runs[w.start], runs[w.end])
-    assert len(w) == 8  # 4 per 60-70 s segment
+    # fixes at 0.1 s + 0.4 k: the ends nearest 70.1 s and 130.1 s lie short, in their segment
+    assert np.allclose(log.t[w.start], [0.1, 10.1, 20.1, 30.1, 40.1, 70.1, 80.1, 90.1, 100.1])
     assert len(outage_windows(log, 80.0)) == 0
-    for bad in (0.0, -5.0, math.nan, math.inf):
+    restarted = WheelLog(log.t - 70.0 * log.segment, log.v_l, log.v_r, log.pose, None,
+                         log.segment)  # fmt: skip
+    again = outage_windows(restarted, 30.0)
+    assert np.array_equal(again.start, w.start) and np.array_equal(again.end, w.end)
+    for bad in (0.0, 0.5, -5.0, math.nan, math.inf):
         with pytest.raises(ValueError, match="outage duration"):
             outage_windows(log, bad)
 

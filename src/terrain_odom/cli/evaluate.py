@@ -57,8 +57,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         metavar="DURATION",
         help="outage windows: from the run's state at a position fix every 10 s, dead-reckon "
         "each model without poses for DURATION (like 30s; bare: seconds) and compare the "
-        "displacement with the measured one (needs --run; default with --run on sparse, "
-        "GPS-like poses: 30s 60s; 'off': none)",
+        "displacement with the measured one (>= 1 s; needs --run; default with --run on "
+        "sparse, GPS-like poses: 30s 60s; 'off': none)",
     )
     add_out_option(p, "folder for evaluation.json (created; default: the --run folder)")
     add_log_options(p)
@@ -124,6 +124,7 @@ def outage_durations(values: list[str] | None) -> list[float] | None:
     ([30.0, 60.0], [], None)
     """
     from terrain_odom.errors import ConfigError
+    from terrain_odom.evaluation.outage import MIN_OUTAGE
     from terrain_odom.fitting import parse_horizon
 
     if values is None:
@@ -139,6 +140,11 @@ def outage_durations(values: list[str] | None) -> list[float] | None:
         if horizon is None or horizon.unit != "s" or not math.isfinite(horizon.value):
             raise ConfigError(
                 f"--outage: {text!r} is not a duration like 30s (or 30, seconds; 'off' alone: none)"
+            )
+        if horizon.value < MIN_OUTAGE:
+            raise ConfigError(
+                f"--outage: {text!r} is shorter than {MIN_OUTAGE:g} s (an outage that short ends "
+                "on the fix it starts from)"
             )
         durations.append(horizon.value)
     return sorted(set(durations))

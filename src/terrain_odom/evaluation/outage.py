@@ -56,6 +56,7 @@ __all__ = [
     "DEFAULT_OUTAGES",
     "OUTAGE_EVERY",
     "OUTAGE_TOLERANCE",
+    "MIN_OUTAGE",
     "OutageErrors",
     "outage_windows",
     "outage_errors",
@@ -73,6 +74,8 @@ OUTAGE_EVERY = 10.0
 """An outage window starts every this many seconds of a segment, s."""
 OUTAGE_TOLERANCE = 1.0
 """Largest ``|t_end - t_start - duration|`` of an outage window, s."""
+MIN_OUTAGE = 1.0
+"""Shortest outage duration, s (shorter ones end on the fix they start from)."""
 ModelAt = Callable[[Windows], TwistFn]
 """The frozen model of each window (its start row's estimate): ``model_at(windows) -> twist_fn``."""
 RowsTwist = tuple[np.ndarray, np.ndarray, np.ndarray]
@@ -153,7 +156,7 @@ def outage_windows(
     log : WheelLog
         Log with position measurements.
     duration : float
-        Outage duration, s (> 0).
+        Outage duration, s (>= :data:`MIN_OUTAGE`).
     every : float
         Time between window starts within a segment, s (> 0).
     tolerance : float
@@ -178,8 +181,8 @@ def outage_windows(
     >>> log.t[w.start].tolist(), log.t[w.end].tolist()
     ([0.0, 5.0, 10.0, 15.0], [10.0, 15.0, 20.0, 24.0])
     """
-    if not (math.isfinite(duration) and duration > 0.0):
-        raise ValueError(f"outage duration must be > 0 s, got {duration}")
+    if not (math.isfinite(duration) and duration >= MIN_OUTAGE):
+        raise ValueError(f"outage duration must be >= {MIN_OUTAGE:g} s, got {duration}")
     if not every > 0.0:
         raise ValueError(f"outage windows start every > 0 s, got {every}")
     rows = np.flatnonzero(log.has_position)

@@ -327,8 +327,9 @@ def prediction_windows(
     cand = rows if starts is None else np.asarray(starts, dtype=int)
     cand = cand[mask[cand]]
     runs = log.segment_runs()
-    t_rows = log.t[rows]
-    target = log.t[cand] + horizon
+    clock = _run_clock(log, runs, horizon + tolerance + 1.0)
+    t_rows = clock[rows]
+    target = clock[cand] + horizon
     j = np.clip(np.searchsorted(t_rows, target), 1, max(rows.size - 1, 1))
     before = np.clip(j - 1, 0, rows.size - 1)
     j = np.minimum(j, rows.size - 1)
@@ -337,11 +338,24 @@ def prediction_windows(
     keep = (
         (end > cand)
         & (runs[end] == runs[cand])
-        & (np.abs(log.t[end] - target) <= tolerance)
+        & (np.abs(clock[end] - target) <= tolerance)
     )  # fmt: skip
     path = _path(log, runs, anchor)
     start, end = cand[keep], end[keep]
     return Windows(start=start, end=end, length=path[end] - path[start])
+
+
+def _run_clock(log: WheelLog, runs: np.ndarray, gap: float) -> np.ndarray:
+    """Time per row that never decreases: each run's own time, runs ``gap`` s apart.
+
+    A log's time need only increase within a segment (it may start again at
+    each); searching a time across the whole log needs one that increases
+    throughout, and ``gap`` keeps a search from one run finding the next.
+    """
+    first = np.flatnonzero(np.r_[True, runs[1:] != runs[:-1]])
+    jump = np.zeros(first.size)  # each run's shift beyond the previous one's (run 0: none)
+    jump[1:] = log.t[first[1:] - 1] - log.t[first[1:]] + gap
+    return log.t + np.cumsum(jump)[runs]
 
 
 def padded_steps(
