@@ -73,9 +73,9 @@ def _fmt(value: float, digits: int) -> str:
 
 def _format_stats(entry: ModelErrors) -> str:
     t, r = entry.errors.translation, entry.errors.rotation
-    translation = f"{_fmt(t.median, 4)} [{_fmt(t.q25, 3)}-{_fmt(t.q75, 3)}]" if t.count else "n/a"
-    rotation = f"{_fmt(r.median, 3)} [{_fmt(r.q25, 2)}-{_fmt(r.q75, 2)}]" if r.count else "n/a"
-    return f"{translation:>22}  {rotation:>21}  {_fmt(entry.ate.rmse, 2):>8}"
+    translation = f"{_fmt(t.median, 4):>8}" + (f" [{t.q25:.3f}-{t.q75:.3f}]" if t.count else "")
+    rotation = f"{_fmt(r.median, 3):>7}" + (f" [{r.q25:.2f}-{r.q75:.2f}]" if r.count else "")
+    return f"{translation}  {rotation}  {_fmt(entry.ate.rmse, 2):>8}"
 
 
 def _print_outages(result: EvaluationResult) -> None:
