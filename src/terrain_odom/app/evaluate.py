@@ -22,6 +22,7 @@ from terrain_odom.errors import ConfigError, InputFileError
 from terrain_odom.estimation.time_offset import TimeCalibration
 from terrain_odom.evaluation import (
     DEFAULT_OUTAGES,
+    OUTAGE_EVERY,
     AteResult,
     ErrorSummary,
     ModelAt,
@@ -40,6 +41,7 @@ from terrain_odom.evaluation import (
     is_sparse,
     log_anchor,
     model_twist,
+    outage_spacing,
     outage_table,
     prediction_errors,
     prediction_windows,
@@ -143,6 +145,8 @@ class EvaluationResult:
     outages : dict of float to dict of str to OutageErrors
         Per outage duration (s), per model: dead reckoning from the run's
         state through the outage windows (:mod:`~terrain_odom.evaluation.outage`).
+    outage_every : float
+        Time between their starts, s (:func:`~terrain_odom.evaluation.outage_spacing`).
     """
 
     log: Path
@@ -157,6 +161,7 @@ class EvaluationResult:
     plots: tuple[Path, ...] = ()
     anchor: str = "pose"
     outages: dict[float, dict[str, OutageErrors]] = dataclasses.field(default_factory=dict)
+    outage_every: float = OUTAGE_EVERY
 
     def to_dict(self) -> dict[str, Any]:
         """Return the content of ``evaluation.json``."""
@@ -174,7 +179,9 @@ class EvaluationResult:
                 "windows": self.prediction_windows,
                 "models": {name: p.to_dict() for name, p in self.prediction.items()},
             },
-            **({"outages": outage_section(self.outages)} if self.outages else {}),
+            **(
+                {"outages": outage_section(self.outages, self.outage_every)} if self.outages else {}
+            ),
         }
 
 
@@ -469,6 +476,7 @@ def _evaluation(
         prediction=prediction,
         anchor=scoring.anchor,
         outages=_outages(log, traj, at, scoring.antenna, outage),
+        outage_every=outage_spacing(log),
     )
 
 

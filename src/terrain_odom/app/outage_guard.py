@@ -23,8 +23,10 @@ from terrain_odom.config import Config
 from terrain_odom.estimation.odometry import OdometryBlock
 from terrain_odom.evaluation.outage import (
     DEFAULT_OUTAGES,
+    OUTAGE_EVERY,
     OutageErrors,
     frozen_icr_table,
+    outage_spacing,
     outage_starts,
 )
 from terrain_odom.evaluation.sparse import antenna_of
@@ -49,11 +51,14 @@ class GuardResult:
         Why there was nothing to compare (no positions, log too short, slip EKF).
     seconds : float
         Time the guard took, s (keeping the states and the comparison).
+    every : float
+        Time between window starts, s (:func:`~terrain_odom.evaluation.outage.outage_spacing`).
     """
 
     outages: dict[float, dict[str, OutageErrors]] = field(default_factory=dict)
     skipped: str | None = None
     seconds: float = 0.0
+    every: float = OUTAGE_EVERY
 
     def worse(self) -> list[tuple[float, float, float]]:
         """Durations where the learned model's median error exceeds the nominal's: ``(s, m, m)``."""
@@ -95,7 +100,8 @@ class GuardResult:
         """Return the ``outage_guard`` entry of ``report.json`` (the same on every run of a log)."""
         if self.skipped is not None:
             return {"skipped": self.skipped}
-        return outage_section(self.outages, learned_worse_s=[d for d, _, _ in self.worse()])
+        worse = [d for d, _, _ in self.worse()]
+        return outage_section(self.outages, self.every, learned_worse_s=worse)
 
 
 class OutageGuard:
@@ -173,4 +179,5 @@ class OutageGuard:
             track_width=self.cfg.robot.track_width,
             antenna=antenna_of(self.cfg),
         )
-        return GuardResult(table, seconds=self.seconds + time.perf_counter() - started)
+        seconds = self.seconds + time.perf_counter() - started
+        return GuardResult(table, seconds=seconds, every=outage_spacing(self.log))

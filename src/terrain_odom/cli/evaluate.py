@@ -55,7 +55,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "--outage",
         nargs="+",
         metavar="DURATION",
-        help="outage windows: from the run's state at a position fix every 10 s, dead-reckon "
+        help="outage windows: from the run's state at a position fix every 10 s (at most 120 "
+        "windows; wider apart on a long log), dead-reckon "
         "each model without poses for DURATION (like 30s; bare: seconds) and compare the "
         "displacement with the measured one (>= 1 s; needs --run; default with --run on "
         "sparse, GPS-like poses: 30s 60s; 'off': none)",
@@ -91,7 +92,7 @@ def _print_outages(result: EvaluationResult) -> None:
     )
     widths = (8, 9, 32, 30, 30)
     print("".join(f"{h:<{w}}" for h, w in zip(OUTAGE_HEADER, widths, strict=True)).rstrip())
-    for row in outage_rows(outage_section(result.outages)):
+    for row in outage_rows(outage_section(result.outages, result.outage_every)):
         print("".join(f"{c:<{w}}" for c, w in zip(row, widths, strict=True)).rstrip())
 
 

@@ -24,8 +24,9 @@ compared from it (e.g. the ideal differential drive beside the learned
 model), so the comparison is of the models alone.
 
 Windows (:func:`outage_windows`) start at the first position fix of every
-``every`` seconds of each segment and end at the fix nearest ``duration``
-later (within ``tolerance``), in the same segment.
+``every`` seconds (10; on a log longer than 20 min, as many as 120 windows
+spread evenly: :func:`outage_spacing`) of each segment and end at the fix
+nearest ``duration`` later (within ``tolerance``), in the same segment.
 """
 
 from __future__ import annotations
@@ -57,6 +58,8 @@ __all__ = [
     "OUTAGE_EVERY",
     "OUTAGE_TOLERANCE",
     "MIN_OUTAGE",
+    "MAX_OUTAGE_WINDOWS",
+    "outage_spacing",
     "OutageErrors",
     "outage_windows",
     "outage_errors",
@@ -74,6 +77,8 @@ OUTAGE_EVERY = 10.0
 """An outage window starts every this many seconds of a segment, s."""
 OUTAGE_TOLERANCE = 1.0
 """Largest ``|t_end - t_start - duration|`` of an outage window, s."""
+MAX_OUTAGE_WINDOWS = 120
+"""Most outage windows of one duration: a longer log spaces them wider than :data:`OUTAGE_EVERY`."""
 MIN_OUTAGE = 1.0
 """Shortest outage duration, s (shorter ones end on the fix they start from)."""
 ModelAt = Callable[[Windows], TwistFn]
@@ -189,11 +194,33 @@ def outage_windows(
     runs = log.segment_runs()[rows]
     first = np.r_[True, runs[1:] != runs[:-1]]
     t_run = log.t[rows][first][np.cumsum(first) - 1]  # each fix's run's first fix time
-    slot = np.floor((log.t[rows] - t_run) / every)
+    slot = np.floor((log.t[rows] - t_run) / outage_spacing(log, every))
     new = np.r_[True, (runs[1:] != runs[:-1]) | (slot[1:] != slot[:-1])]
     return prediction_windows(
         log, duration, starts=rows[new], tolerance=tolerance, anchor="position"
     )
+
+
+def outage_spacing(log: WheelLog, every: float = OUTAGE_EVERY) -> float:
+    """Time between outage window starts, s: ``every``, or wider on a long log.
+
+    At most :data:`MAX_OUTAGE_WINDOWS` windows of a duration: the fixes'
+    time span (summed over segments) over that many, if more than ``every``.
+
+    Examples
+    --------
+    >>> t = np.arange(0.0, 3600.0, 0.5)
+    >>> pose = np.c_[t, 0 * t, np.full(t.size, np.nan)]
+    >>> log = WheelLog(t, t, t, pose, None, np.zeros(t.size, int))
+    >>> round(outage_spacing(log), 4), outage_spacing(log.take(t < 600.0))
+    (29.9958, 10.0)
+    """
+    rows = np.flatnonzero(log.has_position)
+    if rows.size == 0:
+        return every
+    runs = log.segment_runs()[rows]
+    span = sum(float(np.ptp(log.t[rows[runs == r]])) for r in np.unique(runs))
+    return max(every, span / MAX_OUTAGE_WINDOWS)
 
 
 def outage_errors(

@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from terrain_odom.evaluation.outage import OUTAGE_EVERY, OutageErrors
+from terrain_odom.evaluation.outage import OutageErrors
 from terrain_odom.reporting.figure import new_figure, wrap
 
 __all__ = [
@@ -27,10 +27,12 @@ Outages = Mapping[float, Mapping[str, OutageErrors]]
 """Per outage duration (s), per model name: its errors."""
 
 
-def outage_section(outages: Outages, **extra: Any) -> dict[str, Any]:
+def outage_section(outages: Outages, every: float, **extra: Any) -> dict[str, Any]:
     """Return the ``outages`` entry of a report: per duration, windows and per-model statistics.
 
-    ``extra`` items (e.g. the guard's verdict) are added to the entry.
+    ``every``: the time between window starts, s
+    (:func:`~terrain_odom.evaluation.outage.outage_spacing`); ``extra`` items
+    (e.g. the guard's verdict) are added to the entry.
     """
     durations: dict[str, Any] = {}
     for duration, models in outages.items():
@@ -39,7 +41,7 @@ def outage_section(outages: Outages, **extra: Any) -> dict[str, Any]:
             "windows": len(first.windows),
             "models": {name: e.to_dict() for name, e in models.items()},
         }
-    return {"every_s": OUTAGE_EVERY, "durations": durations, **extra}
+    return {"every_s": every, "durations": durations, **extra}
 
 
 def outage_figure(outages: Outages) -> Any:
