@@ -21,22 +21,33 @@ from terrain_odom.config import Config, RobotConfig, load_config
 from terrain_odom.errors import ConfigError, InputFileError
 from terrain_odom.estimation.time_offset import TimeCalibration
 from terrain_odom.evaluation import (
+    DEFAULT_OUTAGES,
+    OUTAGE_EVERY,
     AteResult,
     ErrorSummary,
+    ModelAt,
+    OutageErrors,
     PredictionSummary,
+    RowsTwist,
+    SE2Alignment,
     TwistFn,
     WindowErrors,
     Windows,
     absolute_trajectory_error,
+    anchored_window_errors,
+    antenna_of,
     dead_reckon,
     icr_twist_from_rows,
+    is_sparse,
+    log_anchor,
     model_twist,
+    outage_spacing,
+    outage_table,
     prediction_errors,
     prediction_windows,
     slip_twist_from_rows,
     spatial_windows,
     summarize,
-    window_errors,
 )
 from terrain_odom.io import read_trajectory_csv
 from terrain_odom.io.atomic import write_text_atomic
@@ -47,6 +58,7 @@ from terrain_odom.kinematics import get_model, twist_icr
 from terrain_odom.kinematics.slip import SlipModel, param_names
 from terrain_odom.records import WheelLog
 from terrain_odom.reporting.markdown import table
+from terrain_odom.reporting.outage import outage_section
 
 __all__ = [
     "EVALUATION_JSON",
@@ -67,8 +79,13 @@ EVALUATION_MD = "evaluation.md"
 JSON_SUFFIXES = (".json",)
 """Suffixes by which ``out`` names the file itself (the old form)."""
 
-RowsTwist = tuple[np.ndarray, np.ndarray, np.ndarray]
-"""Per-row body twist ``(v_x, v_y, omega)`` of a model, m/s and rad/s."""
+WINDOW_KINDS = {
+    "pose": "between full poses",
+    "position": "between position fixes, length from the wheels (start heading fitted to "
+    "the fixes; heading change from the heading rows where present)",
+    "heading": "between heading rows (length from the wheels; heading change only)",
+}
+"""What each window anchor means, as the printout and reports say it."""
 
 
 @dataclass(frozen=True)
@@ -121,6 +138,15 @@ class EvaluationResult:
         The JSON file written (``None``: nothing written).
     plots : tuple of Path
         PNG plots written beside it, in ``plots/`` (:func:`write_evaluation_plots`).
+    anchor : str
+        What the windows run between: ``"pose"``, ``"position"`` or
+        ``"heading"`` (:data:`WINDOW_KINDS`; a log of positions and headings
+        on different rows has no full pose).
+    outages : dict of float to dict of str to OutageErrors
+        Per outage duration (s), per model: dead reckoning from the run's
+        state through the outage windows (:mod:`~terrain_odom.evaluation.outage`).
+    outage_every : float
+        Time between their starts, s (:func:`~terrain_odom.evaluation.outage_spacing`).
     """
 
     log: Path
@@ -133,6 +159,9 @@ class EvaluationResult:
     prediction: dict[str, PredictionSummary]
     output: Path | None = None
     plots: tuple[Path, ...] = ()
+    anchor: str = "pose"
+    outages: dict[float, dict[str, OutageErrors]] = dataclasses.field(default_factory=dict)
+    outage_every: float = OUTAGE_EVERY
 
     def to_dict(self) -> dict[str, Any]:
         """Return the content of ``evaluation.json``."""
@@ -143,11 +172,16 @@ class EvaluationResult:
             "time_calibration": self.time_calibration.to_dict(),
             "horizon_m": self.horizon,
             "windows": self.windows,
+            "windows_between": self.anchor,
+            "windows_note": WINDOW_KINDS[self.anchor],
             "models": {name: entry.to_dict() for name, entry in self.models.items()},
             "prediction_2s": {
                 "windows": self.prediction_windows,
                 "models": {name: p.to_dict() for name, p in self.prediction.items()},
             },
+            **(
+                {"outages": outage_section(self.outages, self.outage_every)} if self.outages else {}
+            ),
         }
 
 
@@ -167,12 +201,36 @@ def _read_run(run_dir: Path, log: WheelLog) -> dict[str, np.ndarray]:
     return traj
 
 
+_NO_ATE = AteResult(math.nan, SE2Alignment(math.nan, np.full(2, math.nan)), 0)
+"""The ATE of a log without full poses: none (a dead-reckoned track needs a start heading)."""
+
+
+@dataclass(frozen=True)
+class _Scoring:
+    """The windows of a log and how a model is scored on them.
+
+    ``anchor``: what the windows run between (:data:`WINDOW_KINDS`);
+    ``antenna``: where the measured positions are on the robot, m.
+    """
+
+    windows: Windows
+    anchor: str
+    antenna: tuple[float, float]
+
+    def errors(self, log: WheelLog, twist_fn: TwistFn) -> WindowErrors:
+        return anchored_window_errors(
+            log, self.windows, twist_fn, anchor=self.anchor, antenna=self.antenna
+        )
+
+
 def _model_errors(
-    log: WheelLog, windows: Windows, twist_fn: TwistFn, rows: RowsTwist
+    log: WheelLog, scoring: _Scoring, twist_fn: TwistFn, rows: RowsTwist
 ) -> ModelErrors:
     """Window errors of ``twist_fn`` and the ATE of the per-row twist ``rows`` dead-reckoned."""
+    errors = scoring.errors(log, twist_fn)
+    if scoring.anchor != "pose":
+        return ModelErrors(summarize(errors), _NO_ATE, errors)
     reckoned = dead_reckon(log, *rows)
-    errors = window_errors(log, windows, twist_fn)
     return ModelErrors(
         summarize(errors),
         absolute_trajectory_error(reckoned[:, :2], log.pose[:, :2]),
@@ -180,41 +238,58 @@ def _model_errors(
     )
 
 
-def _evaluation_windows(log: WheelLog, h_e: float) -> Windows:
-    windows = spatial_windows(log, h_e)
-    if len(windows) == 0:
+def _evaluation_windows(log: WheelLog, h_e: float, cfg: Config) -> _Scoring:
+    """Windows between full poses, else between position fixes, else between heading rows."""
+    antenna = antenna_of(cfg)
+    anchor = log_anchor(log)
+    if not log.has_yaw.any() and anchor == "heading":
         raise InputFileError(
-            f"{log.source}: no {h_e} m window with pose measurements at both ends; nothing to evaluate"
+            f"{log.source}: no pose measurements (x, y or yaw); nothing to evaluate"
         )
-    return windows
+    windows = spatial_windows(log, h_e, anchor=anchor)
+    if len(windows) == 0:
+        between = {
+            "pose": "with pose measurements at both ends",
+            "position": "between position fixes (length by the wheels)",
+            "heading": "between heading rows (length by the wheels)",
+        }
+        raise InputFileError(
+            f"{log.source}: no {h_e} m window {between[anchor]}; nothing to evaluate"
+        )
+    return _Scoring(windows, anchor, antenna)
 
 
 def _run_models(
-    run_dir: Path, log: WheelLog, windows: Windows, ahead: Windows, cfg: Config
-) -> tuple[str, ModelErrors, PredictionSummary]:
-    """Errors of the online estimate of a run (ICR EKF, or slip EKF with ``l1`` columns)."""
-    traj = _read_run(run_dir, log)
+    traj: dict[str, np.ndarray], log: WheelLog, scoring: _Scoring, ahead: Windows, cfg: Config
+) -> tuple[str, ModelErrors, PredictionSummary, ModelAt]:
+    """Errors of the online estimate of a run (ICR EKF, or slip EKF with ``l1`` columns).
+
+    Also returns the run's model at window starts (for outage windows).
+    """
+    windows = scoring.windows
     if "l1" in traj:  # a slip-ekf run: the slip model with the parameters of each row
         slip_model = SlipModel.from_config(cfg.slip_ekf, cfg.robot.track_width)
         rows_l = np.stack([traj[n] for n in param_names("alpha" in traj)], axis=1)
+
+        def slip_at(w: Windows) -> TwistFn:
+            return slip_twist_from_rows(w, rows_l, slip_model)
+
         errors = _model_errors(
-            log,
-            windows,
-            slip_twist_from_rows(windows, rows_l, slip_model),
-            slip_model.twist(log.v_l, log.v_r, rows_l),
+            log, scoring, slip_at(windows), slip_model.twist(log.v_l, log.v_r, rows_l)
         )
-        run_twist = slip_twist_from_rows(ahead, rows_l, slip_model)
-        return "slip-ekf (online)", errors, prediction_errors(log, ahead, run_twist)
+        return "slip-ekf (online)", errors, prediction_errors(log, ahead, slip_at(ahead)), slip_at
     icr = (traj["y_l"], traj["y_r"], traj["x_icr"], traj.get("alpha", np.ones(len(log))))
-    errors = _model_errors(
-        log, windows, icr_twist_from_rows(windows, *icr), twist_icr(log.v_l, log.v_r, *icr)
-    )
-    return "ekf (online)", errors, prediction_errors(log, ahead, icr_twist_from_rows(ahead, *icr))
+
+    def icr_at(w: Windows) -> TwistFn:
+        return icr_twist_from_rows(w, *icr)
+
+    errors = _model_errors(log, scoring, icr_at(windows), twist_icr(log.v_l, log.v_r, *icr))
+    return "ekf (online)", errors, prediction_errors(log, ahead, icr_at(ahead)), icr_at
 
 
 def _params_model(
-    path: str | Path, log: WheelLog, windows: Windows, robot: RobotConfig
-) -> tuple[str, ModelErrors]:
+    path: str | Path, log: WheelLog, scoring: _Scoring, robot: RobotConfig
+) -> tuple[str, ModelErrors, ModelAt]:
     """Errors of the constant model of a parameter file (per-terrain sets row by row)."""
     mp = read_params(path)
     check_geometry(mp, robot.wheel_radius, robot.track_width, path)
@@ -223,13 +298,14 @@ def _params_model(
     values = mp.rows(log)  # (N, k): each row's terrain set (per-terrain files)
     b = mp.track_width or track_width
     v_x, v_y, omega = model.twist(log.v_l[:, None], log.v_r[:, None], values, b)
+
+    def params_at(w: Windows) -> TwistFn:
+        return model_twist(model, values[w.start], b)
+
     errors = _model_errors(
-        log,
-        windows,
-        model_twist(model, values[windows.start], b),
-        (v_x[:, 0], v_y[:, 0], omega[:, 0]),
+        log, scoring, params_at(scoring.windows), (v_x[:, 0], v_y[:, 0], omega[:, 0])
     )
-    return f"{mp.model} ({Path(path).name})", errors
+    return f"{mp.model} ({Path(path).name})", errors, params_at
 
 
 def _output_path(out: str | Path | None, run_dir: str | Path | None) -> Path | None:
@@ -276,6 +352,7 @@ def evaluate(
     params: Sequence[str | Path] | None = None,
     horizon: float | None = None,
     out: str | Path | None = None,
+    outage: Sequence[float] | None = None,
 ) -> EvaluationResult:
     """Model-odometry errors of the nominal model, an EKF run and parameter files.
 
@@ -284,7 +361,12 @@ def evaluate(
     compared with the measured pose there (Baril et al. 2020); the EKF uses at
     each window start only the estimate it had then. Also reported: the ATE
     (after SE(2) alignment) of each model dead-reckoned over every segment
-    from the segment's first measured pose.
+    from the segment's first measured pose. A log of positions and headings
+    on different rows (a GPS and an IMU) has windows between position fixes
+    (or heading rows) instead (:mod:`~terrain_odom.evaluation.sparse`,
+    :data:`WINDOW_KINDS`) and no ATE. With a run, outage windows
+    (:mod:`~terrain_odom.evaluation.outage`): each model dead-reckoned from
+    the run's state through ``outage`` seconds without poses.
 
     Parameters
     ----------
@@ -304,12 +386,17 @@ def evaluate(
         Folder (created) to write ``evaluation.json`` into; ``run_dir`` by
         default. A name ending in ``.json`` is the file itself (the old form).
         ``InputFileError`` before anything is read if it is an input.
+    outage : sequence of float, optional
+        Outage durations, s (``ConfigError`` without a run, or for one no
+        window of the log lasts); by default 30 s and 60 s when the run's
+        log has sparse (GPS-like) poses (:func:`~terrain_odom.evaluation.is_sparse`),
+        none otherwise. Empty: none.
 
     Returns
     -------
     EvaluationResult
         Per model: translational (m/m) and angular (deg/m) error statistics
-        and dead-reckoning ATE (m); 2-s prediction errors.
+        and dead-reckoning ATE (m); 2-s prediction errors; outage errors.
     """
     if run_dir is not None:
         check_complete(run_dir)
@@ -322,7 +409,9 @@ def evaluate(
         check_outputs([wheels, config_path, trajectory, *(params or [])], [target, *plots])
     cfg = _evaluation_config(run_dir, config, config_path)
     log, timing = read_calibrated_log(wheels, cfg)
-    result = _evaluation(log, timing, wheels, cfg, run_dir=run_dir, params=params, horizon=horizon)
+    result = _evaluation(
+        log, timing, wheels, cfg, run_dir=run_dir, params=params, horizon=horizon, outage=outage
+    )
     result = dataclasses.replace(result, output=target)
     if target is None:
         return result
@@ -330,7 +419,9 @@ def evaluate(
         create_folder(out, JSON_SUFFIXES)
     write_json(target, result.to_dict())
     errors = {name: m.windows for name, m in result.models.items() if m.windows is not None}
-    plots = write_evaluation_plots(target.parent / PLOTS_DIR, log, errors, result.horizon)
+    plots = write_evaluation_plots(
+        target.parent / PLOTS_DIR, log, errors, result.horizon, result.outages
+    )
     return dataclasses.replace(result, plots=tuple(plots))
 
 
@@ -355,31 +446,72 @@ def _evaluation(
     run_dir: str | Path | None = None,
     params: Sequence[str | Path] | None = None,
     horizon: float | None = None,
+    outage: Sequence[float] | None = None,
 ) -> EvaluationResult:
     """Errors of the nominal model, the run and the parameter files on ``log`` (read from ``wheels``)."""
     h_e = cfg.evaluation.horizon if horizon is None else float(horizon)
-    windows = _evaluation_windows(log, h_e)
+    scoring = _evaluation_windows(log, h_e, cfg)
     b = cfg.robot.track_width
     idd = get_model("idd")
     nominal = f"idd (B={b:g} m)"
     idd_twist = model_twist(idd, [], b)
-    models = {nominal: _model_errors(log, windows, idd_twist, idd.twist(log.v_l, log.v_r, [], b))}
+    idd_rows = idd.twist(log.v_l, log.v_r, [], b)
+    models = {nominal: _model_errors(log, scoring, idd_twist, idd_rows)}
+    at: dict[str, ModelAt | RowsTwist] = {nominal: idd_rows}
     ahead = prediction_windows(log)
     prediction = {nominal: prediction_errors(log, ahead, idd_twist)}
-    if run_dir is not None:
-        name, models[name], prediction[name] = _run_models(Path(run_dir), log, windows, ahead, cfg)
+    traj = None if run_dir is None else _read_run(Path(run_dir), log)
+    if traj is not None:
+        name, models[name], prediction[name], at[name] = _run_models(traj, log, scoring, ahead, cfg)
     for path in params or []:
-        name, models[name] = _params_model(path, log, windows, cfg.robot)
+        name, models[name], at[name] = _params_model(path, log, scoring, cfg.robot)
     return EvaluationResult(
         log=Path(wheels).resolve(),
         run=None if run_dir is None else Path(run_dir).resolve(),
         time_calibration=timing,
         horizon=h_e,
-        windows=len(windows),
+        windows=len(scoring.windows),
         models=models,
         prediction_windows=len(ahead),
         prediction=prediction,
+        anchor=scoring.anchor,
+        outages=_outages(log, traj, at, scoring.antenna, outage),
+        outage_every=outage_spacing(log),
     )
+
+
+def _outages(
+    log: WheelLog,
+    traj: dict[str, np.ndarray] | None,
+    models: dict[str, ModelAt | RowsTwist],
+    antenna: tuple[float, float],
+    durations: Sequence[float] | None,
+) -> dict[float, dict[str, OutageErrors]]:
+    """Outage windows of every model from the run's state: asked for, or by default on sparse poses.
+
+    Raises
+    ------
+    ConfigError
+        Durations asked for without a run, or one without a single window in the log.
+    """
+    if traj is None:
+        if durations:
+            raise ConfigError("--outage dead-reckons from a run's state: give --run")
+        return {}
+    if durations is None:
+        if not is_sparse(log):
+            return {}
+        durations = DEFAULT_OUTAGES
+    table = outage_table(log, durations, lambda rows: traj["yaw"][rows], models, antenna=antenna)
+    missing = [d for d in durations if float(d) not in table]
+    if missing and durations is not DEFAULT_OUTAGES:
+        rows = np.flatnonzero(log.has_position)
+        span = float(log.t[rows[-1]] - log.t[rows[0]]) if rows.size else 0.0
+        raise ConfigError(
+            f"--outage {missing[0]:g}s: no outage window of {log.source} lasts that long between "
+            f"position fixes of one segment (they span {span:.1f} s); give a shorter duration"
+        )
+    return table
 
 
 @dataclass(frozen=True)
@@ -470,9 +602,17 @@ class BatchEvaluation:
             rows.append([f"all {len(self.logs)} logs", name, windows])
             rows[-1] += [*format_error_stats(pooled.errors), pooled.ate_rmse]
         head = ["log", "model", "windows", "m/m median [q25-q75]", "deg/m median [q25-q75]"]
+        notes = "".join(
+            f"- {r.log.name}: windows {WINDOW_KINDS[r.anchor]}\n"
+            for r in self.logs
+            if r.anchor != "pose"
+        )
         return (
             f"Model-odometry error per metre over h_e = {self.horizon:g} m windows, "
-            "and dead-reckoning ATE\n\n" + table([*head, "ATE DR (m)"], rows) + "\n"
+            "and dead-reckoning ATE\n\n"
+            + table([*head, "ATE DR (m)"], rows)
+            + "\n"
+            + (f"\n{notes}" if notes else "")
         )
 
 

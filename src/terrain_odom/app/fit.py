@@ -28,10 +28,12 @@ from terrain_odom.evaluation import (
     ErrorSummary,
     WindowErrors,
     Windows,
+    anchored_window_errors,
+    antenna_of,
+    log_anchor,
     model_twist,
     spatial_windows,
     summarize,
-    window_errors,
 )
 from terrain_odom.fitting import (
     DEFAULT_TRAINING_HORIZON,
@@ -263,9 +265,9 @@ def _load(
             if isinstance(src, WheelLog)
             else read_wheel_log(src, wheel_radius=cfg.robot.wheel_radius)
         )
-        if not log.has_pose.any():
+        if not np.isfinite(log.pose).any():
             raise InputFileError(
-                f"{log.source}: no pose measurements (x, y, yaw); a {role} log needs them"
+                f"{log.source}: no pose measurements (x, y or yaw); a {role} log needs them"
             )
         log, calibration = calibrate_log(log, cfg)
         timing[log.source] = calibration
@@ -300,14 +302,23 @@ def _fit_sets(
     by_terrain: bool,
     options: FitOptions,
     track_width: float,
+    antenna: tuple[float, float] = (0.0, 0.0),
 ) -> tuple[dict[str, ParamSet], dict[str, FitResult], tuple[str, ...]]:
-    """Fit one set (``ANY_TERRAIN``) or one per terrain."""
+    """Fit one set (``ANY_TERRAIN``) or one per terrain.
+
+    Each log's segments run between its full poses, else between its
+    position fixes, else between its heading rows (:func:`~terrain_odom.evaluation.log_anchor`).
+    """
     groups = _terrains(logs) if by_terrain else [None]
+    anchors = [log_anchor(log) for log in logs]
     sets: dict[str, ParamSet] = {}
     fits: dict[str, FitResult] = {}
     skipped = []
     for terrain in groups:
-        segments = segment_set(logs, [training_windows(log, horizon, terrain) for log in logs])
+        windows = [
+            training_windows(log, horizon, terrain, a) for log, a in zip(logs, anchors, strict=True)
+        ]
+        segments = segment_set(logs, windows, anchor=anchors, antenna=antenna)
         if segments.count == 0:
             skipped.append(str(terrain))
             continue
@@ -330,25 +341,32 @@ def _fit_sets(
         raise InputFileError(
             f"no training segment of {horizon}{where} in "
             f"{', '.join(log.source for log in logs)} (pose measurements never that far apart "
-            f"within a segment); use a shorter --horizon"
+            f"within a segment; fixes or headings alone: as far as the wheels say); use a "
+            "shorter --horizon"
         )
     return sets, fits, tuple(skipped)
 
 
 def _group_errors(
-    mp: ModelParams, logs: Sequence[WheelLog], h_e: float, track_width: float
+    mp: ModelParams,
+    logs: Sequence[WheelLog],
+    h_e: float,
+    track_width: float,
+    antenna: tuple[float, float] = (0.0, 0.0),
 ) -> dict[str, list[WindowErrors]]:
     """Window errors of a model on evaluation logs, grouped by start-row terrain."""
     model = get_model(mp.model)
     groups: dict[str, list[WindowErrors]] = {}
     for log in logs:
-        windows = spatial_windows(log, h_e)
+        anchor = log_anchor(log)
+        windows = spatial_windows(log, h_e, anchor=anchor)
         if len(windows) == 0:
             continue
         values = mp.rows(log)  # per-terrain sets need (and check) the terrain column
         labels = np.asarray(log.terrain) if mp.per_terrain else np.full(len(log), ALL)
         b = mp.track_width or track_width
-        errors = window_errors(log, windows, model_twist(model, values[windows.start], b))
+        twist = model_twist(model, values[windows.start], b)
+        errors = anchored_window_errors(log, windows, twist, anchor=anchor, antenna=antenna)
         start_labels = labels[windows.start]
         for label in np.unique(start_labels):
             keep = np.flatnonzero(start_labels == label)
@@ -367,7 +385,11 @@ def _subset(errors: WindowErrors, keep: np.ndarray) -> WindowErrors:
 
 
 def evaluate_params(
-    mp: ModelParams, logs: Sequence[WheelLog], h_e: float, track_width: float
+    mp: ModelParams,
+    logs: Sequence[WheelLog],
+    h_e: float,
+    track_width: float,
+    antenna: tuple[float, float] = (0.0, 0.0),
 ) -> dict[str, ErrorSummary]:
     """Error statistics of a fitted model on evaluation logs, per terrain (or ``"all"``).
 
@@ -382,13 +404,16 @@ def evaluate_params(
         Evaluation horizon, m.
     track_width : float
         Nominal ``B``, m (when ``mp`` has none).
+    antenna : tuple of 2 floats, optional
+        Where the position sensor is, m (logs of GPS fixes, :func:`~terrain_odom.evaluation.antenna_of`).
 
     Returns
     -------
     dict of str to ErrorSummary
         Pooled over the logs, per group.
     """
-    return {k: summarize(v) for k, v in _group_errors(mp, logs, h_e, track_width).items()}
+    groups = _group_errors(mp, logs, h_e, track_width, antenna)
+    return {k: summarize(v) for k, v in groups.items()}
 
 
 def _idd(mp: ModelParams, track_width: float) -> ModelParams:
@@ -455,7 +480,7 @@ def fit(
     evals = _load(eval_logs, cfg, "evaluation", timing) if eval_logs else []
     opt = options or FitOptions()
     b = cfg.robot.track_width
-    sets, fits, skipped = _fit_sets(m.name, train, h_t, by_terrain, opt, b)
+    sets, fits, skipped = _fit_sets(m.name, train, h_t, by_terrain, opt, b, antenna_of(cfg))
     info: dict[str, Any] = {
         "wheel_radius": cfg.robot.wheel_radius,
         "pose_delay": _recorded_delay(timing),
@@ -465,8 +490,11 @@ def fit(
             n: [float(lo), float(hi)] for n, (lo, hi) in zip(m.param_names, m.bounds, strict=True)
         },
     }
+    anchors = {log.source: log_anchor(log) for log in train}
+    if set(anchors.values()) != {"pose"}:  # a GPS and an IMU: say what the segments ran between
+        info["segments_between"] = anchors
     mp = ModelParams(m.name, sets, b, info)
-    evaluation = _evaluate_fit(mp, evals, cfg.evaluation.horizon, b) if evals else None
+    evaluation = _evaluate_fit(mp, evals, cfg, b) if evals else None
     if evaluation is not None:
         mp = ModelParams(m.name, sets, b, {**info, "evaluation": evaluation.to_dict()})
     if out is not None and target is not None:
@@ -476,11 +504,12 @@ def fit(
 
 
 def _evaluate_fit(
-    mp: ModelParams, evals: Sequence[WheelLog], h_e: float, b: float
+    mp: ModelParams, evals: Sequence[WheelLog], cfg: Config, b: float
 ) -> FitEvaluation:
     """Held-out errors of the fitted model and of the ideal differential drive (``B = b``, m)."""
-    fitted = evaluate_params(mp, evals, h_e, b)
-    ideal = evaluate_params(_idd(mp, b), evals, h_e, b)
+    h_e, antenna = cfg.evaluation.horizon, antenna_of(cfg)
+    fitted = evaluate_params(mp, evals, h_e, b, antenna)
+    ideal = evaluate_params(_idd(mp, b), evals, h_e, b, antenna)
     return FitEvaluation(
         horizon=h_e,
         logs=tuple(log.source for log in evals),
@@ -623,11 +652,11 @@ def _compare_model(
 ) -> tuple[ModelComparison, dict[str, list[WindowErrors]]]:
     """Fit one model of :func:`compare` and its held-out window errors per group (a joblib task)."""
     b = cfg.robot.track_width
-    sets, _, skipped = _fit_sets(name, train, horizon, by_terrain, options, b)
+    sets, _, skipped = _fit_sets(name, train, horizon, by_terrain, options, b, antenna_of(cfg))
     mp = ModelParams(
         name, sets, b, {"wheel_radius": cfg.robot.wheel_radius, "horizon": str(horizon)}
     )
-    raw = _group_errors(mp, evals, cfg.evaluation.horizon, b)
+    raw = _group_errors(mp, evals, cfg.evaluation.horizon, b, antenna_of(cfg))
     errors = {g: summarize(e) for g, e in raw.items()}
     return ModelComparison(mp, skipped, errors), raw
 

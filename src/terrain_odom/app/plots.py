@@ -21,6 +21,7 @@ from terrain_odom.app.groundtruth import GroundTruthReport
 from terrain_odom.config import Config
 from terrain_odom.estimation.odometry import OdometryResult
 from terrain_odom.evaluation.metrics import WindowErrors
+from terrain_odom.evaluation.windows import wheel_path
 from terrain_odom.io.atomic import write_atomic
 from terrain_odom.io.images import read_image_rgb
 from terrain_odom.records import GroundTruth, WheelLog
@@ -32,6 +33,7 @@ from terrain_odom.reporting.model_errors import (
     window_errors_figure,
 )
 from terrain_odom.reporting.mosaic import MosaicPanel, mosaic_figure
+from terrain_odom.reporting.outage import Outages, outage_figure
 from terrain_odom.reporting.plots import (
     frame_labels_figure,
     states_figure,
@@ -63,8 +65,8 @@ PLOTS_DIR = "plots"
 PLOT_FILES = ("trajectory.png", "states.png", "frames.png", "mosaic.png")
 """Every plot a run may write into :data:`PLOTS_DIR`."""
 
-EVALUATION_PLOTS = ("evaluation_windows.png", "evaluation_boxes.png")
-"""The plots ``evaluate`` writes into :data:`PLOTS_DIR` beside its JSON."""
+EVALUATION_PLOTS = ("evaluation_windows.png", "evaluation_boxes.png", "evaluation_outages.png")
+"""The plots ``evaluate`` writes into :data:`PLOTS_DIR` beside its JSON (the last with outages)."""
 
 ALL_TERRAINS = "all windows"
 """The one group of the box plots of a log without terrain labels."""
@@ -251,13 +253,19 @@ def _by_terrain(errors: WindowErrors, terrain: np.ndarray | None) -> dict[str, E
 
 
 def write_evaluation_plots(
-    folder: Path, log: WheelLog, errors: dict[str, WindowErrors], horizon: float
+    folder: Path,
+    log: WheelLog,
+    errors: dict[str, WindowErrors],
+    horizon: float,
+    outages: Outages | None = None,
 ) -> list[Path]:
     """Write the plots of ``evaluate`` into ``folder``; return their paths.
 
     ``evaluation_windows.png``: each model's error per metre, window by
     window, against the distance travelled (coloured by the log's terrain),
-    with its median; ``evaluation_boxes.png``: box plots per model and terrain.
+    with its median; ``evaluation_boxes.png``: box plots per model and terrain;
+    with ``outages``, ``evaluation_outages.png``
+    (:func:`~terrain_odom.reporting.outage.outage_figure`).
 
     Parameters
     ----------
@@ -270,14 +278,17 @@ def write_evaluation_plots(
         only the drawing is).
     horizon : float
         ``h_e``, m.
+    outages : Outages, optional
+        Per duration, per model: outage-window errors.
     """
-    distance = measured_distance(log)
+    # without full poses (a GPS's fixes, or none) the windows are as long as the wheels say
+    distance = measured_distance(log) if log.has_pose.any() else wheel_path(log)
     grouped = {name: _by_terrain(e, log.terrain) for name, e in errors.items()}
-    windows_png, boxes_png = EVALUATION_PLOTS
-    return write_figures(
-        folder,
-        {
-            windows_png: lambda: window_errors_figure(errors, distance, log.terrain, horizon),
-            boxes_png: lambda: error_boxes_figure(grouped, horizon),
-        },
-    )
+    windows_png, boxes_png, outages_png = EVALUATION_PLOTS
+    jobs = {
+        windows_png: lambda: window_errors_figure(errors, distance, log.terrain, horizon),
+        boxes_png: lambda: error_boxes_figure(grouped, horizon),
+    }
+    if outages:
+        jobs[outages_png] = lambda: outage_figure(outages)
+    return write_figures(folder, jobs)

@@ -11,6 +11,7 @@ import contextlib
 import dataclasses
 import enum
 import time
+from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -21,6 +22,7 @@ from tqdm import tqdm
 from terrain_odom.app.calibration import SensorCalibration, calibrate_inputs, check_plausible
 from terrain_odom.app.frames import FRAME_COLUMNS, FramePipeline, FrameRecord, one_thread
 from terrain_odom.app.groundtruth import GroundTruthReport, groundtruth_section
+from terrain_odom.app.outage_guard import GuardResult, OutageGuard
 from terrain_odom.app.plots import write_run_plots
 from terrain_odom.app.record import require_rerun
 from terrain_odom.app.run_folder import (
@@ -128,6 +130,9 @@ class RunSummary:
         What the finished run's estimate makes doubtful (one line each).
     recording : Path or None
         ``run.rrd``, the Rerun recording (``record``).
+    outage_guard : GuardResult or None
+        The learned model against the nominal one through pose outages
+        (:mod:`~terrain_odom.app.outage_guard`).
     """
 
     trajectory_csv: Path
@@ -147,6 +152,7 @@ class RunSummary:
     pose_use: PoseUse | None = None
     calibration: SensorCalibration | None = None
     warnings: tuple[str, ...] = ()
+    outage_guard: GuardResult | None = None
     recording: Path | None = None
 
 
@@ -419,12 +425,16 @@ def run(
     )
     root = None if images is None else Path(images)
     keep = 1 if record else _keep(inputs)
-    result, pipeline, records, x_icr = _stream(inputs, odometry, out, root, progress, read, keep)
+    guard = OutageGuard(inputs.log, inputs.cfg, odometry.names, estimator)
+    streamed = _stream(inputs, odometry, out, root, progress, read, keep, guard.add)
+    result, pipeline, records, x_icr = streamed
+    guarded = guard.result()
     log, tum_path = inputs.log, out / TRAJECTORY_TUM
     seconds = time.perf_counter() - started
     report = _report(inputs, result, wheels, estimator, terrain, priors, seconds)
     report["counts"]["pose_components"] = asdict(odometry.pose_use)
-    report["warnings"] = _lever_arm_warning(x_icr, inputs.cfg)
+    report["warnings"] = _lever_arm_warning(x_icr, inputs.cfg) + guarded.warnings()
+    report["outage_guard"] = guarded.section()
     scored = _add_sections(report, inputs, result, (pipeline, records, root), groundtruth, use_roi)
     drawn, recording = _pictures(out, inputs, result, scored, records, root, plots, record)
     if recording is not None:
@@ -443,6 +453,7 @@ def run(
         calibration=inputs.calibration,
         warnings=tuple(report["warnings"]),
         recording=recording,
+        outage_guard=guarded,
     )  # fmt: skip
 
 
@@ -569,8 +580,11 @@ def _stream(
     progress: bool | None,
     read: dict[str, str | None],
     keep: int,
+    also: Callable[[OdometryBlock], None] = lambda block: None,
 ) -> tuple[OdometryResult, FramePipeline | None, list[FrameRecord], float]:
     """Stream the log through ``odometry``, writing ``trajectory.csv`` (and ``frames.csv``).
+
+    ``also`` sees every block of rows too (the outage guard keeps states from it).
 
     The result keeps every ``keep``-th row (:func:`run_odometry`). Returns
     it, the frames' pipeline and records, and the mean ``x_icr`` over the
@@ -611,6 +625,7 @@ def _stream(
         def on_block(block: OdometryBlock) -> None:
             blocks.write(block.t, block.states, block.stds, block.terrain)
             x_icr.add(block)
+            also(block)
             bar.update(block.t.size)
             written[0] += block.t.size
 

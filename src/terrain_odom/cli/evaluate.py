@@ -51,6 +51,16 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help="evaluation horizon h_e: a distance like 2m (bare 2: metres; default: the "
         "configuration's evaluation.horizon, 2 m)",
     )
+    p.add_argument(
+        "--outage",
+        nargs="+",
+        metavar="DURATION",
+        help="outage windows: from the run's state at a position fix every 10 s (at most 120 "
+        "windows; wider apart on a long log), dead-reckon "
+        "each model without poses for DURATION (like 30s; bare: seconds) and compare the "
+        "displacement with the measured one (>= 1 s; needs --run; default with --run on "
+        "sparse, GPS-like poses: 30s 60s; 'off': none)",
+    )
     add_out_option(p, "folder for evaluation.json (created; default: the --run folder)")
     add_log_options(p)
     add_bag_topic_options(p)
@@ -64,11 +74,26 @@ def _fmt(value: float, digits: int) -> str:
 
 def _format_stats(entry: ModelErrors) -> str:
     t, r = entry.errors.translation, entry.errors.rotation
-    return (
-        f"{_fmt(t.median, 4):>8} [{_fmt(t.q25, 3)}-{_fmt(t.q75, 3)}]"
-        f"  {_fmt(r.median, 3):>7} [{_fmt(r.q25, 2)}-{_fmt(r.q75, 2)}]"
-        f"  {_fmt(entry.ate.rmse, 2):>8}"
+    translation = f"{_fmt(t.median, 4):>8}" + (f" [{t.q25:.3f}-{t.q75:.3f}]" if t.count else "")
+    rotation = f"{_fmt(r.median, 3):>7}" + (f" [{r.q25:.2f}-{r.q75:.2f}]" if r.count else "")
+    return f"{translation}  {rotation}  {_fmt(entry.ate.rmse, 2):>8}"
+
+
+def _print_outages(result: EvaluationResult) -> None:
+    from terrain_odom.reporting.markdown import OUTAGE_HEADER, outage_rows
+    from terrain_odom.reporting.outage import outage_section
+
+    if not result.outages:
+        return
+    print()
+    print(
+        "outage windows: each model dead-reckoned from the run's state at a position fix, "
+        "no pose updates; displacement error"
     )
+    widths = (8, 9, 32, 30, 30)
+    print("".join(f"{h:<{w}}" for h, w in zip(OUTAGE_HEADER, widths, strict=True)).rstrip())
+    for row in outage_rows(outage_section(result.outages, result.outage_every)):
+        print("".join(f"{c:<{w}}" for c, w in zip(row, widths, strict=True)).rstrip())
 
 
 def _print_prediction(result: EvaluationResult) -> None:
@@ -84,6 +109,46 @@ def _print_prediction(result: EvaluationResult) -> None:
             else f"{p.position:8.3f}  {math.degrees(p.heading):8.2f}"
         )
         print(f"{name:<32} {shown}")
+
+
+def outage_durations(values: list[str] | None) -> list[float] | None:
+    """Parse ``--outage``: durations like ``30s`` (bare: seconds), or ``off``; None: the default.
+
+    Raises
+    ------
+    ConfigError
+        A value that is not a positive finite duration, a distance, or ``off`` beside durations.
+
+    Examples
+    --------
+    >>> outage_durations(["30s", "60", "30"]), outage_durations(["off"]), outage_durations(None)
+    ([30.0, 60.0], [], None)
+    """
+    from terrain_odom.errors import ConfigError
+    from terrain_odom.evaluation.outage import MIN_OUTAGE
+    from terrain_odom.fitting import parse_horizon
+
+    if values is None:
+        return None
+    if values == ["off"]:
+        return []
+    durations = []
+    for text in values:
+        try:
+            horizon = parse_horizon(text if text.strip()[-1:] in "ms" else f"{text}s")
+        except ValueError:
+            horizon = None
+        if horizon is None or horizon.unit != "s" or not math.isfinite(horizon.value):
+            raise ConfigError(
+                f"--outage: {text!r} is not a duration like 30s (or 30, seconds; 'off' alone: none)"
+            )
+        if horizon.value < MIN_OUTAGE:
+            raise ConfigError(
+                f"--outage: {text!r} is shorter than {MIN_OUTAGE:g} s (an outage that short ends "
+                "on the fix it starts from)"
+            )
+        durations.append(horizon.value)
+    return sorted(set(durations))
 
 
 def _run_config(args: argparse.Namespace) -> Path | None:
@@ -114,9 +179,13 @@ def _wheels(args: argparse.Namespace) -> tuple[list[str], str | None]:
 
 
 def _cmd_evaluate(args: argparse.Namespace) -> int:
-    from terrain_odom.app.evaluate import JSON_SUFFIXES, evaluate
+    from terrain_odom.app.evaluate import JSON_SUFFIXES, WINDOW_KINDS, evaluate
+    from terrain_odom.errors import ConfigError
 
     horizon = horizon_option(args.horizon, durations=False)
+    outages = outage_durations(args.outage)
+    if outages and args.run is None:
+        raise ConfigError("--outage dead-reckons from a run's state: give --run")
     if len(args.wheels) > 1 or args.dask is not None:
         return _cmd_batch(args, None if horizon is None else horizon.value)
     warn_out_file(args.out, JSON_SUFFIXES)
@@ -129,13 +198,17 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
         params=[find_input(p, "params_*.yaml", "parameter file") for p in args.params],
         horizon=None if horizon is None else horizon.value,
         out=args.out,
+        outage=outages,
     )
     print(f"{result.windows} windows of {result.horizon:g} m on {result.log}")
+    if result.anchor != "pose":
+        print(f"windows:    {WINDOW_KINDS[result.anchor]}")
     print_pose_delay(result.time_calibration)
     print(f"{'model':<32} {'m/m median [q25-q75]':>24}  {'deg/m median [q25-q75]':>22}  ATE DR (m)")
     for name, entry in result.models.items():
         print(f"{name:<32} {_format_stats(entry)}")
     _print_prediction(result)
+    _print_outages(result)
     print_written("written:", [result.output, *result.plots])
     return 0
 

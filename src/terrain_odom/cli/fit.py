@@ -53,6 +53,10 @@ def _print_sets(report: FitReport) -> None:
             )
     for terrain in report.skipped:
         print(f"terrain {terrain}: no training segment, not fitted")
+    between = {"position": "position fixes (start heading fitted to the fixes)",
+               "heading": "heading rows (heading change only)", "pose": "full poses"}  # fmt: skip
+    for source, anchor in mp.info.get("segments_between", {}).items():
+        print(f"segments:   between {between[anchor]} on {source}")
 
 
 def _print_evaluation(ev: FitEvaluation) -> None:

@@ -167,6 +167,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
     print(f"{summary.rows} rows in {summary.seconds:.2f} s")
     if summary.pose_use is not None:
         print(f"pose:       {summary.pose_use.summary()}")
+    if summary.outage_guard is not None:
+        for line in summary.outage_guard.lines():
+            print(f"outages:    {line}")
     for warning in summary.warnings:
         print(f"warning:    {warning}")
     if summary.frames is not None:

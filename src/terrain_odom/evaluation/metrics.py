@@ -24,7 +24,7 @@ squared position error (Umeyama without scale) and returns the RMSE.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -44,7 +44,10 @@ __all__ = [
     "AteResult",
     "model_twist",
     "icr_twist_from_rows",
+    "icr_twist_per_window",
+    "window_poses",
     "predict_window_ends",
+    "error_stats",
     "window_errors",
     "summarize",
     "align_se2",
@@ -215,8 +218,10 @@ def _chunks(n_steps: np.ndarray) -> list[np.ndarray]:
     return chunks
 
 
-def predict_window_ends(log: WheelLog, windows: Windows, twist_fn: TwistFn) -> np.ndarray:
-    """Integrate the model over every window from its measured start pose.
+def window_poses(
+    log: WheelLog, windows: Windows, twist_fn: TwistFn, start: np.ndarray | None = None
+) -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]:
+    """Integrate the model over every window, a chunk of windows at a time.
 
     Windows are integrated together as ``(W, K)`` arrays padded with
     ``dt = 0`` and a zero twist (in a few memory-bounded chunks of similar
@@ -227,9 +232,45 @@ def predict_window_ends(log: WheelLog, windows: Windows, twist_fn: TwistFn) -> n
     log : WheelLog
         The log the windows belong to.
     windows : Windows
+        The windows (``W`` of them).
+    twist_fn : TwistFn
+        ``twist_fn(v_l, v_r, window_index) -> (v_x, v_y, omega)``.
+    start : ndarray, shape (W, 3), optional
+        Start pose of each window; the measured pose of its start row if omitted.
+
+    Yields
+    ------
+    idx : ndarray of int, shape (C,)
+        The windows of the chunk.
+    rows, valid : ndarray, shape (C, K)
+        Log row of each step and False on padding (:func:`padded_steps`).
+    poses : ndarray, shape (C, K + 1, 3)
+        Pose at each step's row and after the last step (padding repeats the
+        end pose), m, m, rad.
+    """
+    first = log.pose[windows.start] if start is None else np.asarray(start, dtype=float)
+    for idx in _chunks(windows.end - windows.start):
+        rows, valid, dt = padded_steps(log, windows, idx)
+        twist = twist_fn(log.v_l[rows], log.v_r[rows], idx)
+        v_x, v_y, omega = (np.where(valid, np.broadcast_to(c, rows.shape), 0.0) for c in twist)
+        yield idx, rows, valid, integrate(v_x, v_y, omega, dt, start=first[idx])
+
+
+def predict_window_ends(
+    log: WheelLog, windows: Windows, twist_fn: TwistFn, start: np.ndarray | None = None
+) -> np.ndarray:
+    """Integrate the model over every window from its start pose (:func:`window_poses`).
+
+    Parameters
+    ----------
+    log : WheelLog
+        The log the windows belong to.
+    windows : Windows
         Windows from :func:`~terrain_odom.evaluation.windows.spatial_windows`.
     twist_fn : TwistFn
         ``twist_fn(v_l, v_r, window_index) -> (v_x, v_y, omega)``.
+    start : ndarray, shape (W, 3), optional
+        Start pose of each window; the measured pose of its start row if omitted.
 
     Returns
     -------
@@ -237,11 +278,7 @@ def predict_window_ends(log: WheelLog, windows: Windows, twist_fn: TwistFn) -> n
         Predicted pose ``x, y, yaw`` (m, m, rad) at each window's end row.
     """
     predicted = np.empty((len(windows), 3))
-    for idx in _chunks(windows.end - windows.start):
-        rows, valid, dt = padded_steps(log, windows, idx)
-        twist = twist_fn(log.v_l[rows], log.v_r[rows], idx)
-        v_x, v_y, omega = (np.where(valid, np.broadcast_to(c, rows.shape), 0.0) for c in twist)
-        poses = integrate(v_x, v_y, omega, dt, start=log.pose[windows.start[idx]])
+    for idx, _, _, poses in window_poses(log, windows, twist_fn, start):
         predicted[idx] = poses[:, -1]
     return predicted
 
@@ -290,7 +327,15 @@ def window_errors(log: WheelLog, windows: Windows, twist_fn: TwistFn) -> WindowE
     )
 
 
-def _stats(values: np.ndarray) -> ErrorStats:
+def error_stats(values: np.ndarray) -> ErrorStats:
+    """Median, quartiles, mean and count of some errors; NaN (not measured) left out.
+
+    Examples
+    --------
+    >>> error_stats(np.array([1.0, np.nan, 3.0])).median, error_stats(np.zeros(0)).count
+    (2.0, 0)
+    """
+    values = values[~np.isnan(values)]
     if values.size == 0:
         return ErrorStats(math.nan, math.nan, math.nan, math.nan, 0)
     q25, median, q75 = np.percentile(values, [25.0, 50.0, 75.0])
@@ -313,8 +358,8 @@ def summarize(errors: WindowErrors | Sequence[WindowErrors]) -> ErrorSummary:
     parts = [errors] if isinstance(errors, WindowErrors) else list(errors)
     none = np.zeros(0)
     return ErrorSummary(
-        translation=_stats(np.concatenate([none, *(e.translation_per_m for e in parts)])),
-        rotation=_stats(np.concatenate([none, *(e.rotation_per_m for e in parts)])),
+        translation=error_stats(np.concatenate([none, *(e.translation_per_m for e in parts)])),
+        rotation=error_stats(np.concatenate([none, *(e.rotation_per_m for e in parts)])),
     )
 
 
@@ -380,9 +425,34 @@ def icr_twist_from_rows(
         ``twist_fn(v_l, v_r, window_index)``.
     """
     rows = windows.start
+    return icr_twist_per_window(
+        *(
+            np.broadcast_to(np.asarray(a, dtype=float), np.shape(y_l))[rows]
+            for a in (y_l, y_r, x_icr, alpha)
+        )
+    )
+
+
+def icr_twist_per_window(
+    y_l: ArrayLike, y_r: ArrayLike, x_icr: ArrayLike, alpha: ArrayLike = 1.0
+) -> TwistFn:
+    """Twist callable of the ICR model with one parameter set per window.
+
+    Parameters
+    ----------
+    y_l, y_r, x_icr : array_like, shape (W,)
+        ICR coordinates of each window, m (see :func:`~terrain_odom.kinematics.twist_icr`).
+    alpha : array_like, shape (W,) or scalar, optional
+        Longitudinal slip factor of each window.
+
+    Returns
+    -------
+    TwistFn
+        ``twist_fn(v_l, v_r, window_index)``.
+    """
+    shape = np.shape(y_l)
     per_window = [
-        np.broadcast_to(np.asarray(a, dtype=float), np.shape(y_l))[rows]
-        for a in (y_l, y_r, x_icr, alpha)
+        np.broadcast_to(np.asarray(a, dtype=float), shape) for a in (y_l, y_r, x_icr, alpha)
     ]
 
     def twist_fn(v_l: np.ndarray, v_r: np.ndarray, window_index: np.ndarray) -> Twist:

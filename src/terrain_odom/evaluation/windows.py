@@ -16,6 +16,13 @@ windows never cross a ``segment`` change.
 - :func:`non_overlapping`: windows chained end to start (training segments).
 - :func:`padded_steps`: the wheel rows of windows as a padded block, for
   vectorised integration.
+
+Logs whose positions and headings come on different rows (a GPS and an IMU)
+have no full-pose row: ``anchor`` chooses the rows windows run between
+(``"pose"``: full poses, the default; ``"position"``: any measured ``x, y``;
+``"heading"``: any measured ``yaw``). Windows between position fixes or
+heading rows are as long as the wheels say (:func:`wheel_path`): the noise
+of a GPS lengthens the path of its fixes several times over on a slow robot.
 """
 
 from __future__ import annotations
@@ -37,11 +44,66 @@ __all__ = [
     "prediction_windows",
     "non_overlapping",
     "padded_steps",
+    "ANCHORS",
+    "anchor_mask",
+    "log_anchor",
+    "wheel_path",
 ]
 
 DEFAULT_HORIZON = 2.0  # m, Baril et al.'s spatial window h_e
 MIN_HORIZON = 1e-3  # m: shorter windows are lost in the rounding of the path length
 PREDICTION_HORIZON = 2.0  # s, the 2016 slip-model paper's prediction horizon
+ANCHORS = ("pose", "position", "heading")
+"""What the rows a window starts and ends on measure (see the module docstring)."""
+
+
+def anchor_mask(log: WheelLog, anchor: str) -> np.ndarray:
+    """Rows windows may start and end on, shape (N,): full poses, positions or headings.
+
+    Examples
+    --------
+    >>> pose = np.array([[0.0, 0.0, np.nan], [np.nan, np.nan, 0.1], [1.0, 0.0, 0.2]])
+    >>> log = WheelLog(np.arange(3.0), np.ones(3), np.ones(3), pose, None, np.zeros(3, int))
+    >>> [anchor_mask(log, a).tolist() for a in ANCHORS]
+    [[False, False, True], [True, False, True], [False, True, True]]
+    """
+    masks = {"pose": log.has_pose, "position": log.has_position, "heading": log.has_yaw}
+    if anchor not in masks:
+        raise ValueError(f"window anchor must be one of {ANCHORS}, got {anchor!r}")
+    return masks[anchor]
+
+
+def log_anchor(log: WheelLog) -> str:
+    """Return what a log's windows run between: full poses, else positions, else headings.
+
+    Examples
+    --------
+    >>> pose = np.array([[0.0, 0.0, np.nan], [np.nan, np.nan, 0.1]])
+    >>> log = WheelLog(np.arange(2.0), np.ones(2), np.ones(2), pose, None, np.zeros(2, int))
+    >>> log_anchor(log), log_anchor(log.take([1]))
+    ('position', 'heading')
+    """
+    if log.has_pose.any():
+        return "pose"
+    return "position" if log.has_position.any() else "heading"
+
+
+def wheel_path(log: WheelLog) -> np.ndarray:
+    """Cumulative path length by the wheels per row, shape (N,), m (frozen across segments).
+
+    Row ``k``'s mean track speed ``|v_l + v_r| / 2`` held until ``t[k+1]``;
+    what a window between heading rows is as long as (no positions to measure it).
+
+    Examples
+    --------
+    >>> log = WheelLog(np.arange(4.0), np.ones(4), np.full(4, 3.0), np.full((4, 3), np.nan),
+    ...                None, np.array([0, 0, 1, 1]))
+    >>> wheel_path(log).tolist()
+    [0.0, 2.0, 2.0, 4.0]
+    """
+    runs = log.segment_runs()
+    step = np.abs(log.v_l[:-1] + log.v_r[:-1]) / 2.0 * np.diff(log.t)
+    return np.concatenate([[0.0], np.cumsum(np.where(runs[1:] == runs[:-1], step, 0.0))])
 
 
 @dataclass(frozen=True)
@@ -80,7 +142,19 @@ def _measured_path(log: WheelLog, runs: np.ndarray) -> np.ndarray:
     return path
 
 
-def spatial_windows(log: WheelLog, horizon: float = DEFAULT_HORIZON) -> Windows:
+def _path(log: WheelLog, runs: np.ndarray, anchor: str) -> np.ndarray:
+    """Path length per row as windows between ``anchor`` rows measure it, m.
+
+    Full poses measure it along their positions; windows between position
+    fixes or heading rows by the wheels (a GPS's noise lengthens the path of
+    its fixes several times over on a slow robot).
+    """
+    return _measured_path(log, runs) if anchor == "pose" else wheel_path(log)
+
+
+def spatial_windows(
+    log: WheelLog, horizon: float = DEFAULT_HORIZON, *, anchor: str = "pose"
+) -> Windows:
     """Find the spatial evaluation windows of a log.
 
     Parameters
@@ -89,11 +163,14 @@ def spatial_windows(log: WheelLog, horizon: float = DEFAULT_HORIZON) -> Windows:
         Log with pose measurements (``N`` rows).
     horizon : float, optional
         Minimum measured path length of a window ``h_e``, m (> 0).
+    anchor : {"pose", "position", "heading"}, optional
+        The rows windows run between (:func:`anchor_mask`); other than
+        ``"pose"`` the path is measured by the wheels (:func:`wheel_path`).
 
     Returns
     -------
     Windows
-        One window per full-pose row that reaches ``horizon`` within its
+        One window per anchor row that reaches ``horizon`` within its
         segment, in row order.
 
     Examples
@@ -110,12 +187,13 @@ def spatial_windows(log: WheelLog, horizon: float = DEFAULT_HORIZON) -> Windows:
     """
     if not horizon >= MIN_HORIZON:
         raise ValueError(f"window horizon must be >= {MIN_HORIZON:g} m, got {horizon}")
+    rows = anchor_mask(log, anchor)
     runs = log.segment_runs()
-    path = _measured_path(log, runs)
-    return _windows_reaching(log, runs, path, path, horizon)
+    path = _path(log, runs, anchor)
+    return _windows_reaching(rows, runs, path, path, horizon)
 
 
-def time_windows(log: WheelLog, duration: float) -> Windows:
+def time_windows(log: WheelLog, duration: float, *, anchor: str = "pose") -> Windows:
     """Find windows of a minimum duration (the time-horizon variant of :func:`spatial_windows`).
 
     Parameters
@@ -124,6 +202,8 @@ def time_windows(log: WheelLog, duration: float) -> Windows:
         Log with pose measurements (``N`` rows).
     duration : float
         Minimum time between the start and end pose measurements, s (> 0).
+    anchor : {"pose", "position", "heading"}, optional
+        The rows windows run between (:func:`anchor_mask`).
 
     Returns
     -------
@@ -147,18 +227,19 @@ def time_windows(log: WheelLog, duration: float) -> Windows:
     runs = log.segment_runs()
     same_run = runs[1:] == runs[:-1]
     clock = np.concatenate([[0.0], np.cumsum(np.where(same_run, np.diff(log.t), 0.0))])
-    return _windows_reaching(log, runs, clock, _measured_path(log, runs), duration)
+    path = _path(log, runs, anchor)
+    return _windows_reaching(anchor_mask(log, anchor), runs, clock, path, duration)
 
 
 def _windows_reaching(
-    log: WheelLog, runs: np.ndarray, measure: np.ndarray, path: np.ndarray, horizon: float
+    anchor: np.ndarray, runs: np.ndarray, measure: np.ndarray, path: np.ndarray, horizon: float
 ) -> Windows:
-    """Windows from each full-pose row to the first one of its run ``horizon`` further.
+    """Windows from each ``anchor`` row to the first one of its run ``horizon`` further.
 
     ``measure`` is a per-row quantity that never decreases (path length or
     time, frozen across segment changes); ``path`` gives the window lengths.
     """
-    rows = np.flatnonzero(log.has_pose)
+    rows = np.flatnonzero(anchor)
     m = measure[rows]
     j = np.searchsorted(m, m + horizon, side="left")
     inside = j < rows.size
@@ -206,8 +287,9 @@ def prediction_windows(
     *,
     starts: ArrayLike | None = None,
     tolerance: float = 0.25,
+    anchor: str = "pose",
 ) -> Windows:
-    """Time windows of ``horizon`` seconds between full pose measurements.
+    """Time windows of ``horizon`` seconds between full pose measurements (or ``anchor`` rows).
 
     Parameters
     ----------
@@ -220,6 +302,8 @@ def prediction_windows(
         every full-pose row if omitted. Rows without a full pose are skipped.
     tolerance : float
         Largest accepted ``|t_end - t_start - horizon|``, s.
+    anchor : {"pose", "position", "heading"}, optional
+        The rows windows run between (:func:`anchor_mask`).
 
     Returns
     -------
@@ -238,12 +322,14 @@ def prediction_windows(
     """
     if not horizon > 0.0:
         raise ValueError(f"prediction horizon must be > 0 s, got {horizon}")
-    rows = np.flatnonzero(log.has_pose)
+    mask = anchor_mask(log, anchor)
+    rows = np.flatnonzero(mask)
     cand = rows if starts is None else np.asarray(starts, dtype=int)
-    cand = cand[log.has_pose[cand]]
+    cand = cand[mask[cand]]
     runs = log.segment_runs()
-    t_rows = log.t[rows]
-    target = log.t[cand] + horizon
+    clock = _run_clock(log, runs, horizon + tolerance + 1.0)
+    t_rows = clock[rows]
+    target = clock[cand] + horizon
     j = np.clip(np.searchsorted(t_rows, target), 1, max(rows.size - 1, 1))
     before = np.clip(j - 1, 0, rows.size - 1)
     j = np.minimum(j, rows.size - 1)
@@ -252,11 +338,24 @@ def prediction_windows(
     keep = (
         (end > cand)
         & (runs[end] == runs[cand])
-        & (np.abs(log.t[end] - target) <= tolerance)
+        & (np.abs(clock[end] - target) <= tolerance)
     )  # fmt: skip
-    path = _measured_path(log, runs)
+    path = _path(log, runs, anchor)
     start, end = cand[keep], end[keep]
     return Windows(start=start, end=end, length=path[end] - path[start])
+
+
+def _run_clock(log: WheelLog, runs: np.ndarray, gap: float) -> np.ndarray:
+    """Time per row that never decreases: each run's own time, runs ``gap`` s apart.
+
+    A log's time need only increase within a segment (it may start again at
+    each); searching a time across the whole log needs one that increases
+    throughout, and ``gap`` keeps a search from one run finding the next.
+    """
+    first = np.flatnonzero(np.r_[True, runs[1:] != runs[:-1]])
+    jump = np.zeros(first.size)  # each run's shift beyond the previous one's (run 0: none)
+    jump[1:] = log.t[first[1:] - 1] - log.t[first[1:]] + gap
+    return log.t + np.cumsum(jump)[runs]
 
 
 def padded_steps(

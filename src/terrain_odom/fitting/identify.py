@@ -18,6 +18,7 @@ References
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass
 
@@ -144,7 +145,7 @@ def fit_model(
 
     k = len(m.param_names)
     if k:
-        _check_excitation(m.name, segments)
+        _check_excitation(m.name, segments, track_width)
     if k == 0:
         x = np.zeros(0)
         return FitResult(
@@ -216,14 +217,35 @@ def at_bounds(model: KinematicModel, params: np.ndarray) -> tuple[str, ...]:
     return tuple(flagged)
 
 
-def _check_excitation(name: str, segments: SegmentSet) -> None:
+def _turn(segments: SegmentSet, track_width: float | None) -> float:
+    """Total heading change of the segments, rad: measured, else by the wheels (positions alone).
+
+    Segments between GPS fixes with no heading rows measure no heading: the
+    ideal differential drive with ``track_width`` judges how much the robot
+    turned (``inf``, no judgement, without one).
+    """
+    yaw = np.concatenate([b.target[:, 2] for b in segments.blocks])
+    if np.isfinite(yaw).any():
+        return float(np.nansum(np.abs(yaw)))
+    if track_width is None:
+        return math.inf
+    return float(
+        sum(
+            np.abs(((b.v_r - b.v_l) / track_width * b.dt).sum(axis=1)).sum()
+            for b in segments.blocks
+        )
+    )
+
+
+def _check_excitation(name: str, segments: SegmentSet, track_width: float | None = None) -> None:
     """Refuse training data without motion or turning (nothing to identify).
 
     Raises
     ------
     EstimationError
         The segments' poses or wheels travel less than :data:`MIN_TRAVEL`, or
-        their poses turn less than :data:`MIN_TURN`, in all.
+        they turn less than :data:`MIN_TURN` in all (by their headings; by
+        the wheels and ``track_width`` where no heading was measured).
     """
     wheels = float(sum((0.5 * np.abs(b.v_l + b.v_r) * b.dt).sum() for b in segments.blocks))
     for what, travel in (("poses", segments.length), ("wheels", wheels)):
@@ -232,7 +254,7 @@ def _check_excitation(name: str, segments: SegmentSet) -> None:
                 f"the {what} of the training segments travel {travel:.2f} m in all: no motion "
                 f"to fit {name} to"
             )
-    turn = float(sum(np.abs(b.target[:, 2]).sum() for b in segments.blocks))
+    turn = _turn(segments, track_width)
     if turn < MIN_TURN:
         raise EstimationError(
             f"the training segments turn {np.degrees(turn):.1f} deg in all: no turning to "

@@ -10,6 +10,13 @@ start frame (for ``Sigma = I`` this equals the world-frame distance; Martinez
 et al. 2004 eq. 14 is the same loss). :func:`residuals` returns ``L^T e``
 with ``L L^T = Sigma^-1`` (:func:`whitener_matrix`), so the loss is their sum of
 squares (:func:`squared_loss`).
+
+Segments between position fixes (no start heading; a GPS and an IMU) are
+compared as :mod:`~terrain_odom.evaluation.sparse` scores them: the
+predicted antenna path turned by the start heading that best fits the
+segment's fixes, its end against the end fix (``dx, dy`` in the world
+frame), and the heading change against the heading rows' (0 where no
+heading was measured).
 """
 
 from __future__ import annotations
@@ -17,6 +24,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
+from terrain_odom.evaluation.sparse import antenna_displacement, fitted_turn
 from terrain_odom.fitting.segments import SegmentSet
 from terrain_odom.kinematics.integration import integrate, wrap_angle
 from terrain_odom.kinematics.models import KinematicModel
@@ -77,12 +85,40 @@ def residuals(
         v_x, v_y, omega = model.twist(block.v_l, block.v_r, p, track_width)
         shape = (p.shape[0], *block.dt.shape)  # (S, W, K), also for idd (no parameter)
         v_x, v_y, omega, dt = (np.broadcast_to(c, shape) for c in (v_x, v_y, omega, block.dt))
-        end = integrate(v_x, v_y, omega, dt)[..., -1, :]
-        err = end - block.target
-        err[..., 2] = wrap_angle(err[..., 2])
+        poses = integrate(v_x, v_y, omega, dt)
+        if block.fixes is None:
+            err = poses[..., -1, :] - block.target
+            err[..., 2] = wrap_angle(err[..., 2])
+        else:
+            err = _turned_error(poses, block.fixes, block.measured, block.target, segments.antenna)
         out.append(err)
     err = np.concatenate(out, axis=1)
     return err if whitener is None else err @ whitener
+
+
+def _turned_error(
+    poses: np.ndarray,
+    fixes: np.ndarray,
+    measured: np.ndarray | None,
+    target: np.ndarray,
+    antenna: tuple[float, float],
+) -> np.ndarray:
+    """End errors of segments between fixes, shape (S, W, 3): start heading fitted to the fixes.
+
+    ``fixes``, ``measured`` and ``target`` as in a segment block; ``poses``
+    ``(S, W, K + 1, 3)`` integrated from the origin.
+    """
+    d = np.zeros(fixes.shape + (2,)) if measured is None else measured
+    q = antenna_displacement(poses, antenna)  # (S, W, K + 1, 2)
+    theta = fitted_turn(q, d, fixes)
+    c, s = np.cos(theta), np.sin(theta)
+    q_end, d_end = q[..., -1, :], d[:, -1]
+    err = np.empty(poses.shape[:-2] + (3,))
+    err[..., 0] = c * q_end[..., 0] - s * q_end[..., 1] - d_end[:, 0]
+    err[..., 1] = s * q_end[..., 0] + c * q_end[..., 1] - d_end[:, 1]
+    err[..., :2] *= fixes[:, -1, None]  # segments between heading rows: no position error
+    err[..., 2] = np.nan_to_num(wrap_angle(poses[..., -1, 2] - target[:, 2]))
+    return err
 
 
 def squared_loss(res: np.ndarray) -> np.ndarray:

@@ -7,7 +7,7 @@ from typing import Any
 
 from terrain_odom.estimation.time_offset import shows_pose_delay
 
-__all__ = ["table", "run_markdown"]
+__all__ = ["table", "run_markdown", "OUTAGE_HEADER", "outage_rows", "outage_markdown"]
 
 
 def _cell(value: Any, digits: int) -> str:
@@ -168,6 +168,53 @@ def _pose_use(use: dict[str, Any]) -> list[str]:
     return parts
 
 
+OUTAGE_HEADER = (
+    "outage",
+    "windows",
+    "model",
+    "position m median [q25-q75]",
+    "heading deg median [q25-q75]",
+)
+"""Columns of :func:`outage_rows`."""
+
+
+def _quartiles(stats: dict[str, Any], digits: int) -> str:
+    if not stats["count"] or stats["median"] is None:
+        return "n/a"
+    return f"{stats['median']:.{digits}f} [{stats['q25']:.{digits}f}-{stats['q75']:.{digits}f}]"
+
+
+def outage_rows(section: dict[str, Any]) -> list[list[str]]:
+    """Rows of :data:`OUTAGE_HEADER` from an :func:`~terrain_odom.reporting.outage.outage_section`: one per duration and model."""
+    rows = []
+    for duration, entry in section["durations"].items():
+        for name, stats in entry["models"].items():
+            rows.append(
+                [
+                    f"{duration} s",
+                    str(entry["windows"]),
+                    name,
+                    _quartiles(stats["position_m"], 2),
+                    _quartiles(stats["heading_deg"], 1),
+                ]
+            )
+    return rows
+
+
+def outage_markdown(section: dict[str, Any], title: str) -> list[str]:
+    """Return a Markdown heading, how the windows are made, and the table of a section."""
+    if "skipped" in section:
+        return [f"## {title}", f"Skipped: {section['skipped']}."]
+    return [
+        f"## {title}",
+        f"A window starts at a position fix every {section['every_s']:g} s; each model is "
+        "frozen at the run's state there and dead-reckoned with the logged wheel speeds, no "
+        "pose update; its displacement (of the position sensor) is compared with the measured "
+        "one.",
+        table(list(OUTAGE_HEADER), outage_rows(section)),
+    ]
+
+
 def _warnings(warnings: Sequence[str]) -> list[str]:
     return ["## Warnings", "\n".join(f"- {w}" for w in warnings) if warnings else "None."]
 
@@ -195,6 +242,10 @@ def run_markdown(report: dict[str, Any], plots: Sequence[str] = ()) -> str:
         parts += _pose_use(counts["pose_components"])
     if "warnings" in report:
         parts += _warnings(report["warnings"])
+    if "outage_guard" in report:
+        parts += outage_markdown(
+            report["outage_guard"], "Outage guard: the learned model against the nominal one"
+        )
     parts += ["## Terrain changes", _changes(report)]
     priors = report["inputs"].get("priors")
     if priors is not None:

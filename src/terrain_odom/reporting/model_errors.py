@@ -58,6 +58,14 @@ def _positive(values: np.ndarray) -> np.ndarray:
     return np.maximum(values, floor)
 
 
+def _log_scale(ax: Any, measured: bool) -> None:
+    """Put an axis on a log scale, or say in it that nothing was measured (a GPS without heading)."""
+    if measured:
+        ax.set_yscale("log")
+    else:
+        ax.text(0.5, 0.5, "not measured", transform=ax.transAxes, ha="center", va="center")
+
+
 def window_errors_figure(
     errors: Mapping[str, WindowErrors],
     distance: np.ndarray,
@@ -97,10 +105,12 @@ def window_errors_figure(
             v = values[k]
             ax.scatter(distance[start][pick], _positive(v)[pick], s=4, lw=0,
                        c=[colour_of(colours, s) for s in labels[start][pick]])  # fmt: skip
-            median = float(np.median(v)) if v.size else float("nan")
+            measured = v[~np.isnan(v)]  # NaN: not measured (a heading on position windows)
+            median = float(np.median(measured)) if measured.size else float("nan")
             ax.axhline(median, color="black", lw=1.2)
-            ax.set_title(f"median {median:.3g} {_UNITS[k]}", fontsize=8, loc="right")
-            ax.set_yscale("log")
+            shown = f"median {median:.3g} {_UNITS[k]}" if measured.size else "not measured"
+            ax.set_title(shown, fontsize=8, loc="right")
+            _log_scale(ax, measured.size > 0)
             ax.grid(True, alpha=0.3)
             ax.set_ylabel(unit, fontsize=8)
         row[0].set_title(wrap(name, 50), fontsize=9, loc="left")
@@ -163,6 +173,7 @@ def error_boxes_figure(
     for ax, (unit, k) in zip(axes, _MEASURES, strict=True):
         for j, g in enumerate(groups):
             data = [values[n].get(g, (np.zeros(0), np.zeros(0)))[k] for n in names]
+            data = [d[~np.isnan(d)] for d in data]  # NaN: not measured
             pos = np.arange(len(names)) + (j - (len(groups) - 1) / 2) * width
             keep = [i for i, d in enumerate(data) if d.size]
             if not keep:
@@ -177,9 +188,11 @@ def error_boxes_figure(
                 line.set_gid("median")
             ax.plot([], [], color=colour_of(colours, g), lw=6, alpha=0.7, label=wrap(g, 20))
         ax.set_ylabel(unit)
-        ax.set_yscale("log")
+        _log_scale(ax, any(v[k][~np.isnan(v[k])].size for m in values.values() for v in m.values()))
         ax.grid(True, axis="y", alpha=0.3)
     _model_ticks(axes[1], names, fig.get_figwidth())
-    axes[0].legend(title="terrain", fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    drawn = next((ax for ax in axes if ax.get_legend_handles_labels()[0]), None)
+    if drawn is not None:  # the axis something was measured on (headings alone: the lower one)
+        drawn.legend(title="terrain", fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     axes[0].set_title(f"{title} over h_e = {horizon:g} m windows")
     return fig
