@@ -29,7 +29,6 @@ from typing import Any
 import numpy as np
 import yaml
 
-from terrain_odom.app.locate import output_folder
 from terrain_odom.config import load_config
 from terrain_odom.config.loader import read_yaml
 from terrain_odom.errors import ConfigError, InputFileError
@@ -59,6 +58,7 @@ from terrain_odom.io.bag_reader import (
     topic_connections,
 )
 from terrain_odom.io.bag_streams import HeadingStream, PoseStream, StampRule, WheelStream
+from terrain_odom.io.folder import replacing
 from terrain_odom.io.paths import check_outputs
 from terrain_odom.io.report import report_header, write_json
 from terrain_odom.io.wheel_log import write_wheel_log
@@ -68,6 +68,8 @@ from terrain_odom.records import WheelLog
 __all__ = ["ImportOptions", "ImportResult", "import_bag", "inspect_bag", "read_bag_log"]
 
 STAMP_CHOICES = ("header", "receive")
+FRAMES_DIR = "frames"
+"""The folder of an import's frames, in ``OUT``."""
 TF_STATIC = "/tf_static"
 ANTENNA_KEYS = ("pose_sensor.antenna_x", "pose_sensor.antenna_y")
 CAMERA_MOUNT_KEYS = (
@@ -217,14 +219,15 @@ def import_bag(
     check_outputs([bag, options.config], paths.values())
     if Path(bag).is_dir() and out.resolve().is_relative_to(Path(bag).resolve()):
         raise InputFileError(f"{out}: --out is inside the bag folder {bag}; choose another folder")
-    output_folder(out).mkdir(parents=True, exist_ok=True)
-    collect, merged = _read(bag, options, robot, out, progress)
-    write_wheel_log(paths["log"], merged.log)
-    frames_csv = _write_frames(collect, merged, paths["frames"]) if options.image_topic else None
-    fill, sources = _write_config(paths["config"], collect, options, robot, bag)
-    seconds = time.perf_counter() - start
-    result = _result(paths, frames_csv, collect, merged, (fill, sources), seconds)
-    write_json(paths["import"], _report(bag, options, collect, merged, result))
+    # locked; the previous import's files removed, any other file never replaced
+    with replacing(out, "import", [*(p.name for p in paths.values()), f"{FRAMES_DIR}/"]):
+        collect, merged = _read(bag, options, robot, out, progress)
+        write_wheel_log(paths["log"], merged.log)
+        frames_csv = _write_frames(collect, merged, paths["frames"]) if options.image_topic else None
+        fill, sources = _write_config(paths["config"], collect, options, robot, bag)
+        seconds = time.perf_counter() - start
+        result = _result(paths, frames_csv, collect, merged, (fill, sources), seconds)
+        write_json(paths["import"], _report(bag, options, collect, merged, result))
     return result
 
 
@@ -256,7 +259,7 @@ def _read(
     with open_bag(bag) as reader:
         connections, collect = _plan(reader, bag, options, robot)
         if out is not None and options.image_topic is not None:
-            (out / "frames").mkdir(exist_ok=True)
+            (out / FRAMES_DIR).mkdir(exist_ok=True)
         for message in stream_messages(reader, bag, connections, progress):
             _dispatch(collect, message, options, out)
     return collect, _merge(collect, options, bag)

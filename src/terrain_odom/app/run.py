@@ -31,6 +31,7 @@ from terrain_odom.app.run_folder import (
     RUN_FILES,
     TRAJECTORY_CSV,
     TRAJECTORY_TUM,
+    holds_run_folder,
     mark_interrupted,
     mark_running,
     prepare_folder,
@@ -396,6 +397,7 @@ class FrameCounts:
     problems: tuple[str, ...]
 
 
+@holds_run_folder  # out_dir is locked until the run returns
 def run(
     wheels: str | Path,
     out_dir: str | Path,
