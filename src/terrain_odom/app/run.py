@@ -650,7 +650,6 @@ def _stream(
     log = inputs.log
     names = odometry.names
     records: list[FrameRecord] = []
-    written = [0]  # rows handed to the writer
     bar = tqdm(total=len(log), unit="row", disable=None if progress is None else not progress)
     with contextlib.ExitStack() as stack:
         writer = stack.enter_context(
@@ -681,7 +680,6 @@ def _stream(
             blocks.write(block.t, block.states, block.stds, block.terrain)
             x_icr.add(block)
             bar.update(block.t.size)
-            written[0] += block.t.size
 
         try:
             result = run_odometry(
@@ -689,9 +687,9 @@ def _stream(
             )
         except BaseException as exc:
             tum.discard()  # no TUM file of an incomplete run
-            stack.close()  # flush the rows streamed so far before saying how many
-            reason = "interrupted by the user" if isinstance(exc, KeyboardInterrupt) else repr(exc)
-            mark_interrupted(out, read, written[0], reason)
+            with contextlib.suppress(OSError):  # a full disk: the rows are cut to whole ones
+                stack.close()  # flush the rows streamed so far before saying how many
+            mark_interrupted(out, read, writer.rows_written, exc)
             raise
     return result, pipeline, records, x_icr.mean
 

@@ -28,7 +28,7 @@ from typing import Any, ParamSpec, TypeVar
 
 from terrain_odom.app.locate import output_folder
 from terrain_odom.app.plots import EVALUATION_PLOTS, PLOT_FILES, PLOTS_DIR
-from terrain_odom.errors import InputFileError
+from terrain_odom.errors import InputFileError, TerrainOdomError
 from terrain_odom.io.folder import OutputFolder, holder, writing
 from terrain_odom.io.frames import FRAMES_CSV
 from terrain_odom.io.report import report_header, write_json
@@ -51,6 +51,7 @@ __all__ = [
     "check_folder",
     "mark_running",
     "mark_interrupted",
+    "interruption_reason",
     "check_complete",
 ]
 
@@ -117,7 +118,31 @@ def run_folder(out_dir: str | Path, *, overwrite: bool = False) -> Iterator[Path
     """
     with writing(out_dir, "run") as folder:
         _prepare(folder, overwrite=overwrite)
-        yield folder.path
+        try:
+            yield folder.path
+        except BaseException as exc:
+            _mark_stopped(folder.path, exc)
+            raise
+
+
+def _mark_stopped(out: Path, exc: BaseException) -> None:
+    """Mark a run that stopped after its stream (drawing, reporting) interrupted.
+
+    A run stopped while streaming has said so already (with the rows
+    written); any later stop leaves ``report.json`` saying ``running``.
+    """
+    try:
+        report = _report(out / REPORT_JSON)
+    except (OSError, ValueError, AttributeError):
+        return
+    if report.get("status") != RUNNING:
+        return
+    try:
+        with open(out / TRAJECTORY_CSV, "rb") as handle:
+            rows = sum(block.count(b"\n") for block in iter(lambda: handle.read(1 << 20), b"")) - 1
+    except OSError:
+        rows = 0
+    mark_interrupted(out, report.get("inputs", {}), max(rows, 0), exc)
 
 
 _HELD: contextvars.ContextVar[contextlib.ExitStack | None] = contextvars.ContextVar(
@@ -213,19 +238,33 @@ def mark_running(out: Path, inputs: dict[str, Any]) -> None:
     )
 
 
-def mark_interrupted(out: Path, inputs: dict[str, Any], rows: int, reason: str) -> None:
-    """Rewrite ``report.json``: the run stopped after ``rows`` rows because of ``reason``."""
-    write_json(
-        out / REPORT_JSON,
-        {
-            **report_header("run"),
-            "status": INTERRUPTED,
-            "pid": os.getpid(),
-            "reason": reason,
-            "inputs": inputs,
-            "rows_written": rows,
-        },
-    )
+def mark_interrupted(out: Path, inputs: dict[str, Any], rows: int, exc: BaseException) -> None:
+    """Rewrite ``report.json``: the run stopped after ``rows`` rows because of ``exc``.
+
+    The reason is the exception's one line (``interrupted by the user`` for
+    Ctrl-C, ``interrupted by SIGTERM`` ...). A report that cannot be written
+    (a full disk) is left saying ``running``: the folder's lock, released
+    with the process, then tells that run's process is gone.
+    """
+    report = {
+        **report_header("run"),
+        "status": INTERRUPTED,
+        "pid": os.getpid(),
+        "reason": interruption_reason(exc),
+        "inputs": inputs,
+        "rows_written": rows,
+    }
+    with contextlib.suppress(OSError):  # the error at hand (e.g. a full disk) says more
+        write_json(out / REPORT_JSON, report)
+
+
+def interruption_reason(exc: BaseException) -> str:
+    """Return why a run stopped, in one line, from the exception that stopped it."""
+    if isinstance(exc, KeyboardInterrupt):
+        return str(exc) or "interrupted by the user"
+    if isinstance(exc, TerrainOdomError):
+        return str(exc)
+    return repr(exc)
 
 
 def check_complete(run_dir: str | Path) -> None:

@@ -288,11 +288,15 @@ class OutputFolder:
             except OSError as exc:
                 raise OutputFileError(exc.errno, exc.strerror, str(path)) from None
             self._files.pop(name, None)
-            for parent in path.parents:
-                if parent == self.path or not parent.is_relative_to(self.path):
-                    break
-                with contextlib.suppress(OSError):  # not empty: kept
-                    parent.rmdir()
+            self._remove_empty_parents(path)
+
+    def _remove_empty_parents(self, path: Path) -> None:
+        """Remove the folders between ``path`` and the folder that are empty."""
+        for parent in path.parents:
+            if parent == self.path or not parent.is_relative_to(self.path):
+                break
+            with contextlib.suppress(OSError):  # not empty: kept
+                parent.rmdir()
 
     def _existing(self) -> list[str]:
         """Return every file under the folder (relative, POSIX), but the manifest."""
@@ -319,6 +323,7 @@ class OutputFolder:
             digest = _sha256(self.path / name)
             if digest is None:
                 self._files.pop(name, None)
+                self._remove_empty_parents(self.path / name)
             else:
                 self._files[name] = {"command": self.command, "sha256": digest}
 
