@@ -29,6 +29,7 @@ import contextlib
 import datetime
 import errno
 import fcntl
+import glob
 import hashlib
 import json
 import os
@@ -38,7 +39,7 @@ from pathlib import Path
 from typing import Any
 
 from terrain_odom.errors import InputFileError
-from terrain_odom.io.atomic import OutputFileError, write_text_atomic
+from terrain_odom.io.atomic import OutputFileError, write_atomic, write_text_atomic
 
 __all__ = [
     "MANIFEST",
@@ -151,6 +152,21 @@ def _read_manifest(folder: Path) -> dict[str, Any]:
     return data
 
 
+def _read_bytes(path: Path) -> bytes | None:
+    try:
+        return path.read_bytes()
+    except OSError:
+        return None
+
+
+def _restore(path: Path, data: bytes | None) -> None:
+    """Put the file ``path`` back as ``data`` (None: it did not exist)."""
+    if data is None:
+        path.unlink(missing_ok=True)
+    else:
+        write_atomic(path, lambda handle: handle.write(data))
+
+
 def _sha256(path: Path) -> str | None:
     """Return the SHA-256 of a regular file's content, or None if it is no regular file."""
     if not path.is_file():
@@ -179,15 +195,24 @@ class OutputFolder:
     _files: dict[str, dict[str, Any]] = field(default_factory=dict)
     _claimed: list[str] = field(default_factory=list)
     _before: set[str] = field(default_factory=set)
+    _holder: Holder | None = None
 
     def previous(self, commands: Iterable[str] | None = None) -> list[str]:
         """Return the files recorded for ``commands`` (default: this command) that exist."""
         owners = {self.command} if commands is None else set(commands)
-        return sorted(
+        names = {
             name
             for name, entry in self._files.items()
-            if entry.get("command") in owners and (self.path / name).exists()
+            if entry.get("command") in owners and not name.endswith("/")
+        }
+        folders = tuple(
+            name
+            for name, entry in self._files.items()
+            if entry.get("command") in owners and name.endswith("/")
         )
+        if folders:  # being written when the process died: every file under it
+            names |= {f for f in self._existing() if f.startswith(folders)}
+        return sorted(name for name in names if (self.path / name).exists())
 
     def prepare(
         self,
@@ -237,10 +262,14 @@ class OutputFolder:
         if not remove:
             return
         self._remove(previous)
+        self._remove_temporaries(names)
+        for name in [n for n, e in self._files.items() if n.endswith("/")]:
+            if self._files[name].get("command") in owners:
+                del self._files[name]  # emptied by _remove
         self._claimed = list(names)
         if any(name.endswith("/") for name in self._claimed):
             self._before = set(self._existing())
-        for name in targets:
+        for name in self._claimed:  # being written: the command's, whatever they hold
             if name not in self._files:
                 self._files[name] = {"command": self.command, "sha256": None}
         self._save()
@@ -260,7 +289,7 @@ class OutputFolder:
     def _check_own(self, name: str, owners: set[str]) -> None:
         """Refuse ``name`` unless the manifest records it for ``owners``, unedited."""
         path = self.path / name
-        entry = self._files.get(name)
+        entry = self._files.get(name) or self._pending_folder(name)
         if entry is None:
             raise InputFileError(
                 f"{path}: not written by terrain-odom {self.command} in this folder (no record "
@@ -278,6 +307,22 @@ class OutputFolder:
                 f"{path}: written by terrain-odom {writer}, and {self.command} would replace "
                 "it; choose another --out"
             )
+
+    def _remove_temporaries(self, names: Iterable[str]) -> None:
+        """Remove the temporary files of ``names`` a killed process left (``.NAME.*.tmp``)."""
+        for name in names:
+            if not name.endswith("/"):
+                path = self.path / name
+                for temporary in path.parent.glob(f".{glob.escape(path.name)}.*.tmp"):
+                    with contextlib.suppress(OSError):
+                        temporary.unlink()
+
+    def _pending_folder(self, name: str) -> dict[str, Any] | None:
+        """Return the entry of a folder being written (``frames/``) that holds ``name``."""
+        for folder, entry in self._files.items():
+            if folder.endswith("/") and name.startswith(folder):
+                return entry
+        return None
 
     def _remove(self, names: list[str]) -> None:
         """Remove ``names`` and the folders they leave empty; drop them from the manifest."""
@@ -316,6 +361,8 @@ class OutputFolder:
             names |= {
                 f for f in self._existing() if f.startswith(folders) and f not in self._before
             }
+        for name in folders:
+            self._files.pop(name, None)  # its files are recorded one by one
         for name in names:
             entry = self._files.get(name)
             if entry is not None and entry.get("command") != self.command:
@@ -327,8 +374,9 @@ class OutputFolder:
             else:
                 self._files[name] = {"command": self.command, "sha256": digest}
 
-    def _save(self, holding: Holder | None = None) -> None:
+    def _save(self) -> None:
         data: dict[str, Any] = {"format": _FORMAT, "files": dict(sorted(self._files.items()))}
+        holding = self._holder
         if holding is not None:
             data["holder"] = {
                 "command": holding.command,
@@ -373,15 +421,21 @@ def writing(path: str | Path, command: str) -> Iterator[OutputFolder]:
                 raise
             raise OutputFileError(exc.errno, "cannot lock the folder", str(folder)) from None
         manifest = _read_manifest(folder)
+        original = _read_bytes(folder / MANIFEST)
         opened = OutputFolder(folder, command, dict(manifest.get("files", {})))
         since = datetime.datetime.now().isoformat(sep=" ", timespec="seconds")
-        opened._save(Holder(command, os.getpid(), since))
+        opened._holder = Holder(command, os.getpid(), since)
+        opened._save()
         try:
             yield opened
         finally:
-            opened.record()
+            opened._holder = None
             with contextlib.suppress(OSError):  # a full disk: the error at hand says more
-                opened._save()
+                if opened._claimed:
+                    opened.record()
+                    opened._save()
+                else:  # refused, or only checked: the manifest as it was
+                    _restore(folder / MANIFEST, original)
     finally:
         os.close(fd)  # releases the lock
 
