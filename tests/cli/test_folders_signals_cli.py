@@ -286,3 +286,102 @@ def test_a_full_disk_by_fault_injection(
     header = (out / "trajectory.csv").read_text()
     assert header.startswith("t,x,y,yaw,") and header.count("\n") == 1 and header.endswith("\n")
     assert not [p for p in out.iterdir() if p.name.endswith(".tmp")]
+
+
+LONG = "n" * 300
+"""A file name longer than any file system allows (ENAMETOOLONG)."""
+
+
+def _classes(root: Path) -> Path:
+    """Two class folders of five small PNG images each."""
+    rng = np.random.default_rng(1)
+    for name in ("grass", "gravel"):
+        (root / "classes" / name).mkdir(parents=True)
+        for k in range(5):  # enough samples for k = 5 neighbours
+            image = rng.integers(0, 255, (32, 32, 3), dtype=np.uint8)
+            cv2.imwrite(str(root / "classes" / name / f"{k + 1}.0.png"), image)  # t, s
+    (root / "frames").mkdir()
+    for k in range(2):  # camera frames of the default camera's size, for patches
+        cv2.imwrite(str(root / "frames" / f"{k + 1}.0.png"), np.full((480, 640, 3), 90, np.uint8))
+    return root / "classes"
+
+
+def _every_subcommand(log: Path, classes: Path, out: str) -> list[list[str]]:
+    """One argument list per writing subcommand, writing into ``out``."""
+    wheels = ["--wheels", str(log)]
+    return [
+        ["run", *wheels, "--out", out],
+        ["evaluate", *wheels, "--out", out],
+        ["fit", *wheels, "--model", "idd", "--out", out],
+        ["compare", *wheels, "--eval", str(log), "--out", out],
+        ["simulate", "--duration", "2", "--no-patches", "--out", out],
+        ["degrade", *wheels, "--out", out],
+        ["train", "--images", str(classes), "--out", out],
+        ["report", "accuracy", "--images", str(classes), "--out", out],
+        ["patches", *wheels, "--images", str(classes.parent / "frames"), "--out", out],
+        ["import", str(log), "--wheels-topic", "/odom", "--out", out],
+    ]
+
+
+@pytest.mark.parametrize("index", range(10))
+def test_an_out_folder_that_cannot_be_made_is_one_line_in_every_subcommand(
+    index: int,
+    examples_dir: Path,
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    log = tmp_path / "log.csv"
+    log.write_bytes((examples_dir / "demo_log.csv").read_bytes())
+    argv = _every_subcommand(log, _classes(tmp_path), f"{LONG}/out")[index]
+    err = _refused(argv, capsys, tmp_path)
+    assert "File name too long" in err or "is not one" in err  # import: a CSV is no bag
+
+
+@pytest.mark.parametrize("subcommand", ["run", "evaluate", "fit", "import", "degrade"])
+def test_a_wheel_log_with_a_300_character_name_is_one_line(
+    subcommand: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    log = str(tmp_path / LONG)
+    argv = {
+        "run": ["run", "--wheels", log, "--out", str(tmp_path / "o")],
+        "evaluate": ["evaluate", "--wheels", log],
+        "fit": ["fit", "--wheels", log, "--model", "idd", "--out", str(tmp_path / "o")],
+        "import": ["import", log, "--wheels-topic", "/odom", "--out", str(tmp_path / "o")],
+        "degrade": ["degrade", "--wheels", log, "--out", str(tmp_path / "o")],
+    }[subcommand]
+    err = _refused(argv, capsys, tmp_path)
+    assert f"{tmp_path}/nnnn" in err and "File name too long" in err
+
+
+@pytest.fixture
+def read_only(tmp_path: Path) -> Iterator[Path]:
+    """A read-only file system (root only: root writes into read-only folders)."""
+    disk = tmp_path / "ro"
+    disk.mkdir()
+    done = subprocess.run(
+        ["mount", "-t", "tmpfs", "-o", "ro,size=64k", "tmpfs", str(disk)], capture_output=True
+    )
+    if done.returncode != 0:
+        pytest.skip(f"cannot mount a tmpfs here: {done.stderr.decode().strip()}")
+    try:
+        yield disk
+    finally:
+        subprocess.run(["umount", str(disk)], check=True)
+
+
+@pytest.mark.parametrize("where", ["folder", "inside"])
+def test_a_read_only_out_is_one_line_in_every_subcommand(
+    where: str,
+    read_only: Path,
+    examples_dir: Path,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """``--out`` an existing read-only folder (simulate's case), or a folder to make in one."""
+    out = str(read_only if where == "folder" else read_only / "out")
+    classes = _classes(tmp_path)
+    for argv in _every_subcommand(examples_dir / "demo_log.csv", classes, out):
+        err = _refused(argv, capsys, tmp_path)
+        assert "Read-only file system" in err or "is not one" in err, argv
