@@ -23,7 +23,7 @@ from threadpoolctl import threadpool_limits
 from terrain_odom.errors import ConfigError, InputFileError
 from terrain_odom.estimation.online import OnlineOdometry
 from terrain_odom.io.frames import FrameList
-from terrain_odom.io.images import read_image_rgb
+from terrain_odom.io.images import decode_image_rgb, read_image_bytes
 from terrain_odom.vision.frame_classifier import FrameClassification
 
 __all__ = [
@@ -79,10 +79,11 @@ def one_thread() -> Iterator[None]:
 
 def read_frame(path: Path) -> tuple[np.ndarray | None, str]:
     """Decode a frame file to RGB; ``(None, problem)`` if it is missing or unreadable."""
-    image = read_image_rgb(path)
+    data, problem = read_image_bytes(path)
+    image = None if data is None else decode_image_rgb(data)
     if image is not None:
         return image, ""
-    return None, "missing" if not path.is_file() else "unreadable (not a decodable image)"
+    return None, problem or "unreadable (not a decodable image)"
 
 
 @dataclass
