@@ -33,3 +33,55 @@ def test_simulate_longer_than_the_map_is_one_line(
     err = _one_line([*argv, "--out", str(tmp_path / "s")], capsys)
     assert "the robot leaves the scenario's map at t = 78.48 s" in err
     assert not (tmp_path / "s").exists()
+
+
+PARAMS = """\
+format_version: 2
+model: icr
+track_width: 0.5
+wheel_radius: 0.1
+pose_delay: 0.0
+horizon: 2m
+sigma: null
+bounds:
+  y_l: [0.05, 50.0]
+  y_r: [-50.0, -0.05]
+  x_icr: [-50.0, 50.0]
+params: {y_l: Y_L, y_r: Y_R, x_icr: 0.08}
+AT_BOUNDS"""
+
+
+@pytest.mark.parametrize(
+    ("y_l", "y_r", "at_bounds", "expected"),
+    [
+        ("-0.5", "0.5", "", "params: the ICRs need y_l > 0 > y_r, got y_l=-0.5, y_r=0.5"),
+        ("0.5", "0.5", "", "params: the ICRs need y_l > 0 > y_r, got y_l=0.5, y_r=0.5"),
+        ("60.0", "-0.5", "", "params.y_l: 60 lies outside its bounds [0.05, 50]"),
+        ("0.5", "-50.5", "", "params.y_r: -50.5 lies outside its bounds [-50, -0.05]"),
+        ("0.5", "-0.5", "at_bounds: [y_l]", "at_bounds: says ['y_l'], but the parameters at a "),
+        ("0.05", "-0.5", "", "at_bounds: says [], but the parameters at a bound are ['y_l']"),
+    ],
+)
+@pytest.mark.parametrize("subcommand", ["evaluate", "run"])
+def test_parameter_files_contradicting_themselves_are_one_line(
+    subcommand: str,
+    y_l: str,
+    y_r: str,
+    at_bounds: str,
+    expected: str,
+    examples_dir: Path,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    params = tmp_path / "params_icr.yaml"
+    text = PARAMS.replace("Y_L", y_l).replace("Y_R", y_r).replace("AT_BOUNDS", at_bounds)
+    params.write_text(text + "\n")
+    log = str(examples_dir / "demo_log.csv")
+    option = "--params" if subcommand == "evaluate" else "--priors"
+    argv = [subcommand, "--wheels", log, option, str(params)]
+    if subcommand == "run":
+        argv += ["--out", str(tmp_path / "run")]
+    err = _one_line(argv, capsys)
+    assert f"{params}: {expected}" in err
+    assert params.read_text() == text + "\n"
+    assert not (tmp_path / "run").exists()
