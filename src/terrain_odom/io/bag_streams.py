@@ -136,12 +136,16 @@ class WheelStream(_Stream):
         """Convert and keep one wheel message."""
         msg = message.msg
         if message.msgtype == JOINT_STATE:
-            self._keep(message, self._joint_state(msg))
+            with np.errstate(invalid="ignore", over="ignore"):  # judged below
+                speeds = self._joint_state(msg)
         else:
             twist = msg.twist.twist if message.msgtype == ODOMETRY else msg.twist
-            assert self.track_width is not None
+            assert self.track_width is not None  # Python floats: NaN, inf pass silently
             speeds = track_speeds(float(twist.linear.x), float(twist.angular.z), self.track_width)
-            self._keep(message, speeds)
+        if not np.isfinite(speeds).all():  # a driver's NaN or inf: dropped, counted
+            self._skip("wheel speed not finite (NaN or inf)")
+            return
+        self._keep(message, speeds)
 
     def _joint_state(self, msg: Any) -> tuple[float, float]:
         names = tuple(msg.name)

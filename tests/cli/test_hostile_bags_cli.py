@@ -1,0 +1,90 @@
+"""Issue 24: bags with non-finite wheel speeds and raw images that disagree with their size."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from terrain_odom.cli.main import main
+from terrain_odom.io.bag_writer import MessageFactory, write_bag
+from terrain_odom.io.wheel_log import read_wheel_log
+
+M = MessageFactory()
+BASE = 1_700_000_000 * 10**9
+NS = [BASE + k * 50_000_000 for k in range(41)]
+NAN, INF = float("nan"), float("inf")
+
+
+def _bag(tmp_path: Path, records: list) -> Path:
+    folder = write_bag(tmp_path / "rec", "mcap", sorted(records, key=lambda r: r[2]))
+    return next(folder.glob("*.mcap"))
+
+
+def _joint_states(bad: dict[int, tuple[float, float]]) -> list:
+    return [
+        (
+            "/joints",
+            "sensor_msgs/msg/JointState",
+            t,
+            M.joint_state(t, ["left_wheel", "right_wheel"], bad.get(k, (5.0, 6.0))),
+        )
+        for k, t in enumerate(NS)
+    ]
+
+
+def _odometry(bad: dict[int, tuple[float, float]]) -> list:
+    return [
+        ("/odom", "nav_msgs/msg/Odometry", t, M.odometry(t, twist=bad.get(k, (0.5, 0.2))))
+        for k, t in enumerate(NS)
+    ]
+
+
+@pytest.mark.parametrize(
+    ("records", "topic"),
+    [
+        (_joint_states({3: (NAN, 6.0), 9: (5.0, INF), 20: (-INF, INF)}), "/joints"),
+        (_odometry({3: (NAN, 0.2), 9: (0.5, INF), 20: (INF, -INF)}), "/odom"),
+    ],
+)
+def test_non_finite_wheel_speeds_are_dropped_and_counted(
+    records: list, topic: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Three bad messages of 41: dropped, counted in the output and import.json; the log is finite."""
+    bag, out = _bag(tmp_path, records), tmp_path / "out"
+    argv = ["import", str(bag), "--out", str(out), "--wheels-topic", topic]
+    assert main([*argv, "--track-width", "0.4", "--wheel-radius", "0.1"]) == 0
+    printed = capsys.readouterr()
+    assert "RuntimeWarning" not in printed.err
+    log = read_wheel_log(out / "log.csv")
+    assert len(log) == 38 and np.isfinite(log.v_l).all() and np.isfinite(log.v_r).all()
+    report = json.loads((out / "import.json").read_text())
+    skipped = report["skipped"][f"--wheels-topic {topic}"]
+    assert skipped == {"wheel speed not finite (NaN or inf)": 3}
+    assert "wheel speed not finite (NaN or inf)" in printed.out
+    # the imported log runs
+    run = ["run", "--wheels", str(out / "log.csv"), "--out", str(tmp_path / "run")]
+    assert main([*run, "--config", str(out / "config.yaml"), "--no-plots"]) == 0
+
+
+@pytest.mark.parametrize(
+    "change",
+    [{"width": 60, "step": 180}, {"height": 40}, {"step": 2}, {"width": 0, "step": 0}],
+)
+def test_a_raw_image_disagreeing_with_its_size_is_one_line(
+    change: dict, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    raw = np.zeros((4, 6, 3), np.uint8)
+    image = dataclasses.replace(M.image(NS[5], raw), **change)
+    records = [*_odometry({}), ("/cam/image_raw", "sensor_msgs/msg/Image", NS[5], image)]
+    bag, out = _bag(tmp_path, records), tmp_path / "out"
+    argv = ["import", str(bag), "--out", str(out), "--wheels-topic", "/odom"]
+    capsys.readouterr()
+    assert main([*argv, "--track-width", "0.4", "--image-topic", "/cam/image_raw"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "/cam/image_raw" in err, err
+    assert "bytes of data, it holds 72" in err
+    assert not (out / "log.csv").exists() and not (out / "config.yaml").exists()
