@@ -88,3 +88,22 @@ def test_a_raw_image_disagreeing_with_its_size_is_one_line(
     assert err.count("\n") == 1 and "/cam/image_raw" in err, err
     assert "bytes of data, it holds 72" in err
     assert not (out / "log.csv").exists() and not (out / "config.yaml").exists()
+
+
+def test_an_unknown_message_encoding_is_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """An MCAP channel whose messages are not CDR is refused, not decoded as CDR."""
+    bag = _bag(tmp_path, _odometry({}))
+    data = bag.read_bytes()
+    assert data.count(b"\x03\x00\x00\x00cdr") == 2  # the channel record, and its summary copy
+    odd = tmp_path / "json.mcap"
+    odd.write_bytes(data.replace(b"\x03\x00\x00\x00cdr", b"\x03\x00\x00\x00jsn"))
+    out = tmp_path / "out"
+    argv = ["import", str(odd), "--out", str(out), "--wheels-topic", "/odom", "--track-width", "1"]
+    capsys.readouterr()
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1
+    assert "topic /odom: messages encoded as 'jsn'; terrain-odom reads ROS 1 and CDR" in err
+    assert not (out / "log.csv").exists()
