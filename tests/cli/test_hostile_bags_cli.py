@@ -107,3 +107,68 @@ def test_an_unknown_message_encoding_is_one_line(
     assert err.count("\n") == 1
     assert "topic /odom: messages encoded as 'jsn'; terrain-odom reads ROS 1 and CDR" in err
     assert not (out / "log.csv").exists()
+
+
+def _imported(
+    tmp_path: Path, records: list, capsys: pytest.CaptureFixture[str], *extra: str
+) -> str:
+    """Import a bag of ``records`` that must fail: one line, nothing that looks complete."""
+    bag, out = _bag(tmp_path, [*_odometry({}), *records]), tmp_path / "out"
+    argv = ["import", str(bag), "--out", str(out), "--wheels-topic", "/odom", *extra]
+    capsys.readouterr()
+    assert main([*argv, "--track-width", "0.4"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "Warning" not in err, err
+    for name in ("log.csv", "config.yaml", "import.json", "frames.csv"):
+        assert not (out / name).exists(), name
+    return err
+
+
+@pytest.mark.parametrize(("fx", "width"), [(0.0, 32), (-40.0, 32), (40.0, 0)])
+def test_camera_info_that_makes_no_camera_is_refused_before_writing(
+    fx: float, width: int, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    raw = np.zeros((24, 32, 3), np.uint8)
+    records = [
+        ("/cam/image_raw", "sensor_msgs/msg/Image", NS[5], M.image(NS[5], raw)),
+        (
+            "/cam/camera_info",
+            "sensor_msgs/msg/CameraInfo",
+            NS[1],
+            M.camera_info(NS[1], width, 24, fx, 15.5, 11.5),
+        ),
+    ]
+    err = _imported(tmp_path, records, capsys, "--image-topic", "/cam/image_raw")
+    assert "the configuration its messages give is invalid" in err
+    assert "/cam/camera_info (CameraInfo)" in err
+    assert "config.yaml" not in err.split("invalid")[0]
+
+
+@pytest.mark.parametrize(
+    ("transforms", "expected"),
+    [
+        ([("base_link", "mast", (0, 0, 1), (0, 0, 0, 0))], "is no quaternion"),
+        ([("base_link", "mast", (0, 0, 1), (NAN, 0, 0, 1))], "is no quaternion"),
+        (
+            [
+                ("base_link", "mast", (0, 0, 1), (0, 0, 0, 1)),
+                ("odom", "mast", (0, 0, 1), (0, 0, 0, 1)),
+            ],
+            "mast has another parent, base_link",
+        ),
+        (
+            [
+                ("base_link", "mast", (0, 0, 1), (0, 0, 0, 1)),
+                ("mast", "gps", (0, 0, 1), (0, 0, 0, 1)),
+                ("gps", "base_link", (0, 0, 1), (0, 0, 0, 1)),
+            ],
+            "closes a loop of frames (base_link is above gps)",
+        ),
+    ],
+)
+def test_tf_static_that_makes_no_tree_is_one_line(
+    transforms: list, expected: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    records = [("/tf_static", "tf2_msgs/msg/TFMessage", NS[0], M.tf_static(NS[0], transforms))]
+    err = _imported(tmp_path, records, capsys)
+    assert "/tf_static" in err and expected in err

@@ -25,6 +25,7 @@ from terrain_odom.errors import ConfigError, TerrainOdomError
 
 __all__ = [
     "load_config",
+    "validate_config",
     "load_classifier_config",
     "read_yaml",
     "config_to_dict",
@@ -200,6 +201,17 @@ def load_config(path: str | Path | None = None) -> Config:
         return Config()
     path = Path(path)
     return _validated(read_yaml(path), path)
+
+
+def validate_config(data: Any, where: str) -> Config:
+    """Return the configuration of YAML data (e.g. before writing it), validated.
+
+    Raises
+    ------
+    ConfigError
+        Naming ``where`` and the key of the first invalid or unknown entry.
+    """
+    return _validated(data, Path(where))
 
 
 def _validated(data: Any, path: Path) -> Config:
