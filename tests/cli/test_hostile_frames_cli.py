@@ -89,3 +89,24 @@ def test_a_class_folder_linking_to_the_images_root_is_refused(tmp_path: Path) ->
         scan_image_folder(root)
     (root / "grass2").unlink()
     assert scan_image_folder(root).classes == ("grass", "gravel")
+
+
+def test_a_camera_run_without_one_classified_frame_is_an_error_naming_why(
+    examples_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``cx`` 100000: the region of interest lies outside every frame; one line, run interrupted."""
+    images = _frames(tmp_path / "images")
+    config = tmp_path / "camera.yaml"
+    config.write_text("camera:\n  cx: 100000.0\n")
+    out = tmp_path / "run"
+    argv = ["run", "--wheels", str(examples_dir / "demo_log.csv"), "--images", str(images)]
+    capsys.readouterr()
+    assert main([*argv, "--config", str(config), "--out", str(out), "--no-checks"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1
+    assert "none of the 2 frames in the log's span was classified (region of interest: 2 " in err
+    assert "check camera (mount_pitch, mount_height, fx, cx, cy) in --config" in err
+    report = json.loads((out / "report.json").read_text())
+    assert report["status"] == "interrupted" and "none of the 2 frames" in report["reason"]
+    # the same frames with the whole image classified: fine
+    assert main([*argv, "--config", str(config), "--out", str(tmp_path / "r2"), "--no-roi"]) == 0

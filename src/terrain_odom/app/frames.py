@@ -186,6 +186,34 @@ class FramePipeline:
             self.on_frame(record)
 
 
+    def check_used(self, source: str | Path) -> None:
+        """Refuse a camera run none of whose fed frames was classified, naming why.
+
+        Frames outside the wheel log's span are not fed (and not counted).
+
+        Raises
+        ------
+        InputFileError
+            Frames were fed, none classified: the counts of each cause.
+        """
+        fed = len(self.problems) + sum(self.roi_counts.values())
+        if self.ms_total or not fed:
+            return
+        causes = [f"{n} {status}" for status, n in sorted(self.roi_counts.items())]
+        if self.problems:
+            causes.append(f"{len(self.problems)} missing or unreadable")
+        hint = (
+            "; the region of interest lies outside the frames: check camera (mount_pitch, "
+            "mount_height, fx, cx, cy) in --config, or run with --no-roi"
+            if self.roi_counts.get("outside") or self.roi_counts.get("too_small")
+            else ""
+        )
+        raise InputFileError(
+            f"{source}: none of the {fed} frames in the log's span was classified "
+            f"(region of interest: {', '.join(causes)}){hint}"
+        )
+
+
 @dataclass
 class ReplayedFrames:
     """A frame observer replaying the labels of recorded frames (no image is read).

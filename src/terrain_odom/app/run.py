@@ -489,6 +489,8 @@ def run(
     root = None if images is None else Path(images)
     keep = 1 if record else _keep(inputs)
     result, pipeline, records, x_icr = _stream(inputs, odometry, out, root, progress, read, keep)
+    if pipeline is not None and root is not None:
+        pipeline.check_used(root)  # a camera run without one classified frame: an error
     log, tum_path = inputs.log, out / TRAJECTORY_TUM
     seconds = time.perf_counter() - started
     report = _report(inputs, result, wheels, estimator, terrain, priors, seconds)
