@@ -172,3 +172,19 @@ def test_tf_static_that_makes_no_tree_is_one_line(
     records = [("/tf_static", "tf2_msgs/msg/TFMessage", NS[0], M.tf_static(NS[0], transforms))]
     err = _imported(tmp_path, records, capsys)
     assert "/tf_static" in err and expected in err
+
+
+def test_an_outlying_header_stamp_is_dropped_and_counted(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A stamp of 2**31 - 1 s in one message: dropped (said so), not a segment 68 years away."""
+    records = _odometry({})
+    far = (2**31 - 1) * 10**9
+    records[10] = ("/odom", "nav_msgs/msg/Odometry", NS[10], M.odometry(far, twist=(0.5, 0.2)))
+    bag, out = _bag(tmp_path, records), tmp_path / "out"
+    argv = ["import", str(bag), "--out", str(out), "--wheels-topic", "/odom", "--track-width", "1"]
+    assert main(argv) == 0
+    printed = capsys.readouterr().out
+    assert printed.startswith("40 rows over 2.0 s (1 segment)")
+    assert "header stamp over 3600 s away from the others'" in printed
+    assert len(read_wheel_log(out / "log.csv").run_ranges()) == 1

@@ -85,3 +85,28 @@ def test_parameter_files_contradicting_themselves_are_one_line(
     assert f"{params}: {expected}" in err
     assert params.read_text() == text + "\n"
     assert not (tmp_path / "run").exists()
+
+
+@pytest.mark.parametrize("gap", [1e6, 61.0])
+def test_a_long_gap_within_a_segment_is_one_line(
+    gap: float, examples_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Dead reckoning across a gap of 1e6 s is no estimate: the log must mark a new segment."""
+    lines = (examples_dir / "demo_log.csv").read_text().splitlines()
+    late = [f"{float(row.split(',')[0]) + gap:.2f},{row.split(',', 1)[1]}" for row in lines[901:]]
+    log = tmp_path / "gap.csv"
+    log.write_text("\n".join([*lines[:901], *late]) + "\n")
+    before = log.read_bytes()
+    err = _one_line(["run", "--wheels", str(log), "--out", str(tmp_path / "run")], capsys)
+    assert (
+        f"{log}, line 902, column 't': {gap + 0.05:.6g} s without wheel speeds within segment 0"
+        in err
+    )
+    assert "Start a new segment there" in err
+    assert log.read_bytes() == before
+    # marked as a new segment, the same rows run
+    segmented = tmp_path / "segmented.csv"
+    rows = [f"{row},{0 if k < 900 else 1}" for k, row in enumerate([*lines[1:901], *late])]
+    segmented.write_text("\n".join([lines[0] + ",segment", *rows]) + "\n")
+    argv = ["run", "--wheels", str(segmented), "--out", str(tmp_path / "ok"), "--no-plots"]
+    assert main([*argv, "--no-checks"]) == 0
