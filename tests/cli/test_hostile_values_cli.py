@@ -110,3 +110,22 @@ def test_a_long_gap_within_a_segment_is_one_line(
     segmented.write_text("\n".join([lines[0] + ",segment", *rows]) + "\n")
     argv = ["run", "--wheels", str(segmented), "--out", str(tmp_path / "ok"), "--no-plots"]
     assert main([*argv, "--no-checks"]) == 0
+
+
+@pytest.mark.parametrize("name", ["bad\nname.csv", "bad\x1b[31mred.csv", "tab\there.csv"])
+def test_a_file_name_with_control_characters_is_printed_escaped_on_one_line(
+    name: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    log = tmp_path / name
+    log.write_text("t,v_l,v_r\n0,x,1\n")
+    err = _one_line(["run", "--wheels", str(log), "--out", str(tmp_path / "out")], capsys)
+    assert "\x1b" not in err and "\t" not in err
+    assert repr(name)[1:-1] in err  # \n, \x1b, \t as escapes
+
+
+def test_an_undecodable_file_name_is_printed_escaped(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    log = tmp_path / b"caf\xe9.csv".decode("utf-8", "surrogateescape")  # Latin-1 bytes
+    err = _one_line(["run", "--wheels", str(log), "--out", str(tmp_path / "out")], capsys)
+    assert "caf\\xe9.csv" in err
