@@ -12,7 +12,6 @@ import os
 import signal
 import subprocess
 import sys
-import time
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -69,7 +68,7 @@ def _refused(argv: list[str], capsys: pytest.CaptureFixture[str], *folders: Path
 
 
 def _bag(tmp_path: Path, images: bool) -> Path:
-    """A 1-s MCAP bag: Odometry at 20 Hz (and 3 camera images)."""
+    """Write a 1-s MCAP bag: Odometry at 20 Hz (and 3 camera images)."""
     ns = [BASE + k * 50_000_000 for k in range(21)]
     records = [("/odom", "nav_msgs/msg/Odometry", t, M.odometry(t, twist=(0.5, 0.2))) for t in ns]
     if images:
@@ -207,7 +206,7 @@ def test_a_killed_run_is_named_interrupted_with_its_gone_process(
 def test_a_second_command_on_a_running_folder_is_refused_naming_the_holder(
     examples_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    """run --overwrite, evaluate --run while a run writes the folder: one line naming it."""
+    """Run --overwrite, evaluate --run while a run writes the folder: one line naming it."""
     log, out = examples_dir / "demo_log.csv", tmp_path / "out"
     with _slow_run(log, out) as child:
         holder = f"in use by terrain-odom run (process {child.pid}, since "
@@ -223,7 +222,7 @@ def test_a_second_command_on_a_running_folder_is_refused_naming_the_holder(
 
 @pytest.fixture
 def small_disk(tmp_path: Path) -> Iterator[Path]:
-    """A 700-KiB tmpfs (root only): room for a few hundred rows of a run, not for all."""
+    """Mount a 700-KiB tmpfs (root only): room for a few hundred rows of a run, not for all."""
     disk = tmp_path / "disk"
     disk.mkdir()
     done = subprocess.run(
@@ -357,7 +356,7 @@ def test_a_wheel_log_with_a_300_character_name_is_one_line(
 
 @pytest.fixture
 def read_only(tmp_path: Path) -> Iterator[Path]:
-    """A read-only file system (root only: root writes into read-only folders)."""
+    """Mount a read-only file system (root only: root writes into read-only folders)."""
     disk = tmp_path / "ro"
     disk.mkdir()
     done = subprocess.run(

@@ -14,7 +14,7 @@ from terrain_odom.io.classifier_file import default_model_path, load_classifier
 
 
 def _model(tmp_path: Path, change) -> Path:  # type: ignore[no-untyped-def]
-    """The default model with ``change(arrays, metadata)`` applied, as a new file."""
+    """Write the default model with ``change(arrays, metadata)`` applied, as a new file."""
     with np.load(default_model_path(), allow_pickle=False) as data:
         arrays = {name: data[name] for name in data.files}
     meta = json.loads(str(arrays["metadata"]))

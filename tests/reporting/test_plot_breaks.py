@@ -12,7 +12,7 @@ NAMES = ("x", "y", "yaw", "y_l", "y_r", "x_icr", "alpha")
 
 
 def _stitched(copies: int = 3, n: int = 100) -> tuple[WheelLog, OdometryResult]:
-    """``copies`` straight drives, each 100 m east of the last; time restarts in each segment.
+    """Return ``copies`` straight drives, each 100 m east of the last; time restarts in each.
 
     Segment 0 on grass, the others on asphalt (a stitched grass -> asphalt log).
     """

@@ -185,7 +185,6 @@ class FramePipeline:
         if self.on_frame is not None:
             self.on_frame(record)
 
-
     def check_used(self, source: str | Path) -> None:
         """Refuse a camera run none of whose fed frames was classified, naming why.
 

@@ -227,7 +227,7 @@ def _report(path: Path) -> dict[str, Any]:
     """
     report = json.loads(path.read_text(encoding="utf-8"))
     report.get("status")  # AttributeError unless a JSON object
-    return report  # type: ignore[no-any-return]
+    return report
 
 
 def mark_running(out: Path, inputs: dict[str, Any]) -> None:

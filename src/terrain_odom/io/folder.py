@@ -387,7 +387,9 @@ class OutputFolder:
 
 
 def _already(folder: OutputFolder, previous: list[str]) -> str:
-    shown = ", ".join(previous[:3]) + (f" and {len(previous) - 3} more" if len(previous) > 3 else "")
+    shown = ", ".join(previous[:3]) + (
+        f" and {len(previous) - 3} more" if len(previous) > 3 else ""
+    )
     return (
         f"{folder.path}: already holds the files of terrain-odom {folder.command} ({shown}); "
         "choose another --out, or --overwrite to replace them"

@@ -311,9 +311,7 @@ def _check_sets(params: ModelParams, path: Path) -> None:
             )
 
 
-def _bounds(
-    value: object, names: tuple[str, ...], path: Path
-) -> list[tuple[float, float]] | None:
+def _bounds(value: object, names: tuple[str, ...], path: Path) -> list[tuple[float, float]] | None:
     """Return the file's ``bounds`` per parameter (None if it records none)."""
     if value is None:
         return None
