@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 import math
 from collections.abc import Sequence
@@ -14,7 +13,7 @@ import numpy as np
 
 from terrain_odom.app.cluster import dask_cluster, run_jobs
 from terrain_odom.app.fit import format_error_stats
-from terrain_odom.app.locate import check_out, create_folder, names_a_file, output_file
+from terrain_odom.app.locate import check_out, create_folder, output_file, writing_into
 from terrain_odom.app.plots import EVALUATION_PLOTS, PLOTS_DIR, write_evaluation_plots
 from terrain_odom.app.run import read_calibrated_log, run_config
 from terrain_odom.app.run_folder import TRAJECTORY_CSV, check_complete
@@ -41,7 +40,6 @@ from terrain_odom.evaluation import (
 )
 from terrain_odom.io import read_trajectory_csv
 from terrain_odom.io.atomic import write_text_atomic
-from terrain_odom.io.folder import replacing
 from terrain_odom.io.params import check_geometry, read_params
 from terrain_odom.io.paths import check_outputs
 from terrain_odom.io.report import path_or_none, report_header, write_json
@@ -330,24 +328,12 @@ def evaluate(
         return result
     if out is not None:
         create_folder(out, JSON_SUFFIXES)
-    with _evaluation_folder(out, target):
+    names = [EVALUATION_JSON, *(f"{PLOTS_DIR}/{name}" for name in EVALUATION_PLOTS)]
+    with writing_into(out, target, "evaluate", names, JSON_SUFFIXES):
         write_json(target, result.to_dict())
         errors = {name: m.windows for name, m in result.models.items() if m.windows is not None}
         plots = write_evaluation_plots(target.parent / PLOTS_DIR, log, errors, result.horizon)
     return dataclasses.replace(result, plots=tuple(plots))
-
-
-def _evaluation_folder(
-    out: str | Path | None, target: Path
-) -> contextlib.AbstractContextManager[object]:
-    """Lock the folder ``evaluation.json`` goes into, replacing only evaluate's own files.
-
-    The old form (``--out FILE.json``) names its file: nothing to lock.
-    """
-    if out is not None and names_a_file(out, JSON_SUFFIXES):
-        return contextlib.nullcontext()
-    names = [EVALUATION_JSON, *(f"{PLOTS_DIR}/{name}" for name in EVALUATION_PLOTS)]
-    return replacing(target.parent, "evaluate", names)
 
 
 def _evaluate_log(

@@ -222,6 +222,7 @@ class OutputFolder:
         replaces: Iterable[str] = (),
         refuse: Callable[[list[str]], str] | None = None,
         remove: bool = True,
+        all_previous: bool = True,
     ) -> None:
         """Check the files this command will write; remove its previous files if ``overwrite``.
 
@@ -242,6 +243,11 @@ class OutputFolder:
             refusal (default: "already holds ...; --overwrite to replace them").
         remove : bool
             False: only check, change nothing.
+        all_previous : bool
+            True: the command's previous files are all of its files in the
+            folder (one output set per folder: ``run``, ``import``); False:
+            only those among ``names`` (``fit`` of several models into one
+            folder keeps the other models' files).
 
         Raises
         ------
@@ -254,6 +260,8 @@ class OutputFolder:
         owners = {self.command, *replaces}
         targets = self._targets(list(names))
         previous = self.previous(owners)
+        if not all_previous:
+            previous = [name for name in previous if name in targets]
         for name in sorted(set(targets) | set(previous)):
             self._check_own(name, owners)
         if previous and not overwrite:
@@ -444,14 +452,20 @@ def writing(path: str | Path, command: str) -> Iterator[OutputFolder]:
 
 @contextlib.contextmanager
 def replacing(
-    path: str | Path, command: str, names: Iterable[str], *, overwrite: bool = True
+    path: str | Path,
+    command: str,
+    names: Iterable[str],
+    *,
+    overwrite: bool = True,
+    all_previous: bool = True,
 ) -> Iterator[Path]:
     """Lock the folder ``path`` while ``command`` writes ``names`` into it (:func:`writing`).
 
-    Its previous files are removed first if ``overwrite`` (refused
+    Its previous files (all, or only those among ``names``:
+    ``all_previous``) are removed first if ``overwrite`` (refused
     otherwise); a file among ``names`` it did not write is refused
     (:meth:`OutputFolder.prepare`).
     """
     with writing(path, command) as folder:
-        folder.prepare(names, overwrite=overwrite)
+        folder.prepare(names, overwrite=overwrite, all_previous=all_previous)
         yield folder.path
