@@ -384,3 +384,18 @@ def test_a_read_only_out_is_one_line_in_every_subcommand(
     for argv in _every_subcommand(examples_dir / "demo_log.csv", classes, out):
         err = _refused(argv, capsys, tmp_path)
         assert "Read-only file system" in err or "is not one" in err, argv
+
+
+def test_fit_replaces_its_own_file_keeps_other_models_and_refuses_an_edited_one(
+    examples_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    log, out = examples_dir / "demo_log.csv", tmp_path / "fits"
+    fit = ["fit", "--wheels", str(log), "--maxiter", "1", "--popsize", "5", "--out", str(out)]
+    assert main([*fit, "--model", "idd"]) == 0
+    assert main([*fit, "--model", "edd-sym"]) == 0
+    assert main([*fit, "--model", "idd"]) == 0  # its own file: replaced
+    assert (out / "params_edd-sym.yaml").is_file()  # another model's: kept
+    with (out / "params_idd.yaml").open("a") as handle:
+        handle.write("# checked by hand\n")
+    err = _refused([*fit, "--model", "idd"], capsys, out)
+    assert "params_idd.yaml: edited since terrain-odom fit wrote it" in err
