@@ -220,13 +220,12 @@ def test_a_second_command_on_a_running_folder_is_refused_naming_the_holder(
     assert json.loads((out / "report.json").read_text())["status"] == "interrupted"
 
 
-@pytest.fixture
-def small_disk(tmp_path: Path) -> Iterator[Path]:
-    """Mount a 700-KiB tmpfs (root only): room for a few hundred rows of a run, not for all."""
-    disk = tmp_path / "disk"
+@contextlib.contextmanager
+def _tmpfs(disk: Path, options: str) -> Iterator[Path]:
+    """Mount a tmpfs with ``options`` on ``disk`` (root only; the test is skipped otherwise)."""
     disk.mkdir()
     done = subprocess.run(
-        ["mount", "-t", "tmpfs", "-o", "size=700k", "tmpfs", str(disk)], capture_output=True
+        ["mount", "-t", "tmpfs", "-o", options, "tmpfs", str(disk)], capture_output=True
     )
     if done.returncode != 0:
         pytest.skip(f"cannot mount a tmpfs here: {done.stderr.decode().strip()}")
@@ -234,6 +233,13 @@ def small_disk(tmp_path: Path) -> Iterator[Path]:
         yield disk
     finally:
         subprocess.run(["umount", str(disk)], check=True)
+
+
+@pytest.fixture
+def small_disk(tmp_path: Path) -> Iterator[Path]:
+    """Mount a 700-KiB tmpfs: room for a few hundred rows of a run, not for all."""
+    with _tmpfs(tmp_path / "disk", "size=700k") as disk:
+        yield disk
 
 
 def test_a_full_disk_is_one_line_and_an_interrupted_run(
@@ -356,18 +362,9 @@ def test_a_wheel_log_with_a_300_character_name_is_one_line(
 
 @pytest.fixture
 def read_only(tmp_path: Path) -> Iterator[Path]:
-    """Mount a read-only file system (root only: root writes into read-only folders)."""
-    disk = tmp_path / "ro"
-    disk.mkdir()
-    done = subprocess.run(
-        ["mount", "-t", "tmpfs", "-o", "ro,size=64k", "tmpfs", str(disk)], capture_output=True
-    )
-    if done.returncode != 0:
-        pytest.skip(f"cannot mount a tmpfs here: {done.stderr.decode().strip()}")
-    try:
+    """Mount a read-only file system (root writes into read-only folders: chmod is no test)."""
+    with _tmpfs(tmp_path / "ro", "ro,size=64k") as disk:
         yield disk
-    finally:
-        subprocess.run(["umount", str(disk)], check=True)
 
 
 @pytest.mark.parametrize("where", ["folder", "inside"])
