@@ -139,3 +139,18 @@ def test_a_folder_that_cannot_be_created_is_one_error_naming_it(tmp_path: Path) 
         create_folder(tmp_path / "file")
     with pytest.raises(OutputFileError, match="Not a directory"):
         create_folder(tmp_path / "file" / "out")
+
+
+def test_a_manifest_naming_files_elsewhere_never_removes_them(tmp_path: Path) -> None:
+    """A hand-edited manifest pointing outside the folder (or malformed) is ignored there."""
+    outside = tmp_path / "precious.txt"
+    outside.write_text("keep me")
+    out = tmp_path / "out"
+    out.mkdir()
+    entry = {"command": "run", "sha256": None}
+    files = {str(outside): entry, "../precious.txt": entry, "bad": 5, "worse": {"command": 1}}
+    (out / MANIFEST).write_text(json.dumps({"format": 1, "files": files}))
+    with replacing(out, "run", ["report.json"]):
+        (out / "report.json").write_text("{}")
+    assert outside.read_text() == "keep me"
+    assert set(json.loads((out / MANIFEST).read_text())["files"]) == {"report.json"}

@@ -35,7 +35,7 @@ import json
 import os
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
-from pathlib import Path
+from pathlib import Path, PurePosixPath
 from typing import Any
 
 from terrain_odom.errors import InputFileError
@@ -142,14 +142,33 @@ def _holder_of(manifest: dict[str, Any]) -> Holder:
 
 
 def _read_manifest(folder: Path) -> dict[str, Any]:
-    """Return the folder's manifest (empty if it has none or it is unreadable)."""
+    """Return the folder's manifest (empty if it has none or it is unreadable).
+
+    Only entries naming a file within the folder are kept: a manifest naming
+    ``/etc/passwd`` or ``../x`` (edited by hand) never makes a command
+    remove a file elsewhere.
+    """
     try:
         data = json.loads((folder / MANIFEST).read_text(encoding="utf-8"))
-    except (OSError, ValueError):
+    except (OSError, ValueError, RecursionError):
         return {}
     if not isinstance(data, dict) or not isinstance(data.get("files"), dict):
         return {}
+    data["files"] = {
+        name: entry
+        for name, entry in data["files"].items()
+        if _within(name)
+        and isinstance(entry, dict)
+        and isinstance(entry.get("command"), str)
+        and (entry.get("sha256") is None or isinstance(entry.get("sha256"), str))
+    }
     return data
+
+
+def _within(name: str) -> bool:
+    """Whether ``name`` is a relative path inside the folder (no ``..``, not absolute)."""
+    path = PurePosixPath(name)
+    return bool(name) and not path.is_absolute() and ".." not in path.parts
 
 
 def _read_bytes(path: Path) -> bytes | None:
