@@ -367,20 +367,19 @@ def read_only(tmp_path: Path) -> Iterator[Path]:
         yield disk
 
 
-@pytest.mark.parametrize("where", ["folder", "inside"])
 def test_a_read_only_out_is_one_line_in_every_subcommand(
-    where: str,
     read_only: Path,
     examples_dir: Path,
     tmp_path: Path,
     capsys: pytest.CaptureFixture[str],
 ) -> None:
-    """``--out`` an existing read-only folder (simulate's case), or a folder to make in one."""
-    out = str(read_only if where == "folder" else read_only / "out")
+    """``--out`` a folder to make in a read-only file system; ``simulate`` into one that exists."""
     classes = _classes(tmp_path)
-    for argv in _every_subcommand(examples_dir / "demo_log.csv", classes, out):
+    for argv in _every_subcommand(examples_dir / "demo_log.csv", classes, str(read_only / "out")):
         err = _refused(argv, capsys, tmp_path)
         assert "Read-only file system" in err or "is not one" in err, argv
+    argv = ["simulate", "--duration", "2", "--no-patches", "--out", str(read_only)]
+    assert f"{read_only}/log.csv: cannot write (Read-only file system)" in _refused(argv, capsys)
 
 
 def test_fit_replaces_its_own_file_keeps_other_models_and_refuses_an_edited_one(
