@@ -379,7 +379,7 @@ def test_a_read_only_out_is_one_line_in_every_subcommand(
         err = _refused(argv, capsys, tmp_path)
         assert "Read-only file system" in err or "is not one" in err, argv
     argv = ["simulate", "--duration", "2", "--no-patches", "--out", str(read_only)]
-    assert f"{read_only}/log.csv: cannot write (Read-only file system)" in _refused(argv, capsys)
+    assert f"{read_only}: cannot write (Read-only file system)" in _refused(argv, capsys)
 
 
 def test_fit_replaces_its_own_file_keeps_other_models_and_refuses_an_edited_one(

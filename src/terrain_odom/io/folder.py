@@ -454,7 +454,10 @@ def writing(path: str | Path, command: str) -> Iterator[OutputFolder]:
         opened = OutputFolder(folder, command, dict(manifest.get("files", {})))
         since = datetime.datetime.now().isoformat(sep=" ", timespec="seconds")
         opened._holder = Holder(command, os.getpid(), since)
-        opened._save()
+        try:
+            opened._save()
+        except OutputFileError as exc:  # the folder cannot be written: name it, not the manifest
+            raise OutputFileError(exc.errno, exc.strerror, str(folder)) from None
         try:
             yield opened
         finally:
