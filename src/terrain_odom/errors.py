@@ -7,7 +7,9 @@ real bugs keep their traceback.
 
 from __future__ import annotations
 
-__all__ = ["TerrainOdomError", "InputFileError", "ConfigError", "EstimationError"]
+import signal
+
+__all__ = ["TerrainOdomError", "InputFileError", "ConfigError", "EstimationError", "Interrupted"]
 
 
 class TerrainOdomError(Exception):
@@ -27,3 +29,18 @@ class ConfigError(TerrainOdomError, ValueError):
 
 class EstimationError(TerrainOdomError, ArithmeticError):
     """An estimator reached a state it cannot continue from (e.g. ``y_l <= y_r``)."""
+
+
+class Interrupted(KeyboardInterrupt):
+    """A termination signal (``SIGTERM``, ``SIGHUP``) received: stop as on Ctrl-C.
+
+    A ``KeyboardInterrupt``, so that whatever cleans up after Ctrl-C (a run
+    marking itself interrupted) does so after these signals too.
+    """
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(signum)
+        self.signum = signum
+
+    def __str__(self) -> str:
+        return f"interrupted by {signal.Signals(self.signum).name}"

@@ -68,6 +68,7 @@ def test_run_returns_summary_with_existing_paths(log_path: Path, tmp_path: Path)
         assert path.is_file(), path
     assert summary.config_yaml == out_dir / "config.yaml"
     assert sorted(p.name for p in out_dir.iterdir()) == [
+        ".terrain-odom.json",  # the folder's manifest: what wrote which file
         "config.yaml",
         "plots",  # every run draws its trajectory and states
         "report.json",
@@ -147,6 +148,7 @@ def test_interrupted_run_keeps_streamed_rows(
     assert report["reason"] == "interrupted by the user"
     assert report["inputs"]["wheels"] == str(log_path.resolve())
     assert sorted(p.name for p in out_dir.iterdir()) == [
+        ".terrain-odom.json",
         "config.yaml",
         "report.json",
         "trajectory.csv",
@@ -181,6 +183,7 @@ def test_a_folder_holding_a_run_is_refused_unless_overwrite(
     assert len(read_trajectory_csv(out_dir / "trajectory.csv")["t"]) == INTERRUPT_AFTER
     # the first run's trajectory.tum and report.md are gone; the user's file is kept
     assert sorted(p.name for p in out_dir.iterdir()) == [
+        ".terrain-odom.json",
         "config.yaml",
         "notes.txt",
         "report.json",

@@ -256,15 +256,17 @@ def test_region_outside_the_image_is_recorded_without_fallback(sim, tmp_path):
     )
     rows = [(f"{k / FRAME_RATE_HZ}", f"frames/{k:06d}.png") for k in range(5)]
     images, log = _short(sim, tmp_path, rows)
-    assert _run(sim, tmp_path / "out", "--config", str(config), images=images, log=log) == 0
+    # no frame classified: an error naming why (issue 24), the frames' records kept
+    assert _run(sim, tmp_path / "out", "--config", str(config), images=images, log=log) == 2
     frames = _rows(tmp_path / "out" / "frames.csv")
     assert len(frames) == 5
     for row in frames:
         assert row["roi_status"] == "outside"
         assert row["label"] == row["confidence"] == row["roi_x0"] == row["ms_features"] == ""
     report = json.loads((tmp_path / "out" / "report.json").read_text())
-    assert report["frames"]["skipped"]["roi_outside_or_too_small"] == 5
-    assert report["frames"]["classified"] == 0 and report["terrain_changes"] == []
+    assert report["status"] == "interrupted"
+    assert "none of the 5 frames in the log's span was classified" in report["reason"]
+    assert "region of interest: 5 outside" in report["reason"]
 
 
 def test_malformed_frames_csv_names_file_line_and_column(sim, tmp_path, capsys):

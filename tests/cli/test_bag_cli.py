@@ -224,6 +224,11 @@ def test_run_on_a_bag_refuses_a_run_folder_before_importing(
     assert main(argv) == 2
     assert "already holds a run" in capsys.readouterr().err
     assert (tmp_path / "bag" / "log.csv").read_bytes() == b"kept"  # nothing imported
+    # the edited log is the user's now: even --overwrite keeps it, in one line
+    assert main([*argv, "--overwrite"]) == 2
+    assert "log.csv: edited since terrain-odom import wrote it" in capsys.readouterr().err
+    assert (tmp_path / "bag" / "log.csv").read_bytes() == b"kept"
+    (tmp_path / "bag" / "log.csv").unlink()
     assert main([*argv, "--overwrite"]) == 0
     assert (tmp_path / "bag" / "log.csv").read_bytes() == log
 

@@ -200,7 +200,7 @@ def test_fit_out_is_a_folder_and_a_yaml_name_the_old_form(log, tmp_path, capsys)
                             "--out", folder)  # fmt: skip
     assert code == 0 and err == [], err
     assert text.splitlines()[-1] == f"parameters: {folder / 'params_idd.yaml'}"
-    assert sorted(p.name for p in folder.iterdir()) == ["params_idd.yaml"]
+    assert sorted(p.name for p in folder.iterdir()) == [".terrain-odom.json", "params_idd.yaml"]
     old = tmp_path / "grass.yaml"
     code, text, err = _main(capsys, "fit", "--wheels", log, "--model", "idd", *FAST,
                             "--out", old)  # fmt: skip

@@ -264,5 +264,5 @@ def test_terrain_lookup_and_leaving_the_map():
         "brick",
         "",
     ]
-    with pytest.raises(ValueError, match="left the map"):
+    with pytest.raises(ValueError, match="leaves the scenario.s map"):
         simulate(small_scenario(duration=30.0), seed=0)

@@ -29,8 +29,7 @@ from typing import Any
 import numpy as np
 import yaml
 
-from terrain_odom.app.locate import output_folder
-from terrain_odom.config import load_config
+from terrain_odom.config import load_config, validate_config
 from terrain_odom.config.loader import read_yaml
 from terrain_odom.errors import ConfigError, InputFileError
 from terrain_odom.io.atomic import write_text_atomic
@@ -59,6 +58,7 @@ from terrain_odom.io.bag_reader import (
     topic_connections,
 )
 from terrain_odom.io.bag_streams import HeadingStream, PoseStream, StampRule, WheelStream
+from terrain_odom.io.folder import replacing
 from terrain_odom.io.paths import check_outputs
 from terrain_odom.io.report import report_header, write_json
 from terrain_odom.io.wheel_log import write_wheel_log
@@ -68,6 +68,8 @@ from terrain_odom.records import WheelLog
 __all__ = ["ImportOptions", "ImportResult", "import_bag", "inspect_bag", "read_bag_log"]
 
 STAMP_CHOICES = ("header", "receive")
+FRAMES_DIR = "frames"
+"""The folder of an import's frames, in ``OUT``."""
 TF_STATIC = "/tf_static"
 ANTENNA_KEYS = ("pose_sensor.antenna_x", "pose_sensor.antenna_y")
 CAMERA_MOUNT_KEYS = (
@@ -217,14 +219,18 @@ def import_bag(
     check_outputs([bag, options.config], paths.values())
     if Path(bag).is_dir() and out.resolve().is_relative_to(Path(bag).resolve()):
         raise InputFileError(f"{out}: --out is inside the bag folder {bag}; choose another folder")
-    output_folder(out).mkdir(parents=True, exist_ok=True)
-    collect, merged = _read(bag, options, robot, out, progress)
-    write_wheel_log(paths["log"], merged.log)
-    frames_csv = _write_frames(collect, merged, paths["frames"]) if options.image_topic else None
-    fill, sources = _write_config(paths["config"], collect, options, robot, bag)
-    seconds = time.perf_counter() - start
-    result = _result(paths, frames_csv, collect, merged, (fill, sources), seconds)
-    write_json(paths["import"], _report(bag, options, collect, merged, result))
+    # locked; the previous import's files removed, any other file never replaced
+    with replacing(out, "import", [*(p.name for p in paths.values()), f"{FRAMES_DIR}/"]):
+        collect, merged = _read(bag, options, robot, out, progress)
+        text, fill, sources = _config_text(paths["config"], collect, options, robot, bag)
+        write_wheel_log(paths["log"], merged.log)
+        frames_csv = (
+            _write_frames(collect, merged, paths["frames"]) if options.image_topic else None
+        )
+        write_text_atomic(paths["config"], text)
+        seconds = time.perf_counter() - start
+        result = _result(paths, frames_csv, collect, merged, (fill, sources), seconds)
+        write_json(paths["import"], _report(bag, options, collect, merged, result))
     return result
 
 
@@ -256,7 +262,7 @@ def _read(
     with open_bag(bag) as reader:
         connections, collect = _plan(reader, bag, options, robot)
         if out is not None and options.image_topic is not None:
-            (out / "frames").mkdir(exist_ok=True)
+            (out / FRAMES_DIR).mkdir(exist_ok=True)
         for message in stream_messages(reader, bag, connections, progress):
             _dispatch(collect, message, options, out)
     return collect, _merge(collect, options, bag)
@@ -412,7 +418,35 @@ def _dispatch(
     if topic == TF_STATIC and message.msgtype == TF_MESSAGE:
         for tr in message.msg.transforms:
             pair = (tr.header.frame_id.lstrip("/"), tr.child_frame_id.lstrip("/"))
-            collect.static[pair] = transform_matrix(tr.transform)
+            _add_static(collect, pair, tr.transform)
+
+
+def _add_static(collect: _Collect, pair: tuple[str, str], transform: Any) -> None:
+    """Keep one ``/tf_static`` transform, refusing what makes no tree of frames.
+
+    Raises
+    ------
+    InputFileError
+        A rotation that is no quaternion (zero, not finite), a frame with
+        two parents, or a loop of frames.
+    """
+    parent, child = pair
+    where = f"{collect.bag}: {TF_STATIC} {parent} -> {child}"
+    q = transform.rotation
+    norm = math.hypot(q.x, q.y, q.z, q.w)
+    if not (math.isfinite(norm) and norm > 1e-9):
+        raise InputFileError(f"{where}: the rotation ({q.x}, {q.y}, {q.z}, {q.w}) is no quaternion")
+    parents = {c: p for p, c in collect.static if (p, c) != pair}
+    if child in parents and parents[child] != parent:
+        raise InputFileError(
+            f"{where}: {child} has another parent, {parents[child]}; a frame has one parent"
+        )
+    ancestor: str | None = parent
+    while ancestor is not None:
+        if ancestor == child:
+            raise InputFileError(f"{where}: closes a loop of frames ({child} is above {parent})")
+        ancestor = parents.get(ancestor)
+    collect.static[pair] = transform_matrix(transform)
 
 
 def _frame(collect: _Collect, message: BagMessage, options: ImportOptions, out: Path) -> None:
@@ -455,14 +489,21 @@ def _write_frames(collect: _Collect, merged: MergedLog, path: Path) -> Path:
     return path
 
 
-def _write_config(
+def _config_text(
     path: Path,
     collect: _Collect,
     options: ImportOptions,
     robot: dict[str, float | None],
     bag: str | Path,
-) -> tuple[tuple[str, ...], dict[str, str]]:
-    """Write ``config.yaml``; return the keys the user must fill and where each value came from."""
+) -> tuple[str, tuple[str, ...], dict[str, str]]:
+    """Return ``config.yaml`` (validated), the keys the user must fill and where each value came from.
+
+    Raises
+    ------
+    InputFileError
+        The configuration the bag gives is invalid (a CameraInfo with
+        ``fx = 0`` ...), naming the bag, the key and the topic it came from.
+    """
     data: dict[str, Any] = dict(read_yaml(Path(options.config)) or {}) if options.config else {}
     fill = ["robot.track_width"] if robot["track_width"] is None else []
     data["robot"] = {**data.get("robot", {}), **{k: v for k, v in robot.items() if v is not None}}
@@ -490,10 +531,15 @@ def _write_config(
             )
     if fill:
         header.append("# FILL IN (the bag does not tell them): " + ", ".join(fill))
-    text = "\n".join(header) + "\n" + yaml.safe_dump(data, sort_keys=False)
-    write_text_atomic(path, text)
-    load_config(path)  # what was written must load
-    return tuple(fill), sources
+    try:  # what will be written must load: checked before any file is written
+        validate_config(data, str(path))
+    except ConfigError as exc:
+        came = [f"{key} from {src}" for key, src in sources.items() if key in str(exc)]
+        raise InputFileError(
+            f"{bag}: the configuration its messages give is invalid: {exc}"
+            + (f" ({'; '.join(came)})" if came else "")
+        ) from None
+    return "\n".join(header) + "\n" + yaml.safe_dump(data, sort_keys=False), tuple(fill), sources
 
 
 def _pose_noise(

@@ -26,6 +26,7 @@ from terrain_odom.config import Config, dump_config
 from terrain_odom.config.sections import PoseSigmas
 from terrain_odom.errors import InputFileError
 from terrain_odom.io.atomic import write_text_atomic
+from terrain_odom.io.folder import replacing
 from terrain_odom.io.paths import check_outputs
 from terrain_odom.io.wheel_log import read_wheel_log, write_wheel_log
 from terrain_odom.sim.degrade import Degradation, DegradedLog, degrade_log
@@ -104,11 +105,11 @@ def write_degraded(
         )
     clean = read_wheel_log(wheels, wheel_radius=cfg.robot.wheel_radius)
     degraded = degrade_log(clean, degradation)
-    out.mkdir(parents=True, exist_ok=True)
-    write_wheel_log(out / "log.csv", degraded.log)
-    write_wheel_log(out / "truth.csv", degraded.truth)
-    write_text_atomic(out / "config.yaml", _claimed_config(cfg, degradation, wheels))
-    write_text_atomic(out / "degrade.yaml", _injected_yaml(degraded, wheels))
+    with replacing(out, "degrade", DEGRADE_FILES, overwrite=overwrite):  # never another's file
+        write_wheel_log(out / "log.csv", degraded.log)
+        write_wheel_log(out / "truth.csv", degraded.truth)
+        write_text_atomic(out / "config.yaml", _claimed_config(cfg, degradation, wheels))
+        write_text_atomic(out / "degrade.yaml", _injected_yaml(degraded, wheels))
     log = degraded.log
     return DegradeOutput(
         degraded, out, int(log.has_position.sum()), int(log.has_yaw.sum()), len(log)

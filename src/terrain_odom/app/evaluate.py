@@ -13,7 +13,7 @@ import numpy as np
 
 from terrain_odom.app.cluster import dask_cluster, run_jobs
 from terrain_odom.app.fit import format_error_stats
-from terrain_odom.app.locate import check_out, create_folder, output_file
+from terrain_odom.app.locate import check_out, create_folder, output_file, writing_into
 from terrain_odom.app.plots import EVALUATION_PLOTS, PLOTS_DIR, write_evaluation_plots
 from terrain_odom.app.run import read_calibrated_log, run_config
 from terrain_odom.app.run_folder import TRAJECTORY_CSV, check_complete
@@ -417,11 +417,13 @@ def evaluate(
         return result
     if out is not None:
         create_folder(out, JSON_SUFFIXES)
-    write_json(target, result.to_dict())
-    errors = {name: m.windows for name, m in result.models.items() if m.windows is not None}
-    plots = write_evaluation_plots(
-        target.parent / PLOTS_DIR, log, errors, result.horizon, result.outages
-    )
+    names = [EVALUATION_JSON, *(f"{PLOTS_DIR}/{name}" for name in EVALUATION_PLOTS)]
+    with writing_into(out, target, "evaluate", names, JSON_SUFFIXES):
+        write_json(target, result.to_dict())
+        errors = {name: m.windows for name, m in result.models.items() if m.windows is not None}
+        plots = write_evaluation_plots(
+            target.parent / PLOTS_DIR, log, errors, result.horizon, result.outages
+        )
     return dataclasses.replace(result, plots=tuple(plots))
 
 

@@ -19,7 +19,7 @@ import numpy as np
 
 from terrain_odom import __version__
 from terrain_odom.app.cluster import dask_cluster, run_jobs
-from terrain_odom.app.locate import check_out, create_folder, output_file
+from terrain_odom.app.locate import check_out, create_folder, output_file, writing_into
 from terrain_odom.app.run import calibrate_log
 from terrain_odom.config import Config, load_config
 from terrain_odom.errors import ConfigError, InputFileError
@@ -499,7 +499,8 @@ def fit(
         mp = ModelParams(m.name, sets, b, {**info, "evaluation": evaluation.to_dict()})
     if out is not None and target is not None:
         create_folder(out, YAML_SUFFIXES)
-        write_params(target, mp)
+        with writing_into(out, target, "fit", [target.name], YAML_SUFFIXES):
+            write_params(target, mp)
     return FitReport(mp, fits, skipped, evaluation, timing, target)
 
 

@@ -23,7 +23,7 @@ from threadpoolctl import threadpool_limits
 from terrain_odom.errors import ConfigError, InputFileError
 from terrain_odom.estimation.online import OnlineOdometry
 from terrain_odom.io.frames import FrameList
-from terrain_odom.io.images import read_image_rgb
+from terrain_odom.io.images import decode_image_rgb, read_image_bytes
 from terrain_odom.vision.frame_classifier import FrameClassification
 
 __all__ = [
@@ -79,10 +79,11 @@ def one_thread() -> Iterator[None]:
 
 def read_frame(path: Path) -> tuple[np.ndarray | None, str]:
     """Decode a frame file to RGB; ``(None, problem)`` if it is missing or unreadable."""
-    image = read_image_rgb(path)
+    data, problem = read_image_bytes(path)
+    image = None if data is None else decode_image_rgb(data)
     if image is not None:
         return image, ""
-    return None, "missing" if not path.is_file() else "unreadable (not a decodable image)"
+    return None, problem or "unreadable (not a decodable image)"
 
 
 @dataclass
@@ -183,6 +184,33 @@ class FramePipeline:
             self.ms_total.append(record.ms_total)
         if self.on_frame is not None:
             self.on_frame(record)
+
+    def check_used(self, source: str | Path) -> None:
+        """Refuse a camera run none of whose fed frames was classified, naming why.
+
+        Frames outside the wheel log's span are not fed (and not counted).
+
+        Raises
+        ------
+        InputFileError
+            Frames were fed, none classified: the counts of each cause.
+        """
+        fed = len(self.problems) + sum(self.roi_counts.values())
+        if self.ms_total or not fed:
+            return
+        causes = [f"{n} {status}" for status, n in sorted(self.roi_counts.items())]
+        if self.problems:
+            causes.append(f"{len(self.problems)} missing or unreadable")
+        hint = (
+            "; the region of interest lies outside the frames: check camera (mount_pitch, "
+            "mount_height, fx, cx, cy) in --config, or run with --no-roi"
+            if self.roi_counts.get("outside") or self.roi_counts.get("too_small")
+            else ""
+        )
+        raise InputFileError(
+            f"{source}: none of the {fed} frames in the log's span was classified "
+            f"(region of interest: {', '.join(causes)}){hint}"
+        )
 
 
 @dataclass

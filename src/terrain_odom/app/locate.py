@@ -10,11 +10,13 @@ folder holding exactly one such file.
 
 from __future__ import annotations
 
+import contextlib
 import errno
 from collections.abc import Sequence
 from pathlib import Path
 
 from terrain_odom.errors import InputFileError
+from terrain_odom.io.folder import replacing
 
 __all__ = [
     "names_a_file",
@@ -22,6 +24,7 @@ __all__ = [
     "output_folder",
     "check_out",
     "create_folder",
+    "writing_into",
     "find_input",
 ]
 
@@ -87,6 +90,26 @@ def create_folder(out: str | Path, suffixes: Sequence[str]) -> None:
     """Create the folder ``out`` (and its parents) unless it names a file."""
     if not names_a_file(out, suffixes):
         Path(out).mkdir(parents=True, exist_ok=True)
+
+
+def writing_into(
+    out: str | Path | None,
+    target: Path,
+    command: str,
+    names: Sequence[str],
+    suffixes: Sequence[str],
+) -> contextlib.AbstractContextManager[object]:
+    """Lock ``target``'s folder while ``command`` writes ``names`` into it.
+
+    :func:`~terrain_odom.io.folder.replacing`: ``command``'s own previous
+    files among ``names`` are replaced, its other files kept (``fit`` of
+    another model), and a file among ``names`` it did not write (another
+    command's, edited since) is refused. The old form, ``out`` naming the
+    file itself, is written as it is.
+    """
+    if out is not None and names_a_file(out, suffixes):
+        return contextlib.nullcontext()
+    return replacing(target.parent, command, names, all_previous=False)
 
 
 def find_input(path: str | Path, pattern: str, kind: str) -> Path:

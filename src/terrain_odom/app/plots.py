@@ -125,7 +125,7 @@ def write_run_plots(
     variants = scored.results if scored is not None else None
     jobs: dict[str, Draw] = {
         "trajectory.png": lambda: trajectory_figure(log, result, truth=truth, variants=variants),
-        "states.png": lambda: states_figure(log.t, result, truth=truth),
+        "states.png": lambda: states_figure(log.t, result, truth=truth, starts=log.run_starts()),
     }
     frame_truth = None if scored is None else scored.frame_truth
     if records and frame_truth is not None:

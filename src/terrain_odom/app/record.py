@@ -24,7 +24,7 @@ from terrain_odom.config import Config
 from terrain_odom.errors import ConfigError
 from terrain_odom.estimation.odometry import OdometryResult
 from terrain_odom.io.atomic import write_atomic
-from terrain_odom.io.images import read_image_rgb
+from terrain_odom.io.images import decode_image_rgb, read_image_bytes
 from terrain_odom.records import WheelLog
 from terrain_odom.reporting.mosaic import MosaicPanel
 
@@ -62,8 +62,9 @@ def _recorded(
 
     for record in records:
         path = images / record.file
-        image = read_image_rgb(path)
-        if image is None:
+        data, _ = read_image_bytes(path)
+        image = None if data is None else decode_image_rgb(data)
+        if data is None or image is None:
             continue
         media_type = frame_media_type(path.suffix)
         if media_type is None:
@@ -71,8 +72,6 @@ def _recorded(
 
             data = cv2.imencode(".jpg", cv2.cvtColor(image, cv2.COLOR_RGB2BGR))[1].tobytes()
             media_type = "image/jpeg"
-        else:
-            data = path.read_bytes()
         panel = MosaicPanel(record.t, image, record.label, record.confidence, "", "",
                             box=record.box)  # fmt: skip
         panel = with_votes(panel, record, result, log, cfg, classifier)

@@ -34,6 +34,7 @@ from terrain_odom.app.run_folder import (
     RUN_FILES,
     TRAJECTORY_CSV,
     TRAJECTORY_TUM,
+    holds_run_folder,
     mark_interrupted,
     mark_running,
     prepare_folder,
@@ -335,6 +336,7 @@ class FrameCounts:
     problems: tuple[str, ...]
 
 
+@holds_run_folder  # out_dir is locked until the run returns
 def run(
     wheels: str | Path,
     out_dir: str | Path,
@@ -428,6 +430,8 @@ def run(
     guard = OutageGuard(inputs.log, inputs.cfg, odometry.names, estimator)
     streamed = _stream(inputs, odometry, out, root, progress, read, keep, guard.add)
     result, pipeline, records, x_icr = streamed
+    if pipeline is not None and root is not None:
+        pipeline.check_used(root)  # a camera run without one classified frame: an error
     guarded = guard.result()
     log, tum_path = inputs.log, out / TRAJECTORY_TUM
     seconds = time.perf_counter() - started
@@ -595,7 +599,6 @@ def _stream(
     log = inputs.log
     names = odometry.names
     records: list[FrameRecord] = []
-    written = [0]  # rows handed to the writer
     bar = tqdm(total=len(log), unit="row", disable=None if progress is None else not progress)
     with contextlib.ExitStack() as stack:
         writer = stack.enter_context(
@@ -627,7 +630,6 @@ def _stream(
             x_icr.add(block)
             also(block)
             bar.update(block.t.size)
-            written[0] += block.t.size
 
         try:
             result = run_odometry(
@@ -635,9 +637,9 @@ def _stream(
             )
         except BaseException as exc:
             tum.discard()  # no TUM file of an incomplete run
-            stack.close()  # flush the rows streamed so far before saying how many
-            reason = "interrupted by the user" if isinstance(exc, KeyboardInterrupt) else repr(exc)
-            mark_interrupted(out, read, written[0], reason)
+            with contextlib.suppress(OSError):  # a full disk: the rows are cut to whole ones
+                stack.close()  # flush the rows streamed so far before saying how many
+            mark_interrupted(out, read, writer.rows_written, exc)
             raise
     return result, pipeline, records, x_icr.mean
 

@@ -40,6 +40,7 @@ import yaml
 
 from terrain_odom.app.plots import write_figures
 from terrain_odom.io import TrajectoryWriter
+from terrain_odom.io.folder import replacing
 from terrain_odom.io.paths import check_outputs
 from terrain_odom.io.report import report_header, write_json
 from terrain_odom.reporting.map import map_figure
@@ -298,7 +299,7 @@ def write_simulation(
     frame_format: str = "png",
     inputs: Iterable[str | Path | None] = (),
 ) -> SimOutput:
-    """Write a simulated run to ``out`` (created if needed; files overwritten).
+    """Write a simulated run to ``out`` (created if needed; its own previous files replaced).
 
     Parameters
     ----------
@@ -329,30 +330,31 @@ def write_simulation(
     out = Path(out)
     files = ("log.csv", "groundtruth.csv", "frames.csv", "config.yaml", "simulation.json")
     check_outputs(inputs, [out / name for name in (*files, f"map.{frame_format}", MAP_PLOT)])
-    out.mkdir(parents=True, exist_ok=True)
-    _write_log(sim, out / "log.csv")
-    _write_truth(sim, out / "groundtruth.csv")
-    frame_count = _write_frames(sim, out, frame_format) if frames else 0
-    patch_counts = _write_patches(sim, out) if patches else {}
-    _write_config(sim, out / "config.yaml")
-    preview = out / f"map.{frame_format}"
-    preview_resolution = _write_map_preview(sim, preview)
-    output = SimOutput(
-        simulation=sim,
-        out=out,
-        log_csv=out / "log.csv",
-        groundtruth_csv=out / "groundtruth.csv",
-        frames_csv=out / "frames.csv" if frames else None,
-        patches_dir=out / "patches" if patches else None,
-        metadata_json=out / "simulation.json",
-        map_preview=preview,
-        map_preview_resolution=preview_resolution,
-        rows=int(sim.motion.t.size),
-        pose_rows=int(np.isfinite(sim.measured_pose[:, 0]).sum()),
-        frames=frame_count,
-        patches=patch_counts,
-        config_yaml=out / "config.yaml",
-        map_plot=_write_map_plot(sim, out / MAP_PLOT),
-    )
-    write_json(output.metadata_json, output.to_dict())
+    names = [*files, f"map.{frame_format}", MAP_PLOT, "frames/", "patches/"]
+    with replacing(out, "simulate", names):  # its previous files replaced, never another's
+        _write_log(sim, out / "log.csv")
+        _write_truth(sim, out / "groundtruth.csv")
+        frame_count = _write_frames(sim, out, frame_format) if frames else 0
+        patch_counts = _write_patches(sim, out) if patches else {}
+        _write_config(sim, out / "config.yaml")
+        preview = out / f"map.{frame_format}"
+        preview_resolution = _write_map_preview(sim, preview)
+        output = SimOutput(
+            simulation=sim,
+            out=out,
+            log_csv=out / "log.csv",
+            groundtruth_csv=out / "groundtruth.csv",
+            frames_csv=out / "frames.csv" if frames else None,
+            patches_dir=out / "patches" if patches else None,
+            metadata_json=out / "simulation.json",
+            map_preview=preview,
+            map_preview_resolution=preview_resolution,
+            rows=int(sim.motion.t.size),
+            pose_rows=int(np.isfinite(sim.measured_pose[:, 0]).sum()),
+            frames=frame_count,
+            patches=patch_counts,
+            config_yaml=out / "config.yaml",
+            map_plot=_write_map_plot(sim, out / MAP_PLOT),
+        )
+        write_json(output.metadata_json, output.to_dict())
     return output

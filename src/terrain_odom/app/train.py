@@ -23,7 +23,7 @@ from numpy.typing import NDArray
 from sklearn.model_selection import StratifiedKFold
 
 from terrain_odom.app.cluster import dask_cluster
-from terrain_odom.app.locate import check_out, create_folder, output_file
+from terrain_odom.app.locate import check_out, create_folder, output_file, writing_into
 from terrain_odom.config.classifier import ClassifierConfig, paper_config
 from terrain_odom.errors import ConfigError, InputFileError
 from terrain_odom.io.atomic import write_atomic, write_text_atomic
@@ -287,7 +287,8 @@ def train(
     folds = min(folds, *data.counts().values())
     validation = cross_validate(data, folds=folds) if folds >= 2 else None
     create_folder(out, MODEL_SUFFIXES)
-    save_classifier(model, target, tuning=None if tuning is None else tuning.to_dict())
+    with writing_into(out, target, "train", [target.name], MODEL_SUFFIXES):
+        save_classifier(model, target, tuning=None if tuning is None else tuning.to_dict())
     return TrainSummary(target, cfg, data.counts(), data.skipped, validation, tuning)
 
 

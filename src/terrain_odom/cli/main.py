@@ -4,15 +4,20 @@ Argument parsing only: each subcommand (one module each) unpacks its
 arguments, calls a function of :mod:`terrain_odom.app` and prints the typed
 result; the options several subcommands share live in
 :mod:`terrain_odom.cli.options`. Errors raised on purpose by the
-package (bad input files, invalid configuration) are printed as one line and
-exit with code 2; real bugs keep their traceback.
+package (bad input files, invalid configuration) and files the operating
+system refuses (read-only, a name too long, a full disk) are printed as one
+line, control characters escaped, and exit with code 2; ``SIGTERM`` and
+``SIGHUP`` stop a command as Ctrl-C does; real bugs keep their traceback.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
+import signal
 import sys
-from collections.abc import Sequence
+import threading
+from collections.abc import Iterator, Sequence
 
 from terrain_odom import __version__
 from terrain_odom.cli import (
@@ -30,7 +35,7 @@ from terrain_odom.cli import (
     train,
 )
 from terrain_odom.cli.options import warn_deprecated_spellings
-from terrain_odom.errors import TerrainOdomError
+from terrain_odom.errors import Interrupted, TerrainOdomError
 
 # One module per subcommand, each with ``add_parser(subparsers)``.
 SUBCOMMANDS = (
@@ -50,6 +55,8 @@ SUBCOMMANDS = (
 
 EXIT_USAGE = 2
 EXIT_INTERRUPTED = 130
+TERMINATING_SIGNALS = (signal.SIGTERM, signal.SIGHUP)
+"""Signals handled as Ctrl-C (exit code 128 + the signal's number)."""
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -69,24 +76,81 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; returns the exit code."""
     parser = build_parser()
     try:
-        args = parser.parse_args(argv)  # two spellings of one option: a ConfigError
-        warn_deprecated_spellings(args)
-        return args.func(args)
+        with _terminating_signals_interrupt():
+            args = parser.parse_args(argv)  # two spellings of one option: a ConfigError
+            warn_deprecated_spellings(args)
+            return int(args.func(args))
     except TerrainOdomError as exc:
-        print(f"terrain-odom: error: {exc}", file=sys.stderr)
-        return EXIT_USAGE
-    except (
-        FileNotFoundError,
-        FileExistsError,
-        IsADirectoryError,
-        NotADirectoryError,
-        PermissionError,
-    ) as exc:
-        print(f"terrain-odom: error: {exc.filename}: {exc.strerror}", file=sys.stderr)
-        return EXIT_USAGE
+        return _error(str(exc))
+    except OSError as exc:  # the operating system refused a file: name it
+        if exc.filename is None:
+            return _error(exc.strerror or str(exc))
+        return _error(f"{exc.filename}: {exc.strerror or exc}")
+    except Interrupted as exc:
+        print(f"terrain-odom: {exc}; outputs written so far are kept", file=sys.stderr)
+        return 128 + exc.signum
     except KeyboardInterrupt:
         print("terrain-odom: interrupted; outputs written so far are kept", file=sys.stderr)
         return EXIT_INTERRUPTED
+
+
+def _error(message: str) -> int:
+    """Print ``message`` as one line (control characters escaped); return :data:`EXIT_USAGE`."""
+    print(f"terrain-odom: error: {printable(message)}", file=sys.stderr)
+    return EXIT_USAGE
+
+
+def printable(text: str) -> str:
+    r"""Return ``text`` with control characters and undecodable bytes escaped: one safe line.
+
+    A file name may hold a newline, an ESC (a terminal's escape sequences)
+    or bytes that are not UTF-8; they are shown as Python escapes.
+
+    Examples
+    --------
+    >>> printable("a\nb\x1b[31m")
+    'a\\nb\\x1b[31m'
+    """
+    return "".join(_escape(char) for char in text)
+
+
+def _escape(char: str) -> str:
+    if char.isprintable() or char == " ":
+        return char
+    if "\udc80" <= char <= "\udcff":  # a byte that was not UTF-8 (surrogateescape)
+        return f"\\x{ord(char) - 0xDC00:02x}"
+    return repr(char)[1:-1]
+
+
+@contextlib.contextmanager
+def _terminating_signals_interrupt() -> Iterator[None]:
+    """Within: ``SIGTERM`` and ``SIGHUP`` raise :class:`Interrupted`, as Ctrl-C raises its own.
+
+    A signal the process ignores (``nohup``) stays ignored; after the first
+    signal, further ones are ignored while the command cleans up. Only in
+    the main thread (where Python delivers signals).
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def interrupt(signum: int, frame: object) -> None:
+        for number in previous:
+            signal.signal(number, signal.SIG_IGN)  # let the cleanup finish
+        raise Interrupted(signum)
+
+    previous = {
+        number: signal.getsignal(number)
+        for number in TERMINATING_SIGNALS
+        if signal.getsignal(number) is not signal.SIG_IGN
+    }
+    for number in previous:
+        signal.signal(number, interrupt)
+    try:
+        yield
+    finally:
+        for number, handler in previous.items():
+            signal.signal(number, handler)
 
 
 if __name__ == "__main__":

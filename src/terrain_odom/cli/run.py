@@ -112,7 +112,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
     from terrain_odom.app.record import require_rerun
     from terrain_odom.app.run import TerrainSource, images_config, run
-    from terrain_odom.app.run_folder import prepare_folder
+    from terrain_odom.app.run_folder import check_folder
     from terrain_odom.errors import ConfigError
 
     if args.no_terrain:
@@ -128,7 +128,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     if (
         args.wheels_topic is not None
     ):  # a bag is imported into OUT/bag/: refuse a run's folder first
-        prepare_folder(args.out, overwrite=args.overwrite)
+        check_folder(args.out, overwrite=args.overwrite)
     wheels, bag_config = wheels_from_bag(args, args.out)
     config = args.config or bag_config
     model: str | Path | None = find_input(args.classifier, "*.npz", "classifier model")

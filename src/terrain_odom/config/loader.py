@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any, Literal
@@ -24,6 +25,7 @@ from terrain_odom.errors import ConfigError, TerrainOdomError
 
 __all__ = [
     "load_config",
+    "validate_config",
     "load_classifier_config",
     "read_yaml",
     "config_to_dict",
@@ -123,6 +125,21 @@ def _check_consistency(cfg: Config) -> None:
         )
 
 
+class _Loader(yaml.SafeLoader):
+    """PyYAML's safe loader reading every float spelling a user writes.
+
+    YAML 1.1 (PyYAML) reads ``1.0e9`` (no exponent sign) and ``1e-300`` (no
+    dot) as strings; YAML 1.2 and every user read them as numbers.
+    """
+
+
+_Loader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"^[-+]?(?:[0-9][0-9_]*(?:\.[0-9_]*)?|\.[0-9_]+)[eE][-+]?[0-9]+$"),
+    list("-+0123456789."),
+)
+
+
 def read_yaml(
     path: Path, *, kind: str = "config file", error: type[TerrainOdomError] = ConfigError
 ) -> Any:
@@ -154,7 +171,7 @@ def read_yaml(
     except OSError as exc:
         raise error(f"{path}: cannot read {kind} ({exc.strerror or exc})") from None
     try:
-        return yaml.safe_load(text)
+        return yaml.load(text, Loader=_Loader)  # noqa: S506 - a SafeLoader
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         line = f", line {mark.line + 1}" if mark is not None else ""
@@ -187,6 +204,17 @@ def load_config(path: str | Path | None = None) -> Config:
         return Config()
     path = Path(path)
     return _validated(read_yaml(path), path)
+
+
+def validate_config(data: Any, where: str) -> Config:
+    """Return the configuration of YAML data (e.g. before writing it), validated.
+
+    Raises
+    ------
+    ConfigError
+        Naming ``where`` and the key of the first invalid or unknown entry.
+    """
+    return _validated(data, Path(where))
 
 
 def _validated(data: Any, path: Path) -> Config:

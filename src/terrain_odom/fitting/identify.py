@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -198,8 +199,15 @@ MIN_TURN = 0.5
 """Least total heading change of the training segments, rad."""
 
 
-def at_bounds(model: KinematicModel, params: np.ndarray) -> tuple[str, ...]:
+def at_bounds(
+    model: KinematicModel,
+    params: np.ndarray,
+    bounds: Sequence[tuple[float, float]] | None = None,
+) -> tuple[str, ...]:
     """Return the names of the parameters at or within 1 % of a search bound.
+
+    The bounds are the model's, or ``bounds`` (one ``(low, high)`` per
+    parameter, e.g. those a parameter file records).
 
     The distance is relative to the bound's magnitude, with 1 (m or unitless)
     as the least scale, so a bound at 0 flags values within 0.01.
@@ -211,7 +219,8 @@ def at_bounds(model: KinematicModel, params: np.ndarray) -> tuple[str, ...]:
     ('beta_2',)
     """
     flagged = []
-    for name, value, (lo, hi) in zip(model.param_names, params, model.bounds, strict=True):
+    limits = model.bounds if bounds is None else bounds
+    for name, value, (lo, hi) in zip(model.param_names, params, limits, strict=True):
         if any(abs(value - b) <= BOUND_TOLERANCE * max(abs(b), 1.0) for b in (lo, hi)):
             flagged.append(name)
     return tuple(flagged)

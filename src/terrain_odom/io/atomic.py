@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import errno
 import os
 import secrets
@@ -19,6 +20,8 @@ class OutputFileError(TerrainOdomError, OSError):
     """A file cannot be written; ``filename`` is the target (never a temporary file)."""
 
     def __str__(self) -> str:
+        if self.errno in (errno.ENOSPC, errno.EDQUOT):
+            return f"{self.filename}: cannot write: no space left on the device"
         return f"{self.filename}: cannot write ({self.strerror})"
 
 
@@ -59,9 +62,20 @@ class AtomicFile:
         except OSError as exc:
             raise OutputFileError(exc.errno, exc.strerror, str(self.path)) from exc
 
+    def write_bytes(self, data: bytes) -> None:
+        """Write ``data`` to the temporary file; ``OutputFileError`` naming ``path`` on failure."""
+        try:
+            self.handle.write(data)
+        except OSError as exc:
+            raise OutputFileError(exc.errno, exc.strerror, str(self.path)) from None
+
     def discard(self) -> None:
-        """Close and remove the temporary file, leaving ``path`` as it was; exiting then does nothing."""
-        self.handle.close()
+        """Close and remove the temporary file, leaving ``path`` as it was; exiting then does nothing.
+
+        Bytes that cannot be written any more (a full disk) are dropped with it.
+        """
+        with contextlib.suppress(OSError):
+            self.handle.close()  # closed even when its last flush fails
         self._temporary.unlink(missing_ok=True)
 
     def __enter__(self: _Atomic) -> _Atomic:
@@ -75,15 +89,16 @@ class AtomicFile:
     ) -> None:
         if self.handle.closed:  # discarded
             return
+        if exc_type is not None:  # the error at hand says more than a failing close
+            self.discard()
+            return
         try:
             with self.handle:
-                if exc_type is None:
-                    self.handle.flush()
-                    os.fsync(self.handle.fileno())
-            if exc_type is None:
-                os.replace(self._temporary, self.path)
+                self.handle.flush()
+                os.fsync(self.handle.fileno())
+            os.replace(self._temporary, self.path)
         except OSError as error:
-            raise OutputFileError(error.errno, error.strerror, str(self.path)) from error
+            raise OutputFileError(error.errno, error.strerror, str(self.path)) from None
         finally:
             self._temporary.unlink(missing_ok=True)
 
@@ -103,7 +118,7 @@ def write_atomic(path: str | os.PathLike[str], write: Callable[[BinaryIO], objec
         except OutputFileError:
             raise
         except OSError as exc:
-            raise OutputFileError(exc.errno, exc.strerror, str(path)) from exc
+            raise OutputFileError(exc.errno, exc.strerror, str(path)) from None
 
 
 def write_text_atomic(path: str | os.PathLike[str], text: str) -> None:

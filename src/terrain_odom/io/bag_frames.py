@@ -35,17 +35,30 @@ def _is_jpeg(msg: Any, msgtype: str) -> bool:
 
 def _decode(msg: Any, msgtype: str, where: str) -> np.ndarray:
     """Decode an image message to an OpenCV image (BGR, or single channel)."""
+    if msgtype != COMPRESSED_IMAGE:
+        _check_raw_size(msg, where)
     try:
         if msgtype == COMPRESSED_IMAGE:
             image = cv2.imdecode(np.frombuffer(bytes(msg.data), np.uint8), cv2.IMREAD_ANYCOLOR)
         else:
             image = message_to_cvimage(msg, _color_space(msg))
-    except (ImageConversionError, ImageFormatError, ValueError, cv2.error) as exc:
+    except (ImageConversionError, ImageFormatError, ValueError, TypeError, cv2.error) as exc:
         raise InputFileError(f"{where}: cannot decode the image ({exc})") from None
     if image is None or not np.asarray(image).size:
         kind = getattr(msg, "format", None) or getattr(msg, "encoding", "")
         raise InputFileError(f"{where}: cannot decode the image (not a {kind} image)")
     return np.asarray(image)
+
+
+def _check_raw_size(msg: Any, where: str) -> None:
+    """Refuse a raw ``Image`` whose data disagree with its height, width and row step."""
+    height, width, step = int(msg.height), int(msg.width), int(msg.step)
+    size = len(msg.data)
+    if height <= 0 or width <= 0 or step < width or size < height * step:
+        raise InputFileError(
+            f"{where}: an Image of {width}x{height} px with rows of {step} bytes needs "
+            f"{height * step} bytes of data, it holds {size}"
+        )
 
 
 def _encode(msg: Any, msgtype: str, fmt: str, where: str) -> bytes:

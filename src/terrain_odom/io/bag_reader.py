@@ -191,8 +191,16 @@ def stream_messages(
     Raises
     ------
     InputFileError
-        If a message cannot be read or deserialised (a damaged bag).
+        If a topic's messages are not CDR (a ROS 2 or MCAP bag's JSON,
+        Protobuf ...), or a message cannot be read or deserialised (a damaged bag).
     """
+    for conn in connections:
+        encoding = getattr(conn.ext, "serialization_format", "cdr")  # ROS 1: its own
+        if encoding != "cdr":
+            raise InputFileError(
+                f"{path}: topic {conn.topic}: messages encoded as {encoding!r}; terrain-odom "
+                "reads ROS 1 and CDR (ROS 2) messages"
+            )
     total = sum(c.msgcount for c in connections)
     bar = tqdm(total=total, unit="msg", disable=None if progress is None else not progress)
     try:

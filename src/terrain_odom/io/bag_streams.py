@@ -42,7 +42,15 @@ from terrain_odom.io.bag_messages import (
 )
 from terrain_odom.io.bag_reader import BagMessage
 
-__all__ = ["HeadingStream", "PoseStream", "StampRule", "WheelStream", "median_sigma"]
+__all__ = [
+    "HeadingStream",
+    "PoseStream",
+    "StampRule",
+    "WheelStream",
+    "median_sigma",
+    "outlying_stamps",
+    "MAX_STAMP_SKEW",
+]
 
 
 @dataclass(frozen=True)
@@ -60,6 +68,32 @@ class StampRule:
             return message.receive_ns
         ns = stamp_ns((header if header is not None else message.msg.header).stamp)
         return ns or None
+
+
+MAX_STAMP_SKEW = 3600.0
+"""s: a header stamp further than this from the others' (against the bag's receive times) is wrong."""
+_OUTLYING = f"header stamp over {MAX_STAMP_SKEW:g} s away from the others' (a wrong clock or stamp)"
+
+
+def outlying_stamps(stamp_ns: np.ndarray, receive_ns: np.ndarray) -> np.ndarray:
+    """Mask of the stamps that lie over :data:`MAX_STAMP_SKEW` from the rest, judged by receive time.
+
+    A message's skew is its stamp minus its receive time; the topic's
+    median skew is its clock's offset (0, or a simulated clock's); a stamp
+    whose skew differs from it by more than an hour belongs to no recording
+    of this bag (e.g. 2**31 - 1 s). The mask is empty for ``--stamps
+    receive`` (no skew).
+
+    Examples
+    --------
+    >>> hour = 3_600 * 10**9
+    >>> outlying_stamps(np.array([5, 6, 7 + 2 * hour, 8]), np.array([1, 2, 3, 4])).tolist()
+    [False, False, True, False]
+    """
+    if not stamp_ns.size:
+        return np.zeros(0, dtype=bool)
+    skew = (stamp_ns - receive_ns).astype(np.float64)
+    return np.asarray(np.abs(skew - np.median(skew)) > MAX_STAMP_SKEW * 1e9)
 
 
 def median_sigma(values: Sequence[float]) -> float | None:
@@ -86,6 +120,7 @@ class _Stream:
     stamps: StampRule
     stamps_kept: array[int] = field(default_factory=lambda: array("q"))
     values_kept: array[float] = field(default_factory=lambda: array("d"))
+    receive_kept: array[int] = field(default_factory=lambda: array("q"))
     skipped: dict[str, int] = field(default_factory=dict)
     sensor_frame: str | None = None
 
@@ -103,6 +138,7 @@ class _Stream:
             self._skip("header stamp 0 (unset; --stamps receive uses the bag's time)")
             return
         self.stamps_kept.append(stamp)
+        self.receive_kept.append(message.receive_ns)
         if isinstance(value, float):
             self.values_kept.append(value)
         else:
@@ -112,10 +148,19 @@ class _Stream:
         self.skipped[reason] = self.skipped.get(reason, 0) + 1
 
     def rows(self, width: int) -> StampedRows:
-        """Return the stamps and values kept so far; values of shape (N, width) (or (N,) if 0)."""
+        """Return the stamps and values kept; values of shape (N, width) (or (N,) if 0).
+
+        Messages whose stamp is an outlier (:func:`outlying_stamps`) are left
+        out and counted as skipped.
+        """
         n = len(self.stamps_kept)
         values = np.array(self.values_kept, dtype=float).reshape((n, width) if width else (n,))
-        return StampedRows(np.array(self.stamps_kept, dtype=np.int64), values)
+        stamps = np.array(self.stamps_kept, dtype=np.int64)
+        odd = outlying_stamps(stamps, np.array(self.receive_kept, dtype=np.int64))
+        if odd.any():
+            self.skipped[_OUTLYING] = int(odd.sum())  # set, not added: rows() may be asked again
+            stamps, values = stamps[~odd], values[~odd]
+        return StampedRows(stamps, values)
 
 
 @dataclass
@@ -136,12 +181,16 @@ class WheelStream(_Stream):
         """Convert and keep one wheel message."""
         msg = message.msg
         if message.msgtype == JOINT_STATE:
-            self._keep(message, self._joint_state(msg))
+            with np.errstate(invalid="ignore", over="ignore"):  # judged below
+                speeds = self._joint_state(msg)
         else:
             twist = msg.twist.twist if message.msgtype == ODOMETRY else msg.twist
-            assert self.track_width is not None
+            assert self.track_width is not None  # Python floats: NaN, inf pass silently
             speeds = track_speeds(float(twist.linear.x), float(twist.angular.z), self.track_width)
-            self._keep(message, speeds)
+        if not np.isfinite(speeds).all():  # a driver's NaN or inf: dropped, counted
+            self._skip("wheel speed not finite (NaN or inf)")
+            return
+        self._keep(message, speeds)
 
     def _joint_state(self, msg: Any) -> tuple[float, float]:
         names = tuple(msg.name)

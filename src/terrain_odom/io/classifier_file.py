@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import datetime
 import json
+import re
 import zipfile
 import zlib
 from collections.abc import Mapping
@@ -124,8 +125,10 @@ def load_classifier(
     """
     path = Path(path)
     arrays = _read_arrays(path)
-    cfg = _check_metadata(path, _metadata(path, arrays), expected)  # versions before the arrays
+    meta = _metadata(path, arrays)
+    cfg = _check_metadata(path, meta, expected)  # versions before the arrays
     _check_arrays(path, cfg, arrays)
+    _check_labels(path, meta, arrays)
     try:
         return TerrainClassifier.from_arrays(cfg, arrays)
     except ValueError as exc:
@@ -225,6 +228,42 @@ def _check_arrays(path: Path, cfg: ClassifierConfig, arrays: dict[str, Any]) -> 
         raise InputFileError(f"{path}: inconsistent model file: non-finite features or scaler")
     if not (arrays["scaler_scale"] > 0).all():
         raise InputFileError(f"{path}: inconsistent model file: a scaler_scale is not > 0")
+
+
+_LABEL = re.compile(r"[^./\\\x00-\x1f\x7f][^/\\\x00-\x1f\x7f]*")
+"""A terrain label: a class folder's name (no path separator, control character, leading dot)."""
+
+
+def _check_labels(path: Path, meta: dict[str, Any], arrays: dict[str, Any]) -> None:
+    """Raise unless the labels are text, one per sample, folder names, and the metadata's classes.
+
+    Raises
+    ------
+    InputFileError
+        Integer labels, a label like ``carpet/../x``, a count that differs
+        from the samples', or metadata ``classes`` that contradict the labels.
+    """
+    labels, samples = arrays["labels"], len(arrays["features"])
+    if labels.dtype.kind != "U" or labels.shape != (samples,):
+        raise InputFileError(
+            f"{path}: inconsistent model file: labels are {labels.dtype} of shape "
+            f"{labels.shape}, not {samples} terrain names (text)"
+        )
+    classes = sorted(set(labels.tolist()))
+    bad = next((c for c in classes if not _LABEL.fullmatch(c)), None)
+    if bad is not None:
+        raise InputFileError(
+            f"{path}: inconsistent model file: label {bad!r} is no terrain name (a class "
+            "folder's name: no '/', no control character, not starting with '.')"
+        )
+    claimed = meta.get("classes")
+    if claimed is not None and (
+        not isinstance(claimed, list) or sorted(map(str, claimed)) != classes
+    ):
+        raise InputFileError(
+            f"{path}: inconsistent model file: its metadata lists classes {claimed!r} but "
+            f"its labels are {classes}"
+        )
 
 
 def _check_metadata(

@@ -2,7 +2,7 @@
 
 A frame folder holds the images and, optionally, ``frames.csv`` with the
 columns ``t`` (time, s, the wheel log's clock) and ``file`` (image path
-relative to the folder). Without ``frames.csv``, every image file name (less
+relative to the folder, within it: an absolute path or ``..`` is refused). Without ``frames.csv``, every image file name (less
 its suffix) must be its time in seconds, e.g. ``12.340.png``.
 
 Examples
@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from pathlib import Path
+from pathlib import Path, PurePath
 
 import numpy as np
 
@@ -86,6 +86,13 @@ def read_frames(images: str | Path) -> FrameList:
         for row, name in enumerate(names):
             if not name:
                 raise table.error("empty image file name", row=row, column="file")
+            if PurePath(name).is_absolute() or ".." in PurePath(name).parts:
+                raise table.error(
+                    f"{shown(name)} lies outside the frames' folder; list each image by its "
+                    "path within the folder",
+                    row=row,
+                    column="file",
+                )
         order = np.argsort(t, kind="stable")
         return FrameList(t[order], [root / names[i] for i in order], str(index))
     files = sorted(p for p in root.iterdir() if p.is_file() and p.suffix.lower() in IMAGE_SUFFIXES)

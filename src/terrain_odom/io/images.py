@@ -14,6 +14,8 @@ everything after works on RGB.
 
 from __future__ import annotations
 
+import os
+import stat
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -25,10 +27,44 @@ from terrain_odom.errors import InputFileError
 if TYPE_CHECKING:  # the feature code (scikit-image, joblib) loads when a folder is scanned
     from terrain_odom.vision.dataset import LabelledImages
 
-__all__ = ["IMAGE_SUFFIXES", "scan_image_folder", "read_image_rgb"]
+__all__ = [
+    "IMAGE_SUFFIXES",
+    "MAX_IMAGE_BYTES",
+    "scan_image_folder",
+    "read_image_bytes",
+    "decode_image_rgb",
+    "read_image_rgb",
+]
 
 IMAGE_SUFFIXES = frozenset({".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff"})
 """Image file suffixes recognised in folders (compared in lower case)."""
+
+
+def _check_class_folders(root: Path, class_dirs: list[Path]) -> None:
+    """Refuse class folders that share images: one inside another, or holding the root.
+
+    A symbolic link to the images folder itself (or to another class) would
+    train the same images under two labels.
+
+    Raises
+    ------
+    InputFileError
+        Naming the two folders.
+    """
+    real = root.resolve()
+    resolved = [(d, d.resolve()) for d in class_dirs]
+    for class_dir, target in resolved:
+        if real.is_relative_to(target):
+            raise InputFileError(
+                f"{class_dir}: class folder is (a link to) {target}, which holds the images "
+                "folder itself: its images would be trained under two labels"
+            )
+        for other, other_target in resolved:
+            if other != class_dir and other_target.is_relative_to(target):
+                raise InputFileError(
+                    f"{other}: class folder lies within the class folder {class_dir} "
+                    f"({other_target}): its images would be trained under two labels"
+                )
 
 
 def _is_hidden(path: Path, root: Path) -> bool:
@@ -53,6 +89,7 @@ def scan_image_folder(root: str | Path) -> LabelledImages:
             f"{root}: needs one sub-folder per terrain class and at least 2 classes, "
             f"found {[p.name for p in class_dirs]}"
         )
+    _check_class_folders(root, class_dirs)
     paths: list[Path] = []
     labels: list[str] = []
     for class_dir in class_dirs:
@@ -73,19 +110,75 @@ def scan_image_folder(root: str | Path) -> LabelledImages:
     return LabelledImages(root, tuple(p.name for p in class_dirs), tuple(paths), tuple(labels))
 
 
-def read_image_rgb(path: str | Path) -> NDArray[np.uint8] | None:
-    """Decode an image file to RGB uint8 (H, W, 3); ``None`` if it cannot be decoded.
+MAX_IMAGE_BYTES = 256 * 2**20
+"""Largest image file read, bytes (a camera frame is a few MB at most)."""
+
+
+def read_image_bytes(path: str | Path) -> tuple[bytes | None, str]:
+    """Return an image file's bytes, or ``(None, problem)``; never blocks.
+
+    Only a regular file is read (a FIFO, a device or a folder named like an
+    image is a problem, not a wait), and at most :data:`MAX_IMAGE_BYTES`.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> fifo = os.path.join(tempfile.mkdtemp(), "0.5.png")
+    >>> os.mkfifo(fifo)
+    >>> read_image_bytes(fifo)
+    (None, 'not a regular file (a FIFO)')
+    """
+    try:
+        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
+    except FileNotFoundError:
+        return None, "missing"
+    except OSError as exc:
+        return None, f"unreadable ({exc.strerror})"
+    mode = os.fstat(fd).st_mode
+    if not stat.S_ISREG(mode):
+        os.close(fd)
+        return None, f"not a regular file ({_kind(mode)})"
+    with os.fdopen(fd, "rb") as handle:
+        try:
+            data = handle.read(MAX_IMAGE_BYTES + 1)
+        except OSError as exc:
+            return None, f"unreadable ({exc.strerror})"
+    if len(data) > MAX_IMAGE_BYTES:
+        return None, f"larger than {MAX_IMAGE_BYTES >> 20} MiB"
+    return data, ""
+
+
+def _kind(mode: int) -> str:
+    kinds = (
+        (stat.S_ISFIFO, "a FIFO"),
+        (stat.S_ISDIR, "a folder"),
+        (stat.S_ISCHR, "a character device"),
+        (stat.S_ISBLK, "a block device"),
+        (stat.S_ISSOCK, "a socket"),
+    )
+    return next((name for test, name in kinds if test(mode)), "not a file")
+
+
+def decode_image_rgb(data: bytes) -> NDArray[np.uint8] | None:
+    """Decode an image file's bytes to RGB uint8 (H, W, 3); ``None`` if they are no image.
 
     Grey images are replicated to 3 channels, an alpha channel is dropped,
     16-bit images are scaled to 8 bits (OpenCV's ``IMREAD_COLOR``).
     """
-    try:
-        data = np.fromfile(path, dtype=np.uint8)
-    except OSError:
-        return None
     import cv2  # ~0.1 s: loaded when an image is read, not by a wheel-only run
 
-    bgr = cv2.imdecode(data, cv2.IMREAD_COLOR) if data.size else None
+    buffer = np.frombuffer(data, dtype=np.uint8)
+    bgr = cv2.imdecode(buffer, cv2.IMREAD_COLOR) if buffer.size else None
     if bgr is None:
         return None
     return np.asarray(cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB), dtype=np.uint8)
+
+
+def read_image_rgb(path: str | Path) -> NDArray[np.uint8] | None:
+    """Decode an image file to RGB uint8 (H, W, 3); ``None`` if it cannot be read or decoded.
+
+    See :func:`read_image_bytes` (regular files only, size-bounded) and
+    :func:`decode_image_rgb`.
+    """
+    data, _ = read_image_bytes(path)
+    return None if data is None else decode_image_rgb(data)

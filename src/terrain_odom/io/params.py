@@ -41,6 +41,7 @@ from terrain_odom.config import IcrState, RobotConfig
 from terrain_odom.config.loader import read_yaml
 from terrain_odom.errors import ConfigError, InputFileError
 from terrain_odom.estimation.icr_ekf import IcrPriors
+from terrain_odom.fitting.identify import at_bounds
 from terrain_odom.io.atomic import write_atomic
 from terrain_odom.kinematics import eccentricity, get_model, steering_efficiency
 from terrain_odom.records import WheelLog
@@ -271,7 +272,60 @@ def read_params(path: str | Path) -> ModelParams:
     if track_width is not None and track_width <= 0:
         raise InputFileError(f"{path}: track_width must be > 0 m, got {track_width}")
     info = {k: data[k] for k in sorted(_INFO_KEYS) if k in data}
-    return ModelParams(model.name, sets, track_width, info)
+    params = ModelParams(model.name, sets, track_width, info)
+    _check_sets(params, path)
+    return params
+
+
+def _check_sets(params: ModelParams, path: Path) -> None:
+    """Refuse parameter sets the file contradicts: outside its bounds, ``at_bounds`` untrue, y_l <= y_r.
+
+    Raises
+    ------
+    InputFileError
+        Naming the set, the parameter and the file's own figures.
+    """
+    model = get_model(params.model)
+    limits = _bounds(params.info.get("bounds"), model.param_names, path)
+    for label, ps in params.sets.items():
+        where = f"{path}: " + (f"terrains.{label}." if params.per_terrain else "")
+        if {"y_l", "y_r"} <= set(ps.params) and not ps.params["y_l"] > 0.0 > ps.params["y_r"]:
+            raise InputFileError(
+                f"{where}params: the ICRs need y_l > 0 > y_r, got y_l={ps.params['y_l']:.6g}, "
+                f"y_r={ps.params['y_r']:.6g} (edited by hand? swapped sides?)"
+            )
+        if limits is None:
+            continue
+        for name, (lo, hi) in zip(model.param_names, limits, strict=True):
+            if not lo <= ps.params[name] <= hi:
+                raise InputFileError(
+                    f"{where}params.{name}: {ps.params[name]:.6g} lies outside its bounds "
+                    f"[{lo:g}, {hi:g}] recorded in the file (edited by hand?)"
+                )
+        vector = np.array([ps.params[name] for name in model.param_names])
+        flagged = at_bounds(model, vector, limits)
+        if set(flagged) != set(ps.at_bounds):
+            raise InputFileError(
+                f"{where}at_bounds: says {sorted(ps.at_bounds)}, but the parameters at a bound "
+                f"are {sorted(flagged)} (edited by hand?)"
+            )
+
+
+def _bounds(value: object, names: tuple[str, ...], path: Path) -> list[tuple[float, float]] | None:
+    """Return the file's ``bounds`` per parameter (None if it records none)."""
+    if value is None:
+        return None
+    bounds = _mapping(value, f"{path}: bounds")
+    pairs = []
+    for name in names:
+        pair = bounds.get(name)
+        if not isinstance(pair, list) or len(pair) != 2:
+            raise InputFileError(f"{path}: bounds.{name}: expected [low, high], got {pair!r}")
+        lo, hi = (_number(v, f"{path}: bounds.{name}") for v in pair)
+        if not lo < hi:
+            raise InputFileError(f"{path}: bounds.{name}: low {lo:g} is not below high {hi:g}")
+        pairs.append((lo, hi))
+    return pairs
 
 
 def _set_entry(mp: ModelParams, ps: ParamSet) -> dict[str, Any]:

@@ -18,6 +18,7 @@ written as an empty cell, as in the wheel-log format, infinities as
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import io
 import numbers
@@ -26,12 +27,13 @@ import time
 from collections.abc import Mapping, Sequence
 from itertools import repeat
 from types import TracebackType
+from typing import NoReturn
 
 import numpy as np
 import orjson
 
 from terrain_odom.io._csv import CsvTable, collector_paused, floats_or_nan, read_csv
-from terrain_odom.io.atomic import AtomicFile
+from terrain_odom.io.atomic import AtomicFile, OutputFileError
 
 __all__ = [
     "TrajectoryBlocks",
@@ -115,8 +117,15 @@ class TrajectoryWriter:
             )
         self._flush_rows = flush_rows
         self._flush_seconds = flush_seconds
-        self._file = open(path, "w", encoding="utf-8", newline="")
-        self._csv = csv.writer(self._file, lineterminator="\n")
+        self._path = os.fspath(path)
+        try:
+            self._fd: int | None = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o666)
+        except OSError as exc:
+            raise OutputFileError(exc.errno, exc.strerror, self._path) from None
+        self._whole = 0  # bytes on disk, ending with a whole row
+        self._rows = 0  # rows on disk
+        self._buffer = io.StringIO(newline="")  # rows not yet written
+        self._csv = csv.writer(self._buffer, lineterminator="\n")
         self._csv.writerow(self._columns)
         self._pending = 0
         self.flush()
@@ -127,9 +136,14 @@ class TrajectoryWriter:
         return self._columns
 
     @property
+    def rows_written(self) -> int:
+        """Rows on disk (flushed), not counting the header."""
+        return self._rows
+
+    @property
     def closed(self) -> bool:
         """Whether :meth:`close` has been called."""
-        return self._file.closed
+        return self._fd is None
 
     def write(self, row: Mapping[str, Cell]) -> None:
         """Append one row.
@@ -199,7 +213,7 @@ class TrajectoryWriter:
             if len(cells) == 1:  # a lone empty cell must be quoted: the csv module's rules
                 self._csv.writerows(zip(*cells, strict=True))
             elif rows:  # the csv module's writer costs ~6 us a row; joining ~1 us
-                self._file.write("\n".join(map(",".join, zip(*cells, strict=True))) + "\n")
+                self._buffer.write("\n".join(map(",".join, zip(*cells, strict=True))) + "\n")
         self._written(rows)
 
     def _check_keys(self, row: Mapping[str, object]) -> None:
@@ -221,17 +235,46 @@ class TrajectoryWriter:
             self.flush()
 
     def flush(self) -> None:
-        """Push every written row to the operating system and sync it to disk."""
-        self._file.flush()
-        os.fsync(self._file.fileno())
+        """Push every written row to the operating system and sync it to disk.
+
+        Raises
+        ------
+        OutputFileError
+            The file cannot be written (a full disk ...): it is cut back to
+            its last whole row and closed.
+        """
+        if self._fd is None:
+            return
+        data = self._buffer.getvalue().encode("utf-8")
+        self._buffer.seek(0)
+        self._buffer.truncate()
+        try:
+            view = memoryview(data)
+            while view:
+                view = view[os.write(self._fd, view) :]
+            os.fsync(self._fd)
+        except OSError as exc:
+            self._fail(exc)
+        self._whole += len(data)
+        self._rows += self._pending
         self._pending = 0
         self._last_flush = time.monotonic()
 
     def close(self) -> None:
         """Flush and close the file; closing again does nothing."""
-        if not self.closed:
+        if self._fd is not None:
             self.flush()
-            self._file.close()
+            os.close(self._fd)
+            self._fd = None
+
+    def _fail(self, exc: OSError) -> NoReturn:
+        """Cut the file back to its last whole row, close it, raise naming the file."""
+        assert self._fd is not None
+        with contextlib.suppress(OSError):
+            os.ftruncate(self._fd, self._whole)
+        os.close(self._fd)
+        self._fd = None
+        raise OutputFileError(exc.errno, exc.strerror, self._path) from None
 
     def __enter__(self) -> TrajectoryWriter:
         return self
@@ -329,7 +372,7 @@ class TumWriter(AtomicFile):
 
     def __init__(self, path: StrPath) -> None:
         super().__init__(path)
-        self.handle.write(b"# timestamp tx ty tz qx qy qz qw\n")
+        self.write_bytes(b"# timestamp tx ty tz qx qy qz qw\n")
 
     def write(self, t: np.ndarray, x: np.ndarray, y: np.ndarray, yaw: np.ndarray) -> None:
         """Append rows (1-D arrays of one length: s, m, m, rad); ``ValueError`` if not finite."""
@@ -343,7 +386,7 @@ class TumWriter(AtomicFile):
         level = repeat("0.0 0.0 0.0", len(t))  # z, qx, qy
         with collector_paused():  # a tuple per row
             lines = map(" ".join, zip(t, x, y, level, qz, qw, strict=True))
-            self.handle.write("".join(line + "\n" for line in lines).encode("ascii"))
+            self.write_bytes("".join(line + "\n" for line in lines).encode("ascii"))
 
 
 def read_trajectory_csv(path: StrPath) -> dict[str, np.ndarray]:

@@ -6,7 +6,8 @@ and cells are stripped of surrounding whitespace; unknown columns are ignored.
 The columns:
 
 ``t``
-    Time, s. Finite, strictly increasing within a segment.
+    Time, s. Finite, strictly increasing within a segment, with no gap longer
+    than :data:`MAX_SEGMENT_GAP` (60 s) in it.
 ``v_l, v_r`` *or* ``omega_l, omega_r``
     Left/right track surface speeds, m/s, or wheel angular speeds, rad/s
     (multiplied by ``wheel_radius`` on read). Exactly one pair; every cell
@@ -46,6 +47,9 @@ __all__ = ["read_wheel_log", "write_wheel_log"]
 
 _SPEED_PAIRS = (("v_l", "v_r"), ("omega_l", "omega_r"))
 _POSE_COLUMNS = ("x", "y", "yaw")
+MAX_SEGMENT_GAP = 60.0
+"""Longest time without wheel speeds within a segment, s: dead reckoning across a longer one is
+no estimate (the covariance grows without bound); the log must start a new segment there."""
 _KNOWN_COLUMNS = ("t", *_SPEED_PAIRS[0], *_SPEED_PAIRS[1], *_POSE_COLUMNS, "terrain", "segment")
 
 
@@ -255,6 +259,17 @@ def _times(table: CsvTable, segment: np.ndarray, last: _Last | None) -> np.ndarr
             f"{line}; time must strictly increase within a segment "
             f"(segment {int(segment_all[k])})",
             row=row + 1,
+            column="t",
+        )
+    gaps = np.flatnonzero((runs[1:] == runs[:-1]) & (t_all[1:] - t_all[:-1] > MAX_SEGMENT_GAP))
+    if gaps.size:
+        k = int(gaps[0])
+        raise table.error(
+            f"{float(t_all[k + 1] - t_all[k]):.6g} s without wheel speeds within segment "
+            f"{int(segment_all[k])} (t = {float(t_all[k])!r} -> {float(t_all[k + 1])!r} s), more "
+            f"than {MAX_SEGMENT_GAP:g} s: a recording break or a wrong stamp? Start a new "
+            "segment there (column 'segment') or remove the row",
+            row=k + 1 - before,
             column="t",
         )
     return t

@@ -29,6 +29,7 @@ __all__ = [
     "STATE_UNITS",
     "trajectory_figure",
     "states_figure",
+    "data_breaks",
     "frame_labels_figure",
     "travelled",
 ]
@@ -64,6 +65,27 @@ def travelled(xy: np.ndarray, breaks: np.ndarray | None = None) -> np.ndarray:
     if breaks is not None:
         steps[np.asarray(breaks, dtype=int)[np.asarray(breaks) > 0] - 1] = 0.0
     return np.concatenate(([0.0], np.cumsum(steps)))
+
+
+def data_breaks(log: WheelLog) -> np.ndarray:
+    """Rows where the data break: every segment start and every change of the log's terrain label.
+
+    Lines are not drawn across them: a new segment (its time restarts, or a
+    stitched recording) starts elsewhere, and a stitched log changes terrain
+    where one recording ends and the next begins.
+
+    Examples
+    --------
+    >>> log = WheelLog(np.arange(4.0), np.zeros(4), np.zeros(4), np.full((4, 3), np.nan),
+    ...                np.array(["grass", "grass", "asphalt", "asphalt"]), np.zeros(4, int))
+    >>> data_breaks(log).tolist()
+    [0, 2]
+    """
+    starts = log.run_starts()
+    if log.terrain is None or len(log) < 2:
+        return starts
+    changes = np.flatnonzero(log.terrain[1:] != log.terrain[:-1]) + 1
+    return np.union1d(starts, changes)
 
 
 def _broken(values: np.ndarray, index: np.ndarray, starts: np.ndarray) -> np.ndarray:
@@ -160,7 +182,7 @@ def trajectory_figure(
     ratios = [5.6 * ratio, 2.0] if has_error else None
     axes = fig.subplots(2 if has_error else 1, 1, height_ratios=ratios)
     ax = axes[0] if has_error else axes
-    starts = log.run_starts()
+    starts = data_breaks(log)
     if truth is not None:
         inside = (truth.t >= log.t[0]) & (truth.t <= log.t[-1])
         t_xy = truth.pose[inside, :2][decimate(int(inside.sum()))]
@@ -257,7 +279,11 @@ def _change_legend(ax: Any, changes: Sequence[TerrainChange], colours: dict[str,
 
 
 def states_figure(
-    t: np.ndarray, result: OdometryResult, *, truth: GroundTruth | None = None
+    t: np.ndarray,
+    result: OdometryResult,
+    *,
+    truth: GroundTruth | None = None,
+    starts: np.ndarray | None = None,
 ) -> Any:
     """ICR states (and ``alpha``) against time with +-2 sigma bands; terrain and resets marked.
 
@@ -271,6 +297,8 @@ def states_figure(
         dashed blue a terrain-memory restore).
     truth : GroundTruth, optional
         True ICRs (and ``alpha``), drawn in black.
+    starts : ndarray of int, optional
+        Rows where a segment starts (its time may restart): lines break there.
 
     Returns
     -------
@@ -285,21 +313,25 @@ def states_figure(
     colours = terrain_colours(np.unique(labels))
     spans = terrain_spans(t, labels)  # every row: no span is lost to the decimation
     truth_values = _truth_states(truth, t) if truth is not None else {}
+    cuts = np.zeros(0, dtype=int) if starts is None else np.asarray(starts, dtype=int)
+    t_line = _broken(t, index, cuts)  # NaN between segments: no line joins them
     for ax, name in zip(axes, names, strict=True):
         col = list(result.names).index(name)
-        value, std = result.states[index, col], result.stds[index, col]
+        value = _broken(result.states[:, col], index, cuts)
+        std = _broken(result.stds[:, col], index, cuts)
         _shade_terrain(ax, spans, colours)
-        ax.fill_between(t[index], value - 2 * std, value + 2 * std, color="C0", alpha=0.25,
+        ax.fill_between(t_line, value - 2 * std, value + 2 * std, color="C0", alpha=0.25,
                         lw=0, label="estimate ± 2σ")  # fmt: skip
-        ax.plot(t[index], value, color="C0", lw=1.2, label="estimate")
+        ax.plot(t_line, value, color="C0", lw=1.2, label="estimate")
         if name in truth_values:
-            ax.plot(t[index], truth_values[name][index], "k--", lw=1.0, label="truth")
+            truth_line = _broken(truth_values[name], index, cuts)
+            ax.plot(t_line, truth_line, "k--", lw=1.0, label="truth")
         _mark_changes(ax, result.changes)
         ax.set_ylabel(f"{name} ({STATE_UNITS[name]})")
         ax.grid(True, alpha=0.3)
     axes[0].set_title("ICR states (shaded: confirmed terrain)")
     axes[-1].set_xlabel("t (s)")
-    axes[-1].set_xlim(t[0], t[-1])
+    axes[-1].set_xlim(float(np.min(t)), float(np.max(t)))  # segments may restart time
     _change_legend(axes[-1], result.changes, colours)
     return fig
 

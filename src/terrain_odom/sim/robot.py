@@ -15,6 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from terrain_odom.errors import ConfigError
 from terrain_odom.estimation.pose_measurement import Mounting, sensor_pose
 from terrain_odom.kinematics import arc_increment, compose, twist_icr, wrap_angle
 from terrain_odom.sim.world import GroundMap
@@ -107,8 +108,10 @@ def drive(
 
     Raises
     ------
+    ConfigError
+        The robot leaves the map (the duration is too long for it).
     ValueError
-        If the robot leaves the map or meets a terrain missing from ``table``.
+        It meets a terrain missing from ``table``.
     """
     n = int(np.ceil(duration * rate - 1e-9))
     t = np.arange(n) / rate
@@ -120,7 +123,10 @@ def drive(
     for k in range(n):
         name = str(ground.terrain_at(current[:2]))
         if name == "":
-            raise ValueError(f"the robot left the map at t={t[k]:.2f} s, pose {current.tolist()}")
+            raise ConfigError(
+                f"duration: the robot leaves the scenario's map at t = {t[k]:.2f} s (x, y = "
+                f"{current[0]:.1f}, {current[1]:.1f} m); simulate at most {t[k]:.0f} s of it"
+            )
         if name not in table:
             raise ValueError(f"terrain {name!r} has no kinematic parameters")
         p = table[name]

@@ -48,6 +48,9 @@ TERRAIN_TABLE: Mapping[str, TerrainParams] = {
 }
 """True ICRs (m) and slip for a 0.5-m-wide robot on each terrain."""
 
+MAX_SIMULATED_ROWS = 5_000_000
+"""Most wheel rows a simulation makes (about 28 h at 50 Hz): its arrays live in memory."""
+
 SIM_CAMERA = CameraConfig(
     width=320,
     height=240,
@@ -186,6 +189,14 @@ class Scenario:
     patch_margin: float = 1.0
 
     def __post_init__(self) -> None:
+        rows = self.duration * self.wheel_rate
+        if not rows <= MAX_SIMULATED_ROWS:
+            hours = MAX_SIMULATED_ROWS / self.wheel_rate / 3600.0
+            raise ConfigError(
+                f"duration: {self.duration:g} s at {self.wheel_rate:g} Hz is {rows:.3g} rows, more "
+                f"than the {MAX_SIMULATED_ROWS:,} a simulation holds in memory: at most "
+                f"{hours:.1f} h; simulate shorter runs"
+            )
         for name, rate in (("pose_rate", self.pose_rate), ("frame_rate", self.frame_rate)):
             ratio = self.wheel_rate / rate if rate > 0 else 0.0
             if not (ratio >= 1.0 and abs(ratio - round(ratio)) < 1e-9):
