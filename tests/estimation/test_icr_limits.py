@@ -21,7 +21,9 @@ from terrain_odom.config import (
 from terrain_odom.estimation import IcrEkf, IcrPriors
 from terrain_odom.kinematics import integrate, twist_icr, wrap_angle
 
-LIMITS = IcrLimits(half_width_min=0.2, half_width_max=2.0, x_icr_max=0.05, alpha_min=0.8, alpha_max=1.1)
+LIMITS = IcrLimits(
+    half_width_min=0.2, half_width_max=2.0, x_icr_max=0.05, alpha_min=0.8, alpha_max=1.1
+)
 
 
 def _config(estimate_alpha: bool = True) -> EkfConfig:
