@@ -27,7 +27,7 @@ TRACK = 1.0  # m
 
 
 def _log(v_l, v_r, pose, dt: float = DT) -> WheelLog:
-    """A log of the given rows; pose rows other than every ``PER``-th are left unmeasured."""
+    """Return a log of these rows, its poses measured on every ``PER``-th row only."""
     n = len(v_l)
     pose = np.array(pose, dtype=float)
     pose[np.arange(n) % PER != 0] = np.nan
