@@ -96,3 +96,107 @@ def test_ate_of_a_mirrored_estimate_is_the_best_rotation_residual():
     assert result.rmse == pytest.approx(np.sqrt(_residual(a, est, CHIRAL) / len(est)), rel=1e-12)
     assert result.alignment.angle == pytest.approx(_best_rotation_angle(est, CHIRAL), abs=1e-12)
     assert result.rmse > 0.5  # a mirror image cannot be rotated onto its original
+
+
+# ------------------------------------------------ gaps found by mutmut (docs/testing.md)
+def test_ate_to_dict_names_its_fields_in_their_units():
+    result = absolute_trajectory_error(CHIRAL @ np.array([[0.0, -1.0], [1.0, 0.0]]).T + 2.0, CHIRAL)
+    d = result.to_dict()
+    assert d == {
+        "rmse_m": result.rmse,
+        "angle_rad": result.alignment.angle,
+        "translation_m": result.alignment.translation.tolist(),
+        "count": 5,
+    }
+    assert d["angle_rad"] == pytest.approx(-np.pi / 2, abs=1e-12) and d["rmse_m"] < 1e-12
+
+
+def test_ate_skips_only_the_rows_not_finite_in_the_estimate_or_the_reference():
+    est, ref = CHIRAL + [1.0, 2.0], CHIRAL.copy()
+    est[1, 0] = np.nan  # one row without an estimate
+    ref[3] = np.nan  # another without a measurement
+    result = absolute_trajectory_error(est, ref)
+    assert result.count == 3 and result.rmse < 1e-12
+    np.testing.assert_allclose(result.alignment.translation, [-1.0, -2.0], atol=1e-12)
+
+
+def test_align_se2_takes_two_points_and_names_a_wrong_shape():
+    two = np.array([[0.0, 0.0], [1.0, 0.0]])
+    a = align_se2(two, two @ np.array([[0.0, -1.0], [1.0, 0.0]]).T)
+    assert a.angle == pytest.approx(np.pi / 2, abs=1e-12)
+    for src, dst in (
+        (np.zeros((3, 3)), np.zeros((3, 3))),  # not planar
+        (np.zeros((3, 2)), np.zeros((4, 2))),  # not corresponding
+        (np.zeros((1, 2)), np.zeros((1, 2))),  # one point
+    ):
+        with pytest.raises(ValueError, match=r"need two \(M, 2\) position arrays with M >= 2"):
+            align_se2(src, dst)
+
+
+def test_summarize_gives_the_quartiles_of_the_per_metre_errors():
+    """101 windows of 1 m with errors 0, 0.01, ..., 1.0 m: quartiles 0.25, 0.5, 0.75 m/m."""
+    from terrain_odom.evaluation.metrics import WindowErrors, summarize
+    from terrain_odom.evaluation.windows import Windows
+
+    n = 101
+    windows = Windows(np.arange(n), np.arange(n) + 1, np.ones(n))
+    errors = WindowErrors(windows, np.zeros((n, 3)), np.linspace(0.0, 1.0, n), np.zeros(n))
+    stats = summarize(errors).translation
+    assert (stats.q25, stats.median, stats.q75, stats.count) == pytest.approx((0.25, 0.5, 0.75, n))
+    assert stats.mean == pytest.approx(0.5)
+
+
+def _two_runs() -> WheelLog:
+    """Two segments of 6 rows at 1 s; poses from row 2 of the first, none in the second."""
+    n = 12
+    pose = np.full((n, 3), np.nan)
+    pose[2] = [1.0, 2.0, np.pi / 2]
+    pose[4] = [5.0, 5.0, 0.0]  # a later measurement is not re-anchored on
+    segment = np.repeat([0, 1], 6)
+    return WheelLog(np.arange(n, dtype=float) % 6, np.ones(n), np.ones(n), pose, None, segment)
+
+
+def test_dead_reckon_starts_at_each_segments_first_pose_and_never_crosses_segments():
+    from terrain_odom.evaluation.metrics import dead_reckon
+
+    log = _two_runs()
+    n = len(log)
+    out = dead_reckon(log, np.ones(n), np.zeros(n), np.zeros(n))  # 1 m/s straight on
+    assert np.isnan(out[:2]).all() and np.isnan(out[6:]).all()
+    # from (1, 2) heading +y: 1 m per row, the later measurement ignored
+    np.testing.assert_allclose(out[2:6], [[1.0, 2.0 + k, np.pi / 2] for k in range(4)], atol=1e-12)
+    # a segment without poses before one with: the later one is still reckoned
+    swapped = np.r_[6:12, 0:6]
+    later = WheelLog(
+        log.t[swapped], log.v_l, log.v_r, log.pose[swapped], None, np.repeat([0, 1], 6)
+    )
+    out = dead_reckon(later, np.ones(n), np.zeros(n), np.zeros(n))
+    assert np.isnan(out[:8]).all()
+    np.testing.assert_allclose(out[8:], [[1.0, 2.0 + k, np.pi / 2] for k in range(4)], atol=1e-12)
+
+
+def test_dead_reckon_of_a_segment_with_a_single_pose_starts_there():
+    from terrain_odom.evaluation.metrics import dead_reckon
+
+    n = 4
+    pose = np.full((n, 3), np.nan)
+    pose[0] = [0.0, 0.0, 0.0]
+    log = WheelLog(np.arange(n, dtype=float), np.ones(n), np.ones(n), pose, None, np.zeros(n, int))
+    out = dead_reckon(log, np.ones(n), np.zeros(n), np.zeros(n))
+    np.testing.assert_allclose(out[:, 0], [0.0, 1.0, 2.0, 3.0])
+
+
+def test_settling_time_boundaries():
+    """On the band's edge is inside; a sample at ``t_from`` counts; the time is the next sample's."""
+    from terrain_odom.evaluation.metrics import settling_time
+
+    t = np.arange(8.0)
+    # outside at 2 and 4, exactly on the band's edge (|1.5 - 1| = 0.5) at 5, inside after
+    v = np.array([9.0, 9.0, 9.0, 1.0, 9.0, 1.5, 1.0, 1.0])
+    assert settling_time(t, v, [1.0], [0.5], t_from=1.0) == 4.0  # t[4 + 1] - 1
+    assert settling_time(t, v, [1.0], [0.5], t_from=4.0) == 1.0  # the sample at t_from counts
+    assert settling_time(t, v, [1.0], [0.5], t_from=5.0) == 0.0  # never outside after 5
+    assert settling_time(t, np.r_[v[:-1], 3.0], [1.0], [0.5], t_from=0.0) == np.inf
+    # two components: the later one decides
+    both = np.c_[v, np.r_[1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 9.0, 1.0]]
+    assert settling_time(t, both, [1.0, 1.0], [0.5, 0.5], t_from=0.0) == 7.0
