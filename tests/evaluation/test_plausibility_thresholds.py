@@ -236,3 +236,16 @@ def test_yaw_scale_just_inside_and_outside(scale, found):
 def test_yaw_checks_only_after_min_turn(share, found):
     """A heading turning against the wheels, judged only once both turned ``min_turn``."""
     assert _checks(_heading_log(-1.0, turn=share * LIM.min_turn)) == found
+
+
+def test_a_log_without_poses_or_without_motion_is_not_judged():
+    """The twin of the real-log test: nothing to compare is no finding, with NaN figures."""
+    n = _rows(30.0)
+    bare = _log(np.full(n, 5.0), np.full(n, -5.0), np.full((n, 3), np.nan))
+    result = check_log(bare, TRACK, LIM)
+    # no interval compared: 0 m (the docstring says NaN without positions; either is "none")
+    assert result.ok and result.wheel_travel == 0.0 and not result.pose_travel > 0.0
+    assert np.isnan(result.yaw_scale) and np.isnan(result.yaw_correlation)
+    standing = _drive(np.zeros(n), np.zeros(n))
+    result = check_log(standing, TRACK, LIM)
+    assert result.ok and result.wheel_travel == 0.0 and result.pose_travel == 0.0
