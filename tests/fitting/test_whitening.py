@@ -69,3 +69,18 @@ def test_yaw_error_of_a_segment_turning_through_pi_is_wrapped():
     # 3.2 rad, wrapped -3.08): off by 5 % of each segment's turn, not by ~2 pi
     slow = residuals(get_model("idd"), np.zeros((1, 0)), segs, track_width=1.0 / 0.95)
     np.testing.assert_allclose(slow[..., 2], -0.05 * omega * 1.0, rtol=1e-6)
+
+
+@pytest.mark.parametrize(
+    ("sigma", "message"),
+    [
+        (np.eye(2), "3 standard deviations or a symmetric 3x3"),  # symmetric but 2x2
+        ([1.0, 2.0], "3 standard deviations or a symmetric 3x3"),
+        (np.triu(np.ones((3, 3))), "3 standard deviations or a symmetric 3x3"),  # not symmetric
+        (np.diag([1.0, -1.0, 1.0]), "Sigma must be positive definite"),
+        ([1.0, 0.0, 1.0], r"standard deviations must be > 0"),
+    ],
+)
+def test_a_sigma_that_is_no_covariance_is_named(sigma, message):
+    with pytest.raises(ValueError, match=message):
+        whitener_matrix(sigma)
