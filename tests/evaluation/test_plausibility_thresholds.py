@@ -249,3 +249,43 @@ def test_a_log_without_poses_or_without_motion_is_not_judged():
     standing = _drive(np.zeros(n), np.zeros(n))
     result = check_log(standing, TRACK, LIM)
     assert result.ok and result.wheel_travel == 0.0 and result.pose_travel == 0.0
+
+
+@pytest.mark.parametrize("side", [0, 1])
+def test_a_travel_ratio_exactly_at_a_bound_is_plausible(side):
+    n = _rows(30.0)
+    ratio = LIM.travel_ratio[side]  # 0.5 and 2.0: exact in binary, as are the distances
+    result = check_log(_drive(np.ones(n), np.ones(n), pose_speed=ratio), TRACK, LIM)
+    assert result.pose_travel / result.wheel_travel == ratio
+    assert result.ok, result.findings
+
+
+def test_the_travel_finding_names_both_distances_and_the_likely_causes():
+    n = _rows(30.0)
+    (finding,) = check_log(_drive(np.ones(n), np.ones(n), pose_speed=3.0), TRACK, LIM).findings
+    assert finding.check == "travel"
+    assert finding.message == (
+        "the poses travel 90.0 m where the wheels say 30.0 m (x3.00): check the wheel radius, "
+        "and whether the speeds are rad/s (omega_*) or m/s (v_*)"
+    )
+
+
+def test_each_segment_is_compared_on_its_own_rows():
+    """Two 30-s segments, the second starting again at t = 0 and the origin: 60 m in all."""
+    n = _rows(30.0)
+    one = _drive(np.ones(n), np.ones(n))
+    two = WheelLog(
+        np.r_[one.t, one.t], np.r_[one.v_l, one.v_l], np.r_[one.v_r, one.v_r],
+        np.r_[one.pose, one.pose], None, np.repeat([0, 1], n),
+    )  # fmt: skip
+    result = check_log(two, TRACK, LIM)
+    assert result.ok, result.findings
+    assert result.wheel_travel == result.pose_travel == 60.0
+
+
+def test_the_wheels_turn_is_the_speed_difference_over_the_track_width():
+    """The same log judged with a track width twice as wide: the wheels turn half as much."""
+    log = _heading_log(0.6, scale=0.8)
+    narrow, wide = (check_log(log, width, LIM) for width in (TRACK, 2.0 * TRACK))
+    assert wide.yaw_scale == pytest.approx(2.0 * narrow.yaw_scale, rel=1e-12)
+    assert wide.yaw_correlation == pytest.approx(narrow.yaw_correlation, rel=1e-12)
