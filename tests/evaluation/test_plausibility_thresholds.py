@@ -271,16 +271,16 @@ def test_the_travel_finding_names_both_distances_and_the_likely_causes():
 
 
 def test_each_segment_is_compared_on_its_own_rows():
-    """Two 30-s segments, the second starting again at t = 0 and the origin: 60 m in all."""
-    n = _rows(30.0)
-    one = _drive(np.ones(n), np.ones(n))
-    two = WheelLog(
-        np.r_[one.t, one.t], np.r_[one.v_l, one.v_l], np.r_[one.v_r, one.v_r],
-        np.r_[one.pose, one.pose], None, np.repeat([0, 1], n),
+    """30 s at 1 m/s, then a segment restarting at the origin: 20 s at 0.5 m/s from t = 100 s."""
+    n, m = _rows(30.0), _rows(20.0)
+    one, two = _drive(np.ones(n), np.ones(n)), _drive(np.full(m, 0.5), np.full(m, 0.5))
+    both = WheelLog(
+        np.r_[one.t, 100.0 + two.t], np.r_[one.v_l, two.v_l], np.r_[one.v_r, two.v_r],
+        np.r_[one.pose, two.pose], None, np.repeat([0, 1], [n, m]),
     )  # fmt: skip
-    result = check_log(two, TRACK, LIM)
+    result = check_log(both, TRACK, LIM)
     assert result.ok, result.findings
-    assert result.wheel_travel == result.pose_travel == 60.0
+    assert result.wheel_travel == result.pose_travel == 30.0 + 10.0
 
 
 def test_the_wheels_turn_is_the_speed_difference_over_the_track_width():
