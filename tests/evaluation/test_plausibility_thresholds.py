@@ -115,9 +115,9 @@ def test_travel_is_judged_only_over_min_travel(factor, found):
     assert _checks(_drive(np.ones(n), np.ones(n), pose_speed=3.0)) == found
 
 
-@pytest.mark.parametrize(("hole", "found"), [(-1, ["travel"]), (1, [])])
+@pytest.mark.parametrize(("hole", "found"), [(-1, ["travel"]), (0, ["travel"]), (1, [])])
 def test_a_pose_gap_longer_than_max_interval_is_not_compared(hole, found):
-    """The poses jump 60 m across a gap one row shorter / longer than ``max_interval``.
+    """The poses jump 60 m across a gap one row shorter than, as long as, longer than ``max_interval``.
 
     Compared, the jump is a travel finding (90 m of poses for 30 m of wheels);
     beyond ``max_interval`` the gap is not compared and the log is plausible.
@@ -289,3 +289,11 @@ def test_the_wheels_turn_is_the_speed_difference_over_the_track_width():
     narrow, wide = (check_log(log, width, LIM) for width in (TRACK, 2.0 * TRACK))
     assert wide.yaw_scale == pytest.approx(2.0 * narrow.yaw_scale, rel=1e-12)
     assert wide.yaw_correlation == pytest.approx(narrow.yaw_correlation, rel=1e-12)
+
+
+def test_an_empty_log_is_not_judged():
+    empty = WheelLog(
+        np.zeros(0), np.zeros(0), np.zeros(0), np.zeros((0, 3)), None, np.zeros(0, int)
+    )
+    result = check_log(empty, TRACK, LIM)
+    assert result.ok and result.wheel_travel == 0.0 and np.isnan(result.median_step)
