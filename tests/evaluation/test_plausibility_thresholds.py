@@ -297,3 +297,17 @@ def test_an_empty_log_is_not_judged():
     )
     result = check_log(empty, TRACK, LIM)
     assert result.ok and result.wheel_travel == 0.0 and np.isnan(result.median_step)
+
+
+@pytest.mark.parametrize(
+    ("wheels", "poses", "text"),
+    [
+        (0.0, 1.0, "the poses move while the wheels stand still over 100 % of 20 s of motion"),
+        (1.0, 0.0, "the wheels turn while the poses stand still over 100 % of 20 s of motion"),
+    ],
+)
+def test_the_still_findings_say_which_side_stands_still(wheels, poses, text):
+    n = _rows(20.0)
+    log = _drive(np.full(n, wheels), np.full(n, wheels), pose_speed=poses)
+    (finding,) = check_log(log, TRACK, LIM).findings
+    assert finding.message == f"{text}: wrong wheel columns, or poses of another run"
