@@ -79,7 +79,7 @@ def with_ekf(cfg, **changes):
     return dataclasses.replace(cfg, ekf=dataclasses.replace(cfg.ekf, **changes))
 
 
-def reconvergence(cfg, data):
+def reconvergence(cfg, data, title):
     """Settling of the ICRs after the terrain switch of the stitched log."""
     log = read_wheel_log(
         data / "stitched_grass_to_asphalt.csv", wheel_radius=cfg.robot.wheel_radius
@@ -94,7 +94,9 @@ def reconvergence(cfg, data):
     # 10 % of each final value; x_icr (near zero) against 10 % of the half spacing
     tol = 0.1 * np.abs(final)
     tol[2] = 0.1 * half
-    print(f"\nRe-convergence after the grass -> asphalt switch (t = {switch:.1f} s; the robot")
+    print(
+        f"\n{title}: re-convergence after the grass -> asphalt switch (t = {switch:.1f} s; the robot"
+    )
     print(f"stands still until t = {t_move:.1f} s, so times are counted from the first motion)")
     print(
         f"  final asphalt estimate (with reset): y_l={final[0]:.3f} y_r={final[1]:.3f} "
@@ -212,7 +214,8 @@ def main():
         ekf_errors(grass, gw, with_ekf(nominal, estimate_alpha=False)),
     )
 
-    reconvergence(cfg, data)
+    reconvergence(cfg, data, "EKF with alpha")
+    reconvergence(with_ekf(cfg, estimate_alpha=False), data, "The paper's 6-state EKF (no alpha)")
     print(f"\n({time.perf_counter() - started:.0f} s)")
 
 

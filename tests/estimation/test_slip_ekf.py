@@ -192,7 +192,8 @@ def test_recovers_known_parameters_on_a_simulated_log():
         robot=RobotConfig(track_width=TRACK_WIDTH), slip_ekf=SlipEkfConfig(estimate_alpha=False)
     )
     res = run_slip_ekf(scenario.log, cfg)
-    np.testing.assert_allclose(res.states[-1, 6:], truth, atol=0.1)
+    # within 15 % of each parameter (+1 cm): 0.04 on the smallest, 0.2; measured at most 0.065
+    np.testing.assert_allclose(res.states[-1, 6:], truth, rtol=0.15, atol=0.01)
     # the ICRs it reports follow the true ones (never seen by the filter) at the end
     late = scenario.log.t > 60.0
     err = np.abs(res.states[late, 3:6] - scenario.icr[late])
@@ -286,7 +287,8 @@ def test_gps_alone_recovers_the_slip_parameters():
     pose[:, 2] = np.nan
     result = run_slip_ekf(dataclasses.replace(scenario.log, pose=pose), cfg)
     assert result.n_updates == int(scenario.log.has_pose.sum()) - 2  # two fixes start the chords
-    np.testing.assert_allclose(result.states[-1, 6:12], truth, atol=0.1)
+    # within 15 % of each parameter (+1 cm), as with poses; measured at most 0.041
+    np.testing.assert_allclose(result.states[-1, 6:12], truth, rtol=0.15, atol=0.01)
 
 
 def test_heading_only_log_recovers_the_icr_spacing():
