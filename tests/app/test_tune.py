@@ -22,7 +22,7 @@ from terrain_odom.app.tune import load_grid
 from terrain_odom.config.classifier import ClassifierConfig
 from terrain_odom.errors import ConfigError, InputFileError
 from terrain_odom.io.classifier_file import load_classifier, load_tuning
-from terrain_odom.vision.tuning import DEFAULT_GRID, check_grid
+from terrain_odom.vision.tuning import check_grid, default_grid
 
 BASE = ClassifierConfig(n_t=1)
 GRID = "features: [sfta, sfta+lab]\nk: [1, 3]\n"
@@ -111,7 +111,7 @@ def test_the_untuned_report_is_unchanged_without_tune(tmp_path, folder):
 
 def test_grid_files_are_checked_and_never_overwritten(tmp_path, folder):
     images, grid = folder
-    assert load_grid(None, BASE) == check_grid(DEFAULT_GRID, BASE)
+    assert load_grid(None, BASE, 48) == check_grid(default_grid(48), BASE)
     assert load_grid(grid, BASE) == [{"features": ["sfta", "sfta+lab"], "k": [1, 3]}]
     bad = tmp_path / "bad.yaml"
     bad.write_text("k: [1, 3]\ncolour: [lab]\n")

@@ -28,14 +28,15 @@ from terrain_odom.config.classifier import ClassifierConfig, paper_config
 from terrain_odom.errors import ConfigError, InputFileError
 from terrain_odom.io.atomic import write_atomic, write_text_atomic
 from terrain_odom.io.classifier_file import save_classifier
-from terrain_odom.io.images import scan_image_folder
+from terrain_odom.io.images import median_short_side, scan_image_folder
 from terrain_odom.io.paths import check_outputs
 from terrain_odom.io.report import report_header, write_json
 from terrain_odom.reporting.confusion import confusion_figure
 from terrain_odom.reporting.figure import save_png
 from terrain_odom.vision.classifier import TerrainClassifier
-from terrain_odom.vision.dataset import LabelledFeatures, SkippedImage
-from terrain_odom.vision.tuning import grid_configs
+from terrain_odom.vision.dataset import LabelledFeatures, LabelledImages, SkippedImage
+from terrain_odom.vision.features import resolve_scale
+from terrain_odom.vision.tuning import Grid, grid_configs
 
 if TYPE_CHECKING:
     from terrain_odom.app.tune import NestedTuning, Tuning
@@ -246,7 +247,8 @@ def train(
         scores and the choice.
     grid_path : str or Path, optional
         YAML grid for ``tune`` (:func:`~terrain_odom.app.tune.load_grid`;
-        default :data:`~terrain_odom.vision.tuning.DEFAULT_GRID`); implies ``tune``.
+        default :func:`~terrain_odom.vision.tuning.default_grid` around the
+        images' size); implies ``tune``.
     dask : str, optional
         Run the feature extraction and the search on this Dask cluster
         (``tcp://host:port`` or ``local:N``, :func:`~terrain_odom.app.cluster.dask_cluster`;
@@ -266,7 +268,6 @@ def train(
     """
     from terrain_odom.app.tune import (  # here: app.tune builds on this module's CrossValidation
         feature_cache,
-        load_grid,
         tune_settings,
     )
 
@@ -274,8 +275,8 @@ def train(
     target = output_file(out, MODEL_FILE, MODEL_SUFFIXES)
     check_out(out, MODEL_SUFFIXES)
     tune = tune or grid_path is not None
-    grid = load_grid(grid_path, cfg) if tune else None
     scan = scan_image_folder(images)
+    cfg, grid = _scaled(cfg, scan, tune, grid_path)
     check_outputs([*scan.paths, config_path, grid_path], [target])
     with dask_cluster(dask) as cluster:
         jobs = jobs if cluster is None else cluster.jobs
@@ -289,6 +290,22 @@ def train(
     create_folder(out, MODEL_SUFFIXES)
     save_classifier(model, target, tuning=None if tuning is None else tuning.to_dict())
     return TrainSummary(target, cfg, data.counts(), data.skipped, validation, tuning)
+
+
+def _scaled(
+    cfg: ClassifierConfig, scan: LabelledImages, tune: bool, grid_path: str | Path | None
+) -> tuple[ClassifierConfig, Grid | None]:
+    """``cfg`` with its ``auto`` settings chosen from the images' size, and the grid if ``tune``.
+
+    The size is the images' median shorter side (:func:`~terrain_odom.io.images.median_short_side`);
+    the default grid is built around it (:func:`~terrain_odom.app.tune.load_grid`).
+    """
+    from terrain_odom.app.tune import load_grid
+
+    short_side = median_short_side(scan.paths)
+    if short_side is not None:
+        cfg = resolve_scale(cfg, short_side)
+    return cfg, load_grid(grid_path, cfg, short_side) if tune else None
 
 
 @dataclass(frozen=True)
@@ -388,14 +405,14 @@ def report_accuracy(
         As :func:`train` (a file to write in ``out_dir`` is an input), or a
         class with fewer images than ``folds``.
     """
-    from terrain_odom.app.tune import feature_cache, load_grid, nested_tuning  # as in train
+    from terrain_odom.app.tune import feature_cache, nested_tuning  # as in train
 
     cfg = ClassifierConfig() if cfg is None else cfg
     if folds < 2:
         raise ConfigError(f"folds: must be >= 2, got {folds}")
     out_dir = None if out_dir is None else Path(out_dir)
-    grid = load_grid(grid_path, cfg) if tune or grid_path is not None else None
     scan = scan_image_folder(images)
+    cfg, grid = _scaled(cfg, scan, tune or grid_path is not None, grid_path)
     if out_dir is not None:
         check_outputs(
             [*scan.paths, config_path, grid_path], [out_dir / name for name in ACCURACY_FILES]

@@ -25,6 +25,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from terrain_odom.config import RoiConfig
+from terrain_odom.config.classifier import feature_parts
 from terrain_odom.errors import ConfigError, InputFileError
 from terrain_odom.records import Sighting
 from terrain_odom.vision.camera import GroundCamera, crop, region_of_interest
@@ -184,7 +185,7 @@ class FrameClassifier:
     def _check_colour(self, t: float, image: np.ndarray) -> None:
         """Refuse a grey frame for a colour model: its colour features would be constant."""
         features = self.classifier.cfg.features
-        if features == "sfta":
+        if feature_parts(features)[1] is None:  # no colour statistics
             return
         sample = image[::8, ::8]
         if np.array_equal(sample[..., 0], sample[..., 1]) and np.array_equal(
@@ -193,7 +194,7 @@ class FrameClassifier:
             raise InputFileError(
                 f"the frame at t = {t:g} s is grey (equal colour channels) but the model "
                 f"uses {features} features (colour): give colour frames, or a model trained "
-                "with --features sfta"
+                "without colour (e.g. --features sfta)"
             )
 
     def _classify_timed(
