@@ -33,6 +33,7 @@ from terrain_odom.io.paths import check_outputs
 from terrain_odom.io.report import report_header, write_json
 from terrain_odom.reporting.confusion import confusion_figure
 from terrain_odom.reporting.figure import save_png
+from terrain_odom.vision.calibration import Reliability, choose_threshold, reliability
 from terrain_odom.vision.classifier import TerrainClassifier
 from terrain_odom.vision.dataset import LabelledFeatures, LabelledImages, SkippedImage
 from terrain_odom.vision.features import resolve_scale
@@ -77,12 +78,29 @@ class CrossValidation:
     folds : int
     confusion : ndarray of int, shape (n_classes, n_classes)
         Image counts; row = true class, column = predicted class.
+    confidence, correct : ndarray, shape (n_images,), optional
+        Each held-out image's confidence and whether its label was right
+        (in image order; for :meth:`reliability`).
     """
 
     cfg: ClassifierConfig
     classes: tuple[str, ...]
     folds: int
     confusion: NDArray[np.int64]
+    confidence: NDArray[np.float64] | None = None
+    correct: NDArray[np.bool_] | None = None
+
+    def reliability(self) -> Reliability | None:
+        """Observed accuracy against confidence of the held-out images (None without them)."""
+        if self.confidence is None or self.correct is None:
+            return None
+        return reliability(self.confidence, self.correct)
+
+    def threshold(self) -> float | None:
+        """The tracker's confidence threshold chosen from the held-out images (:func:`choose_threshold`)."""
+        if self.confidence is None or self.correct is None:
+            return None
+        return choose_threshold(self.confidence, self.correct)
 
     @property
     def percent(self) -> NDArray[np.float64]:
@@ -110,7 +128,8 @@ class CrossValidation:
         return name, self.per_class_accuracy[name]
 
     def to_dict(self) -> dict[str, Any]:
-        """Plain data for reports."""
+        """Plain data for reports (with the reliability and threshold when known)."""
+        table = self.reliability()
         return {
             "config": dataclasses.asdict(self.cfg),
             "confusion_counts": self.confusion,
@@ -118,6 +137,11 @@ class CrossValidation:
             "per_class_accuracy_percent": self.per_class_accuracy,
             "mean_accuracy_percent": self.mean_accuracy,
             "overall_accuracy_percent": self.overall_accuracy,
+            **(
+                {}
+                if table is None
+                else {"reliability": table.to_dict(), "min_confidence": self.threshold()}
+            ),
         }
 
 
@@ -163,13 +187,16 @@ def cross_validate(
     splitter = StratifiedKFold(n_splits=folds, shuffle=True, random_state=seed)
     confusion = np.zeros((len(data.classes), len(data.classes)), dtype=np.int64)
     index = {name: i for i, name in enumerate(data.classes)}
+    confidence = np.zeros(data.labels.size)
+    correct = np.zeros(data.labels.size, dtype=bool)
     for train_idx, test_idx in splitter.split(np.zeros((data.labels.size, 1)), data.labels):
         train, test = data.select(train_idx), data.select(test_idx)  # all tiles of an image
         model = TerrainClassifier(cfg).fit(train.features, train.labels, train.region)
-        predicted = model.predict(test.features, test.region)
+        predicted, confidence[test_idx] = model.predict_with_confidence(test.features, test.region)
+        correct[test_idx] = predicted == test.labels
         for true, pred in zip(test.labels, predicted, strict=True):
             confusion[index[true], index[pred]] += 1
-    return CrossValidation(cfg, data.classes, folds, confusion)
+    return CrossValidation(cfg, data.classes, folds, confusion, confidence, correct)
 
 
 def feature_times_ms(data: LabelledFeatures) -> dict[str, dict[str, float]]:
@@ -194,7 +221,9 @@ class TrainSummary:
     skipped : tuple of SkippedImage
     cross_validation : CrossValidation or None
         None when a class has fewer than 2 images. With ``tuning``, of the
-        chosen settings on the folds they were chosen on (optimistic).
+        chosen settings on the folds they were chosen on (optimistic). Its
+        :meth:`~CrossValidation.threshold` is the model's ``min_confidence``
+        (0 without cross-validation).
     tuning : Tuning or None
         The search of ``train(tune=True)`` (``cfg`` is its choice).
     """
@@ -287,6 +316,9 @@ def train(
     model = TerrainClassifier(cfg).fit(data.features, data.labels, data.region)
     folds = min(folds, *data.counts().values())
     validation = cross_validate(data, folds=folds) if folds >= 2 else None
+    model.calibrate_novelty()
+    threshold = None if validation is None else validation.threshold()
+    model.min_confidence = 0.0 if threshold is None else threshold
     create_folder(out, MODEL_SUFFIXES)
     save_classifier(model, target, tuning=None if tuning is None else tuning.to_dict())
     return TrainSummary(target, cfg, data.counts(), data.skipped, validation, tuning)

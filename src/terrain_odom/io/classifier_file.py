@@ -124,12 +124,28 @@ def load_classifier(
     """
     path = Path(path)
     arrays = _read_arrays(path)
-    cfg = _check_metadata(path, _metadata(path, arrays), expected)  # versions before the arrays
+    meta = _metadata(path, arrays)
+    cfg = _check_metadata(path, meta, expected)  # versions before the arrays
     _check_arrays(path, cfg, arrays)
+    novelty, threshold = meta.get("novelty_distance"), meta.get("min_confidence", 0.0)
+    if not (novelty is None or _is_number(novelty, 0.0)) or not _is_number(threshold, 0.0, 1.0):
+        raise InputFileError(
+            f"{path}: invalid model metadata (novelty_distance {novelty!r}, "
+            f"min_confidence {threshold!r})"
+        )
     try:
-        return TerrainClassifier.from_arrays(cfg, arrays)
+        return TerrainClassifier.from_arrays(
+            cfg, arrays, novelty_distance=novelty, min_confidence=threshold
+        )
     except ValueError as exc:
         raise InputFileError(f"{path}: inconsistent model file ({exc})") from None
+
+
+def _is_number(value: Any, low: float, high: float = float("inf")) -> bool:
+    """Whether ``value`` is a JSON number (not a boolean) in ``[low, high]``."""
+    return (
+        isinstance(value, (int, float)) and not isinstance(value, bool) and low <= value <= high
+    )
 
 
 def load_tuning(path: str | Path) -> dict[str, Any] | None:

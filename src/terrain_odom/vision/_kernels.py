@@ -145,20 +145,40 @@ def _pixel(image: np.ndarray, r: int, c: int) -> float:
 
 
 @numba.njit(cache=True, nogil=True)
+def _sample_grid(n: int, offsets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``floor(i + o)`` and ``(i + o) - floor(i + o)`` for every index ``i < n`` and offset ``o``.
+
+    The neighbour of row (column) ``i`` at offset ``o`` is interpolated
+    between ``floor(i + o)`` and ``ceil(i + o)`` with this fraction, as
+    skimage computes it per pixel; it depends on the row (column) only.
+    """
+    lower = np.empty((offsets.size, n), dtype=np.int64)
+    fraction = np.empty((offsets.size, n))
+    for p in range(offsets.size):
+        for i in range(n):
+            at = i + offsets[p]
+            lower[p, i] = math.floor(at)
+            fraction[p, i] = at - lower[p, i]
+    return lower, fraction
+
+
+@numba.njit(cache=True, nogil=True)
 def lbp_uniform(grey: np.ndarray, points: int, radius: float) -> np.ndarray:
     """Uniform LBP codes ``0 .. P + 1`` of a grey image, as scikit-image computes them.
 
     Neighbour ``p`` of pixel ``(r, c)`` is the bilinear interpolation at
     ``(r + round(-R sin(2 pi p / P), 5), c + round(R cos(2 pi p / P), 5))``
-    (0 outside the image); bit ``p`` is ``neighbour - centre >= 0``; a
-    pattern with at most two changes between bits ``p`` and ``p + 1``
-    (``p < P - 1``) is coded by its number of ones, any other by ``P + 1``.
+    (0 outside the image), in skimage's order of operations, so that the
+    codes are the same even where a neighbour ties with the centre; bit
+    ``p`` is ``neighbour - centre >= 0``; a pattern with at most two changes
+    between bits ``p`` and ``p + 1`` (``p < P - 1``) is coded by its number
+    of ones, any other by ``P + 1``.
 
     Parameters
     ----------
     grey : ndarray of uint8, shape (H, W)
     points : int
-        ``P``, at most 62.
+        ``P``.
     radius : float
         ``R``, px.
 
@@ -174,24 +194,34 @@ def lbp_uniform(grey: np.ndarray, points: int, radius: float) -> np.ndarray:
         angle = 2.0 * np.pi * p / points
         rp[p] = np.round(-radius * np.sin(angle), 5)
         cp[p] = np.round(radius * np.cos(angle), 5)
+    row0, dr = _sample_grid(height, rp)
+    col0, dc = _sample_grid(width, cp)
+    margin = int(math.ceil(radius)) + 1
     out = np.empty((height, width), dtype=np.uint8)
-    bits = np.empty(points, dtype=np.int8)
     for r in range(height):
+        inner_r = margin <= r < height - margin
         for c in range(width):
+            inside = inner_r and margin <= c < width - margin
             centre = image[r, c]
-            for p in range(points):
-                y, x = r + rp[p], c + cp[p]
-                min_r, min_c = math.floor(y), math.floor(x)
-                max_r, max_c = math.ceil(y), math.ceil(x)
-                dr, dc = y - min_r, x - min_c
-                top = (1 - dc) * _pixel(image, min_r, min_c) + dc * _pixel(image, min_r, max_c)
-                bottom = (1 - dc) * _pixel(image, max_r, min_c) + dc * _pixel(image, max_r, max_c)
-                value = (1 - dr) * top + dr * bottom
-                bits[p] = 1 if value - centre >= 0 else 0
             changes = 0
-            ones = bits[points - 1]
-            for p in range(points - 1):
-                changes += bits[p] != bits[p + 1]
-                ones += bits[p]
+            ones = 0
+            previous = 0
+            for p in range(points):
+                r0, c0, fr, fc = row0[p, r], col0[p, c], dr[p, r], dc[p, c]
+                r1 = r0 + 1 if fr > 0 else r0
+                c1 = c0 + 1 if fc > 0 else c0
+                if inside:
+                    tl, tr = image[r0, c0], image[r0, c1]
+                    bl, br = image[r1, c0], image[r1, c1]
+                else:
+                    tl, tr = _pixel(image, r0, c0), _pixel(image, r0, c1)
+                    bl, br = _pixel(image, r1, c0), _pixel(image, r1, c1)
+                top = (1 - fc) * tl + fc * tr
+                bottom = (1 - fc) * bl + fc * br
+                bit = 1 if (1 - fr) * top + fr * bottom - centre >= 0 else 0
+                ones += bit
+                if p and bit != previous:
+                    changes += 1
+                previous = bit
             out[r, c] = ones if changes <= 2 else points + 1
     return out

@@ -50,7 +50,8 @@ class FrameClassification:
     region of interest (and decoding, when the caller adds it); ``ahead`` is
     the distance from the robot to the classified ground, m;
     ``ms_features_full`` and ``ms_knn_full`` the same on the whole frame
-    when that is timed for comparison.
+    when that is timed for comparison; ``min_confidence`` the model's
+    threshold (:attr:`sighting`).
     """
 
     t: float
@@ -64,11 +65,19 @@ class FrameClassification:
     ms_features_full: float = float("nan")
     ms_knn: float = float("nan")
     ms_knn_full: float = float("nan")
+    min_confidence: float = 0.0
 
     @property
     def sighting(self) -> Sighting | None:
-        """The terrain seen (label and distance ahead), None without a label."""
-        return Sighting(self.label, self.ahead) if self.label else None
+        """The terrain seen (label and distance ahead), for the terrain tracker.
+
+        None without a label, and for a label of confidence 0 (unknown
+        ground) or below the model's ``min_confidence`` (chosen from its
+        cross-validated reliability): the tracker does not count such a frame.
+        """
+        if not self.label or not self.confidence > 0 or self.confidence < self.min_confidence:
+            return None
+        return Sighting(self.label, self.ahead)
 
 
 class FrameClassifier:
@@ -150,7 +159,7 @@ class FrameClassifier:
                 f"{camera.width}x{camera.height} (camera.width/height)"
             )
         self._check_colour(t, image)
-        record = FrameClassification(t)
+        record = FrameClassification(t, min_confidence=self.classifier.min_confidence)
         if self.use_roi:
             result = region_of_interest(camera, self.roi, v_l, v_r, icr_params)
             record.roi_status = result.status.value
