@@ -8,6 +8,8 @@ choice known: colour features. The real floor photos of
 
 from __future__ import annotations
 
+import dataclasses
+
 import csv
 import json
 from pathlib import Path
@@ -76,7 +78,9 @@ def test_report_accuracy_tune_scores_the_tuning_by_nested_cross_validation(tmp_p
         images, BASE, folds=3, out_dir=tmp_path / "acc", jobs=1, progress=False, grid_path=grid
     )
     tuned = report.tuned
-    assert tuned is not None and tuned.base == BASE and tuned.inner_folds == 3
+    assert tuned is not None and tuned.inner_folds == 3
+    assert isinstance(tuned.base.min_tile_size, int)  # auto, chosen from the images' size
+    assert tuned.base == dataclasses.replace(BASE, min_tile_size=tuned.base.min_tile_size)
     assert len(tuned.folds) == 3 and all(
         f.search.choice["features"] == "sfta+lab" for f in tuned.folds
     )

@@ -21,7 +21,7 @@ TILE = 64
 
 
 def test_tile_grid_adapts_to_the_region_size():
-    cfg = ClassifierConfig()
+    cfg = ClassifierConfig(min_tile_size=32)
     assert (cfg.tiles, cfg.min_tile_size) == (4, 32)
     # Below 2 * min_tile_size on the short side: one tile, whatever the long side.
     assert tiles_per_side(63, 500, cfg) == tiles_per_side(1, 1, cfg) == 1

@@ -27,7 +27,7 @@ from typing import Any, BinaryIO
 
 import numpy as np
 
-from terrain_odom.config.classifier import FEATURE_FIELDS, ClassifierConfig
+from terrain_odom.config.classifier import AUTO, FEATURE_FIELDS, ClassifierConfig
 from terrain_odom.config.fields import build_section
 from terrain_odom.errors import ConfigError, InputFileError
 from terrain_odom.io.atomic import write_atomic
@@ -112,7 +112,9 @@ def load_classifier(
     path : str or Path
     expected : ClassifierConfig, optional
         If given, the model's feature settings
-        (:data:`~terrain_odom.config.classifier.FEATURE_FIELDS`) must equal these.
+        (:data:`~terrain_odom.config.classifier.FEATURE_FIELDS`) must equal
+        these, but for those ``auto`` in ``expected`` (the model records
+        what its training chose).
 
     Raises
     ------
@@ -263,7 +265,7 @@ def _check_metadata(
     if expected is not None:
         for name in FEATURE_FIELDS:
             theirs, ours = getattr(cfg, name), getattr(expected, name)
-            if theirs != ours:
+            if theirs != ours and ours != AUTO:  # auto: whatever the training chose
                 raise InputFileError(
                     f"{path}: model was trained with {name}={theirs!r} but the configuration "
                     f"asks for {name}={ours!r}; retrain the model or change the configuration"
