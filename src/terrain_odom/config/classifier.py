@@ -155,7 +155,7 @@ class ClassifierConfig:
         A region's time is then proportional to its area.
     """
 
-    features: str = "sfta+lab"
+    features: str = "sfta+lbp+lab"
     n_t: int = 4
     relative_counts: bool = True
     pyramid_levels: int = 1

@@ -137,29 +137,33 @@ def box_counts(planes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 @numba.njit(cache=True, nogil=True)
-def _pixel(image: np.ndarray, r: int, c: int) -> float:
-    """``image[r, c]``, 0 outside the image (skimage's mode ``C``, ``cval = 0``)."""
-    if r < 0 or c < 0 or r >= image.shape[0] or c >= image.shape[1]:
-        return 0.0
-    return image[r, c]
+def _fractions(n: int, offset: float) -> np.ndarray:
+    """``(i + offset) - floor(i + offset)`` for ``i = 0 .. n - 1``, in floating point as skimage."""
+    out = np.empty(n)
+    for i in range(n):
+        at = i + offset
+        out[i] = at - math.floor(at)
+    return out
 
 
 @numba.njit(cache=True, nogil=True)
-def _sample_grid(n: int, offsets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``floor(i + o)`` and ``(i + o) - floor(i + o)`` for every index ``i < n`` and offset ``o``.
+def uniform_table(points: int) -> np.ndarray:
+    """Uniform code of every ``points``-bit pattern: its ones if it changes at most twice, else ``P + 1``.
 
-    The neighbour of row (column) ``i`` at offset ``o`` is interpolated
-    between ``floor(i + o)`` and ``ceil(i + o)`` with this fraction, as
-    skimage computes it per pixel; it depends on the row (column) only.
+    Changes are counted between bits ``p`` and ``p + 1`` for ``p < P - 1``
+    (not around the circle), as scikit-image counts them.
     """
-    lower = np.empty((offsets.size, n), dtype=np.int64)
-    fraction = np.empty((offsets.size, n))
-    for p in range(offsets.size):
-        for i in range(n):
-            at = i + offsets[p]
-            lower[p, i] = math.floor(at)
-            fraction[p, i] = at - lower[p, i]
-    return lower, fraction
+    table = np.empty(1 << points, dtype=np.uint8)
+    for pattern in range(1 << points):
+        ones = 0
+        changes = 0
+        for p in range(points):
+            bit = (pattern >> p) & 1
+            ones += bit
+            if p and bit != ((pattern >> (p - 1)) & 1):
+                changes += 1
+        table[pattern] = ones if changes <= 2 else points + 1
+    return table
 
 
 @numba.njit(cache=True, nogil=True)
@@ -168,17 +172,23 @@ def lbp_uniform(grey: np.ndarray, points: int, radius: float) -> np.ndarray:
 
     Neighbour ``p`` of pixel ``(r, c)`` is the bilinear interpolation at
     ``(r + round(-R sin(2 pi p / P), 5), c + round(R cos(2 pi p / P), 5))``
-    (0 outside the image), in skimage's order of operations, so that the
-    codes are the same even where a neighbour ties with the centre; bit
-    ``p`` is ``neighbour - centre >= 0``; a pattern with at most two changes
-    between bits ``p`` and ``p + 1`` (``p < P - 1``) is coded by its number
-    of ones, any other by ``P + 1``.
+    (0 outside the image), in skimage's order of floating-point operations,
+    so that the codes are the same even where a neighbour ties with the
+    centre; bit ``p`` is ``neighbour - centre >= 0``; the code is
+    :func:`uniform_table` of the bits.
+
+    The interpolation always reads the pixel after the lower one (in a
+    zero-padded copy): where skimage reads the same pixel twice (an integer
+    position) its weight is 0, which changes no bit of the sum. The lower
+    pixel is ``floor(offset)`` from the centre whatever the centre, and the
+    fractions depend on the row or the column only, so the loop over a row
+    is the same arithmetic for every pixel (vectorised).
 
     Parameters
     ----------
     grey : ndarray of uint8, shape (H, W)
     points : int
-        ``P``.
+        ``P``, at most 16.
     radius : float
         ``R``, px.
 
@@ -187,41 +197,39 @@ def lbp_uniform(grey: np.ndarray, points: int, radius: float) -> np.ndarray:
     ndarray of uint8, shape (H, W)
     """
     height, width = grey.shape
-    image = grey.astype(np.float64)
-    rp = np.empty(points)
-    cp = np.empty(points)
+    pad = int(math.ceil(radius)) + 1
+    image = np.zeros((height + 2 * pad, width + 2 * pad))
+    image[pad : pad + height, pad : pad + width] = grey
+    table = uniform_table(points)
+    pattern = np.zeros(width, dtype=np.int32)
+    value = np.empty(width)
+    out = np.empty((height, width), dtype=np.uint8)
+    rows = np.empty((points, height))
+    cols = np.empty((points, width))
+    row_step = np.empty(points, dtype=np.int64)
+    col_step = np.empty(points, dtype=np.int64)
     for p in range(points):
         angle = 2.0 * np.pi * p / points
-        rp[p] = np.round(-radius * np.sin(angle), 5)
-        cp[p] = np.round(radius * np.cos(angle), 5)
-    row0, dr = _sample_grid(height, rp)
-    col0, dc = _sample_grid(width, cp)
-    margin = int(math.ceil(radius)) + 1
-    out = np.empty((height, width), dtype=np.uint8)
+        rp = np.round(-radius * np.sin(angle), 5)
+        cp = np.round(radius * np.cos(angle), 5)
+        row_step[p], col_step[p] = math.floor(rp), math.floor(cp)
+        rows[p] = _fractions(height, rp)
+        cols[p] = _fractions(width, cp)
     for r in range(height):
-        inner_r = margin <= r < height - margin
+        pattern[:] = 0
+        centre = image[pad + r, pad : pad + width]
+        for p in range(points):
+            fr = rows[p, r]
+            fc = cols[p]
+            top = image[pad + r + row_step[p]]
+            bottom = image[pad + r + row_step[p] + 1]
+            c0 = pad + col_step[p]
+            for c in range(width):
+                upper = (1 - fc[c]) * top[c0 + c] + fc[c] * top[c0 + c + 1]
+                lower = (1 - fc[c]) * bottom[c0 + c] + fc[c] * bottom[c0 + c + 1]
+                value[c] = (1 - fr) * upper + fr * lower
+            for c in range(width):
+                pattern[c] |= np.int32(value[c] - centre[c] >= 0) << p
         for c in range(width):
-            inside = inner_r and margin <= c < width - margin
-            centre = image[r, c]
-            changes = 0
-            ones = 0
-            previous = 0
-            for p in range(points):
-                r0, c0, fr, fc = row0[p, r], col0[p, c], dr[p, r], dc[p, c]
-                r1 = r0 + 1 if fr > 0 else r0
-                c1 = c0 + 1 if fc > 0 else c0
-                if inside:
-                    tl, tr = image[r0, c0], image[r0, c1]
-                    bl, br = image[r1, c0], image[r1, c1]
-                else:
-                    tl, tr = _pixel(image, r0, c0), _pixel(image, r0, c1)
-                    bl, br = _pixel(image, r1, c0), _pixel(image, r1, c1)
-                top = (1 - fc) * tl + fc * tr
-                bottom = (1 - fc) * bl + fc * br
-                bit = 1 if (1 - fr) * top + fr * bottom - centre >= 0 else 0
-                ones += bit
-                if p and bit != previous:
-                    changes += 1
-                previous = bit
-            out[r, c] = ones if changes <= 2 else points + 1
+            out[r, c] = table[pattern[c]]
     return out
