@@ -5,7 +5,9 @@ of 5-fold stratified cross-validation over images (the untuned defaults
 otherwise, ``min_tile_size: auto`` resolved from the images' size, as
 ``report accuracy`` does) and the feature time of one 640x480 frame (a real
 floor photo resized; median of ``--repeat`` calls on one core, one OpenCV
-thread) cut into the 4x4 tiles the defaults give it.
+thread; CPU time, which other jobs on the machine do not inflate as they
+inflate wall time) cut into the 4x4 tiles the defaults give it, beside the
+JPEG decoding of the same frame.
 
 Data sets (``--sets``):
 
@@ -25,6 +27,7 @@ Usage::
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import os
 import sys
 import tempfile
@@ -76,17 +79,28 @@ def subset(images: LabelledImages, per_class: int, seed: int = 0) -> LabelledIma
     )
 
 
-def frame_ms(cfg: ClassifierConfig, frame: np.ndarray, repeat: int) -> float:
-    """Median feature time of a 640x480 frame, ms (4x4 tiles)."""
-    cfg = ClassifierConfig(**{**cfg.__dict__, "min_tile_size": 8, "tiles": 4}) if cfg.tiles > 1 else cfg
+def median_ms(fn, repeat: int) -> float:
+    """Median CPU time of ``fn()`` over ``repeat`` calls after 3 warm-up calls, ms.
+
+    CPU time of this process (``time.process_time``), not wall time: on a
+    machine shared with other jobs a call's wall time includes the time it
+    waited for a core.
+    """
     for _ in range(3):
-        image_features(frame, cfg)
+        fn()
     times = []
     for _ in range(repeat):
-        begin = time.perf_counter()
-        image_features(frame, cfg)
-        times.append(time.perf_counter() - begin)
+        begin = time.process_time()
+        fn()
+        times.append(time.process_time() - begin)
     return 1e3 * float(np.median(times))
+
+
+def frame_ms(cfg: ClassifierConfig, frame: np.ndarray, repeat: int) -> float:
+    """Median feature time of a 640x480 frame, ms (4x4 tiles, as a model of 64-px patches cuts it)."""
+    if cfg.tiles > 1:
+        cfg = dataclasses.replace(cfg, min_tile_size=16)
+    return median_ms(lambda: image_features(frame, cfg), repeat)
 
 
 def score(folder: Path, features: list[str], photos: int, jobs: int) -> tuple[dict, int, float]:
@@ -105,7 +119,7 @@ def score(folder: Path, features: list[str], photos: int, jobs: int) -> tuple[di
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--sets", nargs="+", default=["floor", "floor64", "skimage64"])
+    parser.add_argument("--sets", nargs="*", default=["floor", "floor64", "skimage64"])
     parser.add_argument("--photos", type=int, default=0, help="floor photos per class (0: all)")
     parser.add_argument("--features", nargs="+", default=list(FEATURES))
     parser.add_argument("--jobs", type=int, default=2)
@@ -127,16 +141,19 @@ def main() -> None:
                 build_patches(folder, source, crops=1 if source == "indoor" else 80)
             results[name], n, short = score(folder, args.features, photos, args.jobs)
             print(f"{name}: {n} images, shorter side {short:.0f} px, {time.perf_counter() - begin:.0f} s")
+    jpeg = cv2.imencode(".jpg", cv2.cvtColor(frame, cv2.COLOR_RGB2BGR))[1]
+    decode = median_ms(lambda: cv2.imdecode(jpeg, cv2.IMREAD_COLOR), args.repeat)
     timing = {f: frame_ms(ClassifierConfig(features=f), frame, args.repeat) for f in args.features}
     timing[PAPER] = frame_ms(paper_config(), frame, args.repeat)
-    header = f"{'features':20s}" + "".join(f"{s:>22s}" for s in args.sets) + f"{'ms/640x480':>12s}"
-    print(header)
+    print(f"JPEG decode of the 640x480 frame: {decode:.2f} ms (median, same run)")
+    header = f"{'features':20s}" + "".join(f"{s:>22s}" for s in args.sets)
+    print(header + f"{'ms/640x480':>12s}{'x decode':>9s}")
     for f in [*args.features, PAPER]:
         cells = ""
         for s in args.sets:
             mean, (worst, worst_pc) = results[s][f]
             cells += f"{mean:8.1f} ({worst[:6]:>6s} {worst_pc:4.1f})"
-        print(f"{f:20s}{cells}{timing[f]:12.2f}")
+        print(f"{f:20s}{cells}{timing[f]:12.2f}{timing[f] / decode:9.2f}")
     print(f"load average after: {os.getloadavg()[0]:.1f}")
 
 

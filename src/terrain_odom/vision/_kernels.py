@@ -215,6 +215,9 @@ def lbp_uniform(grey: np.ndarray, points: int, radius: float) -> np.ndarray:
         row_step[p], col_step[p] = math.floor(rp), math.floor(cp)
         rows[p] = _fractions(height, rp)
         cols[p] = _fractions(width, cp)
+    on_grid = np.empty(points, dtype=np.bool_)  # an integer offset: the pixel itself, exactly
+    for p in range(points):
+        on_grid[p] = not rows[p].any() and not cols[p].any()
     for r in range(height):
         pattern[:] = 0
         centre = image[pad + r, pad : pad + width]
@@ -224,6 +227,10 @@ def lbp_uniform(grey: np.ndarray, points: int, radius: float) -> np.ndarray:
             top = image[pad + r + row_step[p]]
             bottom = image[pad + r + row_step[p] + 1]
             c0 = pad + col_step[p]
+            if on_grid[p]:  # (1 - 0) * x + 0 * y is x: skimage's interpolation gives the pixel
+                for c in range(width):
+                    pattern[c] |= np.int32(top[c0 + c] - centre[c] >= 0) << p
+                continue
             for c in range(width):
                 upper = (1 - fc[c]) * top[c0 + c] + fc[c] * top[c0 + c + 1]
                 lower = (1 - fc[c]) * bottom[c0 + c] + fc[c] * bottom[c0 + c + 1]
