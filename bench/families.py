@@ -62,7 +62,7 @@ PAPER = "paper (Chen)"
 
 
 def subset(images: LabelledImages, per_class: int, seed: int = 0) -> LabelledImages:
-    """A seeded subset of ``per_class`` images of each class (all with 0)."""
+    """Return a seeded subset of ``per_class`` images of each class (all with 0)."""
     if per_class <= 0:
         return images
     rng = np.random.default_rng(seed)
@@ -140,7 +140,9 @@ def main() -> None:
                 source = "indoor" if name == "floor64" else "skimage"
                 build_patches(folder, source, crops=1 if source == "indoor" else 80)
             results[name], n, short = score(folder, args.features, photos, args.jobs)
-            print(f"{name}: {n} images, shorter side {short:.0f} px, {time.perf_counter() - begin:.0f} s")
+            print(
+                f"{name}: {n} images, shorter side {short:.0f} px, {time.perf_counter() - begin:.0f} s"
+            )
     jpeg = cv2.imencode(".jpg", cv2.cvtColor(frame, cv2.COLOR_RGB2BGR))[1]
     decode = median_ms(lambda: cv2.imdecode(jpeg, cv2.IMREAD_COLOR), args.repeat)
     timing = {f: frame_ms(ClassifierConfig(features=f), frame, args.repeat) for f in args.features}

@@ -49,7 +49,7 @@ CONFIRM = 2
 
 
 def trained(data: LabelledFeatures, calibrated: bool) -> TerrainClassifier:
-    """A classifier fitted on ``data`` as ``train`` fits it (or as before: no threshold, no novelty)."""
+    """Return a classifier fitted on ``data`` as ``train`` fits it (or as before: no threshold, no novelty)."""
     model = TerrainClassifier(data.cfg).fit(data.features, data.labels, data.region)
     if calibrated:
         model.calibrate_novelty()
@@ -65,7 +65,7 @@ def sightings(model: TerrainClassifier, data: LabelledFeatures) -> tuple[np.ndar
 
 
 def flips(labels: np.ndarray, seen: np.ndarray, start: str, seed: int) -> int:
-    """Changes the tracker confirms on the frames in a seeded order, starting on ``start``."""
+    """Count the changes the tracker confirms on the frames in a seeded order, starting on ``start``."""
     order = np.random.default_rng(seed).permutation(labels.size)
     tracker = TerrainTracker(CONFIRM)
     tracker.observe(start)
@@ -100,28 +100,40 @@ def main() -> None:
             source = "indoor" if args.set == "floor64" else "skimage"
             build_patches(folder, source, crops=1 if source == "indoor" else 80)
             images = scan_image_folder(folder)
-        cfg = resolve_scale(ClassifierConfig(features=args.features), median_short_side(images.paths))
+        cfg = resolve_scale(
+            ClassifierConfig(features=args.features), median_short_side(images.paths)
+        )
         data = extract_features(images, cfg, read=read_image_rgb, jobs=args.jobs, progress=False)
-    print(f"{args.set}: {data.labels.size} images, features {cfg.features}, "
-          f"min_tile_size {cfg.min_tile_size}, confirm {CONFIRM}")
-    print(f"{'left out':10s} {'frames':>6s} {'frames confirming a change, % before / now':>44s} "
-          f"{'streams flipped, % before / now':>32s} {'trained: kept %':>16s} {'right %':>8s} "
-          f"{'threshold':>9s}")
+    print(
+        f"{args.set}: {data.labels.size} images, features {cfg.features}, "
+        f"min_tile_size {cfg.min_tile_size}, confirm {CONFIRM}"
+    )
+    print(
+        f"{'left out':10s} {'frames':>6s} {'frames confirming a change, % before / now':>44s} "
+        f"{'streams flipped, % before / now':>32s} {'trained: kept %':>16s} {'right %':>8s} "
+        f"{'threshold':>9s}"
+    )
     for unseen in data.classes:
         known = data.select(np.flatnonzero(data.labels != unseen))
-        known = LabelledFeatures(**{**known.__dict__, "classes": tuple(c for c in data.classes if c != unseen)})
+        known = LabelledFeatures(
+            **{**known.__dict__, "classes": tuple(c for c in data.classes if c != unseen)}
+        )
         frames = data.select(np.flatnonzero(data.labels == unseen))
         share, flipped = {}, {}
         for calibrated in (False, True):
             model = trained(known, calibrated)
             labels, seen = sightings(model, frames)
-            counts = [flips(labels, seen, start, seed) for start in known.classes for seed in range(5)]
+            counts = [
+                flips(labels, seen, start, seed) for start in known.classes for seed in range(5)
+            ]
             share[calibrated] = 100.0 * np.mean(counts) / frames.labels.size
             flipped[calibrated] = 100.0 * np.mean(np.array(counts) > 0)
         kept, right = known_frames(known)
-        print(f"{unseen:10s} {frames.labels.size:6d} {share[False]:36.1f} / {share[True]:5.1f} "
-              f"{flipped[False]:24.1f} / {flipped[True]:5.1f} {kept:16.1f} {right:8.1f} "
-              f"{model.min_confidence:9.2f}")
+        print(
+            f"{unseen:10s} {frames.labels.size:6d} {share[False]:36.1f} / {share[True]:5.1f} "
+            f"{flipped[False]:24.1f} / {flipped[True]:5.1f} {kept:16.1f} {right:8.1f} "
+            f"{model.min_confidence:9.2f}"
+        )
     print(f"load average after: {os.getloadavg()[0]:.1f}")
 
 

@@ -8,9 +8,8 @@ choice known: colour features. The real floor photos of
 
 from __future__ import annotations
 
-import dataclasses
-
 import csv
+import dataclasses
 import json
 from pathlib import Path
 

@@ -69,7 +69,9 @@ def test_threshold_is_the_lowest_confidence_reaching_the_target_accuracy():
     lower = confidence[confidence < threshold].max()
     assert correct[confidence >= lower].mean() < 0.9
     assert 0.75 < threshold < 0.85  # the mean of U(c, 1) is (1 + c) / 2 = 0.9 at c = 0.8
-    assert choose_threshold([0.3, 0.3], [True, False], target=0.9) == 0.3  # none reach it: the surest
+    assert (
+        choose_threshold([0.3, 0.3], [True, False], target=0.9) == 0.3
+    )  # none reach it: the surest
 
 
 def test_a_frame_below_the_models_threshold_or_of_unknown_ground_is_no_sighting():

@@ -91,7 +91,11 @@ def test_unreadable_image_is_skipped_and_a_tiny_one_is_one_tile(tmp_path):
     (root / "grass" / "broken.png").write_text("this is not a png")
     write_rgb(root / "gravel" / "tiny.png", texture("gravel", 2)[:2, :3])
     data = extract_features(
-        scan_image_folder(root), ClassifierConfig(min_tile_size=32), read=read_image_rgb, jobs=1, progress=False
+        scan_image_folder(root),
+        ClassifierConfig(min_tile_size=32),
+        read=read_image_rgb,
+        jobs=1,
+        progress=False,
     )
     assert [(s.path.name, s.reason) for s in data.skipped] == [
         ("broken.png", "cannot be read as an image")
@@ -109,7 +113,11 @@ def test_a_class_of_unreadable_images_is_an_error(tmp_path):
             path.write_text("garbage")
     with pytest.raises(InputFileError, match=r"no readable image in class\(es\) \['brick'\]"):
         extract_features(
-            scan_image_folder(root), ClassifierConfig(min_tile_size=32), read=read_image_rgb, jobs=1, progress=False
+            scan_image_folder(root),
+            ClassifierConfig(min_tile_size=32),
+            read=read_image_rgb,
+            jobs=1,
+            progress=False,
         )
 
 

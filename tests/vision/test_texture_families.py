@@ -59,7 +59,7 @@ def test_lbp_histograms_are_shares_of_each_code():
     hist = lbp_histograms(codes)
     assert hist.size == sum(p + 2 for p, _ in LBP_POINTS)
     start = 0
-    for (points, radius), code in zip(LBP_POINTS, codes, strict=True):
+    for points, radius in LBP_POINTS:
         part = hist[start : start + points + 2]
         expected = np.bincount(
             local_binary_pattern(grey, points, radius, "uniform").astype(int).ravel(),
@@ -128,4 +128,6 @@ def test_grey_kernel_is_eq_18_exactly_on_every_colour_order():
     np.testing.assert_array_equal(to_grey(rgb), expected)
     np.testing.assert_array_equal(to_grey(rgb[..., ::-1], colour_order="bgr"), expected)
     np.testing.assert_array_equal(to_grey(rgb[5:20, 3:40]), expected[5:20, 3:40])  # a view
-    assert np.array_equal(_kernels.byte_histogram(rgb.ravel()), np.bincount(rgb.ravel(), minlength=256))
+    assert np.array_equal(
+        _kernels.byte_histogram(rgb.ravel()), np.bincount(rgb.ravel(), minlength=256)
+    )

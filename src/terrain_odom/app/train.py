@@ -97,7 +97,7 @@ class CrossValidation:
         return reliability(self.confidence, self.correct)
 
     def threshold(self) -> float | None:
-        """The tracker's confidence threshold chosen from the held-out images (:func:`choose_threshold`)."""
+        """Return the tracker's confidence threshold chosen from the held-out images (:func:`choose_threshold`)."""
         if self.confidence is None or self.correct is None:
             return None
         return choose_threshold(self.confidence, self.correct)

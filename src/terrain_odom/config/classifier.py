@@ -43,7 +43,7 @@ TEXTURE_FAMILIES = ("sfta", "lbp", "glcm")
 COLOUR_SPACES = ("lab", "hsv")
 """Colour spaces whose channel statistics can follow the texture features."""
 
-AUTO = "auto"
+AUTO: Literal["auto"] = "auto"
 """``min_tile_size: auto``: chosen from the training images' size (:func:`~terrain_odom.vision.features.auto_min_tile_size`)."""
 
 
@@ -93,6 +93,7 @@ def _canonical(features: str) -> str:
     """``features`` with its parts in the canonical order (families, then colour)."""
     families, colour = feature_parts(features)
     return "+".join(families + (() if colour is None else (colour,)))
+
 
 FEATURE_FIELDS = (
     "features",

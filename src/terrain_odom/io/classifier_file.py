@@ -145,9 +145,7 @@ def load_classifier(
 
 def _is_number(value: Any, low: float, high: float = float("inf")) -> bool:
     """Whether ``value`` is a JSON number (not a boolean) in ``[low, high]``."""
-    return (
-        isinstance(value, (int, float)) and not isinstance(value, bool) and low <= value <= high
-    )
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and low <= value <= high
 
 
 def load_tuning(path: str | Path) -> dict[str, Any] | None:

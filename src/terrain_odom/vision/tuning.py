@@ -70,7 +70,7 @@ TILE_FRACTIONS = (4, 2)
 
 
 def default_grid(short_side: float | None) -> dict[str, list[Any]]:
-    """The grid ``--tune`` searches without ``--grid``, built around the images' size.
+    """Return the grid ``--tune`` searches without ``--grid``, built around the images' size.
 
     ``features`` :data:`DEFAULT_FEATURES` x ``min_tile_size`` the shorter side
     over each of :data:`TILE_FRACTIONS` (at least
