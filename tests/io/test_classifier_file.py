@@ -133,7 +133,7 @@ def test_load_refuses_an_inconsistent_region_index(tmp_path):
     ("expected", "text"),
     [
         (ClassifierConfig(n_t=3), "n_t=4.*n_t=3"),
-        (ClassifierConfig(features="sfta"), "features='sfta\\+lab'.*features='sfta'"),
+        (ClassifierConfig(features="sfta"), "features='sfta\\+lbp\\+lab'.*features='sfta'"),
         (ClassifierConfig(tiles=3), "tiles"),
         (ClassifierConfig(min_tile_size=24), "min_tile_size=32.*min_tile_size=24"),
     ],

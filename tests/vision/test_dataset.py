@@ -56,7 +56,7 @@ def test_features_are_flat_tiles_with_their_image_index(tmp_path):
     assert data.counts() == {"brick": 2, "grass": 3, "gravel": 2}
     assert data.paths[3].name == "g1.png"  # 96 px: 3x3 tiles, the others one tile
     assert np.bincount(data.region).tolist() == [1, 1, 1, 9, 1, 1, 1]
-    assert data.features.shape == (15, 30) and data.region.shape == (15,)
+    assert data.features.shape == (15, 50) and data.region.shape == (15,)  # sfta+lbp+lab
     for i in (3, 4):
         expected = image_features(read_image_rgb(data.paths[i]), cfg)
         np.testing.assert_array_equal(data.features[data.region == i], expected)
