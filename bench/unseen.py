@@ -61,7 +61,7 @@ def trained(data: LabelledFeatures, calibrated: bool) -> TerrainClassifier:
 def sightings(model: TerrainClassifier, data: LabelledFeatures) -> tuple[np.ndarray, np.ndarray]:
     """Label of each image and whether it is a sighting for the tracker."""
     labels, confidence = model.predict_with_confidence(data.features, data.region)
-    return labels, (confidence > 0) & (confidence >= model.min_confidence)
+    return labels, (confidence > 0) & (confidence >= model.sighting_threshold)
 
 
 def flips(labels: np.ndarray, seen: np.ndarray, start: str, seed: int) -> int:

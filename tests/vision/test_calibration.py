@@ -79,3 +79,10 @@ def test_a_frame_below_the_models_threshold_or_of_unknown_ground_is_no_sighting(
     assert FrameClassification(1.0, "grass", 0.5, min_confidence=0.6).sighting is None
     assert FrameClassification(1.0, "grass", 0.0).sighting is None
     assert FrameClassification(1.0, "", float("nan")).sighting is None
+
+
+def test_a_sighting_needs_a_majority_of_the_regions_tiles_whatever_the_threshold():
+    model = TerrainClassifier(ClassifierConfig(k=1)).fit(np.eye(4), list("aabb"))
+    assert model.min_confidence == 0.0 and model.sighting_threshold == 0.5
+    model.min_confidence = 0.8
+    assert model.sighting_threshold == 0.8

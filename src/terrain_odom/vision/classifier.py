@@ -59,6 +59,7 @@ __all__ = [
     "MODEL_ARRAYS",
     "NOVELTY_QUANTILE",
     "NOVELTY_MARGIN",
+    "MAJORITY",
     "make_pipeline",
     "check_regions",
     "TerrainClassifier",
@@ -69,6 +70,13 @@ MODEL_ARRAYS = ("features", "labels", "region", "scaler_mean", "scaler_scale")
 
 NOVELTY_QUANTILE = 0.99
 """Quantile of the training tiles' distances to their nearest other training image (see below)."""
+
+MAJORITY = 0.5
+"""Least confidence of a sighting whatever the threshold: the label's share of the region's tiles.
+
+Tiles of unknown ground count against the label, so a region mostly of
+unknown ground is no sighting even when its few known tiles agree.
+"""
 
 NOVELTY_MARGIN = 2.0
 """The unknown-ground distance as a multiple of that quantile.
@@ -269,6 +277,11 @@ class TerrainClassifier:
         self.pipeline.fit(self.training_features, self.training_labels)
         self.novelty_distance = None
         return self
+
+    @property
+    def sighting_threshold(self) -> float:
+        """Least confidence of a sighting: :attr:`min_confidence`, and at least :data:`MAJORITY`."""
+        return max(self.min_confidence, MAJORITY)
 
     @property
     def _encoded(self) -> NDArray[np.intp]:

@@ -51,7 +51,8 @@ class FrameClassification:
     the distance from the robot to the classified ground, m;
     ``ms_features_full`` and ``ms_knn_full`` the same on the whole frame
     when that is timed for comparison; ``min_confidence`` the model's
-    threshold (:attr:`sighting`).
+    threshold of sightings (:attr:`sighting`,
+    :attr:`~terrain_odom.vision.classifier.TerrainClassifier.sighting_threshold`).
     """
 
     t: float
@@ -159,7 +160,7 @@ class FrameClassifier:
                 f"{camera.width}x{camera.height} (camera.width/height)"
             )
         self._check_colour(t, image)
-        record = FrameClassification(t, min_confidence=self.classifier.min_confidence)
+        record = FrameClassification(t, min_confidence=self.classifier.sighting_threshold)
         if self.use_roi:
             result = region_of_interest(camera, self.roi, v_l, v_r, icr_params)
             record.roi_status = result.status.value
