@@ -59,6 +59,7 @@ def test_train_prints_counts_and_accuracy_and_writes_a_model(tmp_path, capsys):
     assert "18 images: brick 6, grass 6, gravel 6" in out
     assert "skipped 1 image(s):" in out and "broken.png: cannot be read as an image" in out
     assert "5-fold cross-validated accuracy: mean" in out
+    assert "confidence threshold " in out and "of held-out images reach it" in out
     assert f"model: {model_path}" in out
     model = load_classifier(model_path, expected=ClassifierConfig())
     assert model.n_training_images == 18
