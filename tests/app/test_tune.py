@@ -9,6 +9,7 @@ choice known: colour features. The real floor photos of
 from __future__ import annotations
 
 import csv
+import dataclasses
 import json
 from pathlib import Path
 
@@ -22,7 +23,7 @@ from terrain_odom.app.tune import load_grid
 from terrain_odom.config.classifier import ClassifierConfig
 from terrain_odom.errors import ConfigError, InputFileError
 from terrain_odom.io.classifier_file import load_classifier, load_tuning
-from terrain_odom.vision.tuning import DEFAULT_GRID, check_grid
+from terrain_odom.vision.tuning import check_grid, default_grid
 
 BASE = ClassifierConfig(n_t=1)
 GRID = "features: [sfta, sfta+lab]\nk: [1, 3]\n"
@@ -76,7 +77,9 @@ def test_report_accuracy_tune_scores_the_tuning_by_nested_cross_validation(tmp_p
         images, BASE, folds=3, out_dir=tmp_path / "acc", jobs=1, progress=False, grid_path=grid
     )
     tuned = report.tuned
-    assert tuned is not None and tuned.base == BASE and tuned.inner_folds == 3
+    assert tuned is not None and tuned.inner_folds == 3
+    assert isinstance(tuned.base.min_tile_size, int)  # auto, chosen from the images' size
+    assert tuned.base == dataclasses.replace(BASE, min_tile_size=tuned.base.min_tile_size)
     assert len(tuned.folds) == 3 and all(
         f.search.choice["features"] == "sfta+lab" for f in tuned.folds
     )
@@ -111,7 +114,7 @@ def test_the_untuned_report_is_unchanged_without_tune(tmp_path, folder):
 
 def test_grid_files_are_checked_and_never_overwritten(tmp_path, folder):
     images, grid = folder
-    assert load_grid(None, BASE) == check_grid(DEFAULT_GRID, BASE)
+    assert load_grid(None, BASE, 48) == check_grid(default_grid(48), BASE)
     assert load_grid(grid, BASE) == [{"features": ["sfta", "sfta+lab"], "k": [1, 3]}]
     bad = tmp_path / "bad.yaml"
     bad.write_text("k: [1, 3]\ncolour: [lab]\n")

@@ -116,7 +116,7 @@ _RUN_IMAGES = ["run", "--wheels", "log.csv", "--images", "images", "--out", "out
         ("truncated.npz", ["truncated.npz: truncated or damaged model file"]),
         ("random.npz", ["random.npz: not a terrain-odom model file (not an .npz archive)"]),
         ("mismatch.npz", ["mismatch.npz: inconsistent model file", "scaler disagree"]),
-        ("narrow.npz", ["training features have 29 columns", "compute 30", "retrain"]),
+        ("narrow.npz", ["training features have 49 columns", "compute 50", "retrain"]),
     ],
 )
 def test_a_bad_model_file(capsys, inputs, model, fragments):

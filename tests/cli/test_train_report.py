@@ -59,10 +59,14 @@ def test_train_prints_counts_and_accuracy_and_writes_a_model(tmp_path, capsys):
     assert "18 images: brick 6, grass 6, gravel 6" in out
     assert "skipped 1 image(s):" in out and "broken.png: cannot be read as an image" in out
     assert "5-fold cross-validated accuracy: mean" in out
+    assert "confidence threshold " in out and "of held-out images reach it" in out
     assert f"model: {model_path}" in out
     model = load_classifier(model_path, expected=ClassifierConfig())
     assert model.n_training_images == 18
-    assert len(model.training_labels) == 12 * 1 + 6 * 9  # ragged: 48 px and 96 px images
+    # min_tile_size auto: the median shorter side (48 px) / 4 tiles = 12 px, recorded in the
+    # model; 48 px and 96 px images both 4x4 tiles (with 32 px they were 1 and 3x3)
+    assert model.cfg.min_tile_size == 12 and len(model.training_labels) == 18 * 16
+    assert 0.0 <= model.min_confidence <= 1.0 and model.novelty_distance is not None
     label, confidence = model.classify(read_image_rgb(root / "brick" / "0.png"))
     assert label == "brick" and confidence > 0.5
 
@@ -127,9 +131,9 @@ def test_cross_validation_keeps_all_tiles_of_an_image_in_one_fold(monkeypatch):
             calls.append((features[:, 0].astype(int), region, labels))
             return super().fit(features, labels, region)
 
-        def predict(self, features, region=None):
+        def predict_with_confidence(self, features, region=None):
             calls.append((features[:, 0].astype(int), region, None))
-            return super().predict(features, region)
+            return super().predict_with_confidence(features, region)
 
     monkeypatch.setattr(training, "TerrainClassifier", Spy)
     result = cross_validate(data, folds=5)

@@ -74,7 +74,7 @@ def test_bad_classifier_settings_are_config_errors(tmp_path):
         load_classifier_config(path)
     with pytest.raises(ConfigError, match="min_tile_size: must be a whole number >= 1"):
         load_classifier_config(None, {"min_tile_size": 0})
-    with pytest.raises(ConfigError, match="features: must be one of"):
+    with pytest.raises(ConfigError, match="features: 'rgb' is not texture families"):
         load_classifier_config(None, {"features": "rgb"})
     with pytest.raises(ConfigError, match="not found"):
         load_classifier_config(tmp_path / "missing.yaml")

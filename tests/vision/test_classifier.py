@@ -49,7 +49,7 @@ def stack_regions(per_region: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]
 @pytest.fixture(scope="module")
 def texture_features() -> dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]]:
     """Default features, region index and labels of the 64x64 tiles of each image half."""
-    cfg = ClassifierConfig()
+    cfg = ClassifierConfig(min_tile_size=32)
     out = {}
     for half in (0, 1):
         feats, labels = [], []
@@ -68,7 +68,7 @@ def test_skimage_textures_are_classified_from_the_other_image_half(texture_featu
     for train_half in (0, 1):
         x_train, r_train, y_train = texture_features[train_half]
         x_test, r_test, y_test = texture_features[1 - train_half]
-        model = TerrainClassifier().fit(x_train, y_train, r_train)
+        model = TerrainClassifier(ClassifierConfig(min_tile_size=32)).fit(x_train, y_train, r_train)
         predicted = model.predict(x_test, r_test)
         correct += int(np.sum(predicted == y_test))
         total += len(y_test)
@@ -80,13 +80,21 @@ def test_skimage_textures_are_classified_from_the_other_image_half(texture_featu
 def test_arrays_round_trip_gives_identical_predictions(texture_features):
     x_train, r_train, y_train = texture_features[0]
     x_test, r_test, _ = texture_features[1]
-    model = TerrainClassifier().fit(x_train, y_train, r_train)
+    model = TerrainClassifier(ClassifierConfig(min_tile_size=32)).fit(x_train, y_train, r_train)
+    model.calibrate_novelty()
+    model.min_confidence = 0.6
     arrays, meta = model.to_arrays()
     assert sorted(arrays) == sorted(MODEL_ARRAYS)
     assert arrays["region"].dtype == np.int64 and arrays["labels"].dtype.kind == "U"
     json.dumps(meta)  # plain data
-    loaded = TerrainClassifier.from_arrays(ClassifierConfig(), arrays)
+    loaded = TerrainClassifier.from_arrays(
+        ClassifierConfig(min_tile_size=32),
+        arrays,
+        novelty_distance=meta["novelty_distance"],
+        min_confidence=meta["min_confidence"],
+    )
     assert loaded.cfg == model.cfg
+    assert (loaded.novelty_distance, loaded.min_confidence) == (model.novelty_distance, 0.6)
     assert loaded.classes == sorted(TEXTURES)
     np.testing.assert_array_equal(loaded.training_region, r_train)
     for ours, theirs in zip(
@@ -99,13 +107,13 @@ def test_arrays_round_trip_gives_identical_predictions(texture_features):
     assert loaded.n_training_images == meta["n_training_images"] == len(y_train)
     assert meta["n_training_samples"] == len(x_train) == 4 * len(y_train)
     assert meta["feature_version"] == FEATURE_VERSION
-    assert meta["config"] == dataclasses.asdict(ClassifierConfig())
+    assert meta["config"] == dataclasses.asdict(ClassifierConfig(min_tile_size=32))
     assert meta["classes"] == sorted(TEXTURES)
 
 
 def test_paper_pipeline_uses_raw_features_and_default_standardises():
     assert list(make_pipeline(paper_config()).named_steps) == ["knn"]
-    assert list(make_pipeline(ClassifierConfig()).named_steps) == ["scaler", "knn"]
+    assert list(make_pipeline(ClassifierConfig(min_tile_size=32)).named_steps) == ["scaler", "knn"]
     # Raw distance: the large second feature decides, as in eq. 24.
     x = np.array(
         [[0.0, 1000.0], [0.0, 1010.0], [0.0, 1020.0], [1.0, 0.0], [1.0, 10.0], [1.0, 20.0]]
@@ -172,7 +180,7 @@ def test_region_index_is_checked():
 
 def test_fit_and_classify_regions_of_mixed_sizes():
     # Training regions of 48, 64 and 128 px: 1, 4 and 16 tiles (ragged), a row of each.
-    cfg = ClassifierConfig()
+    cfg = ClassifierConfig(min_tile_size=32)
     per_region, labels = [], []
     for name in TEXTURES:
         rgb, top = texture_half(name, 0), 0
@@ -245,7 +253,7 @@ def test_from_arrays_refuses_missing_or_inconsistent_arrays():
     arrays, _ = TerrainClassifier().fit(np.eye(6), list("aaabbb")).to_arrays()
     no_region = {name: a for name, a in arrays.items() if name != "region"}
     with pytest.raises(ValueError, match=r"no \['region'\]"):
-        TerrainClassifier.from_arrays(ClassifierConfig(), no_region)
+        TerrainClassifier.from_arrays(ClassifierConfig(min_tile_size=32), no_region)
     short = {**arrays, "labels": arrays["labels"][:5]}
     with pytest.raises(ValueError, match="5 labels for 6 feature rows"):
-        TerrainClassifier.from_arrays(ClassifierConfig(), short)
+        TerrainClassifier.from_arrays(ClassifierConfig(min_tile_size=32), short)

@@ -49,14 +49,14 @@ def make_folder(root: Path) -> Path:
 
 
 def test_features_are_flat_tiles_with_their_image_index(tmp_path):
-    cfg = ClassifierConfig()
+    cfg = ClassifierConfig(min_tile_size=32)
     data = extract_features(
         scan_image_folder(make_folder(tmp_path)), cfg, read=read_image_rgb, jobs=1, progress=False
     )
     assert data.counts() == {"brick": 2, "grass": 3, "gravel": 2}
     assert data.paths[3].name == "g1.png"  # 96 px: 3x3 tiles, the others one tile
     assert np.bincount(data.region).tolist() == [1, 1, 1, 9, 1, 1, 1]
-    assert data.features.shape == (15, 30) and data.region.shape == (15,)
+    assert data.features.shape == (15, 50) and data.region.shape == (15,)  # sfta+lbp+lab
     for i in (3, 4):
         expected = image_features(read_image_rgb(data.paths[i]), cfg)
         np.testing.assert_array_equal(data.features[data.region == i], expected)
@@ -67,7 +67,7 @@ def test_features_are_flat_tiles_with_their_image_index(tmp_path):
 def test_select_keeps_all_tiles_of_the_chosen_images(tmp_path):
     data = extract_features(
         scan_image_folder(make_folder(tmp_path)),
-        ClassifierConfig(),
+        ClassifierConfig(min_tile_size=32),
         read=read_image_rgb,
         jobs=1,
         progress=False,
@@ -91,7 +91,11 @@ def test_unreadable_image_is_skipped_and_a_tiny_one_is_one_tile(tmp_path):
     (root / "grass" / "broken.png").write_text("this is not a png")
     write_rgb(root / "gravel" / "tiny.png", texture("gravel", 2)[:2, :3])
     data = extract_features(
-        scan_image_folder(root), ClassifierConfig(), read=read_image_rgb, jobs=1, progress=False
+        scan_image_folder(root),
+        ClassifierConfig(min_tile_size=32),
+        read=read_image_rgb,
+        jobs=1,
+        progress=False,
     )
     assert [(s.path.name, s.reason) for s in data.skipped] == [
         ("broken.png", "cannot be read as an image")
@@ -109,7 +113,11 @@ def test_a_class_of_unreadable_images_is_an_error(tmp_path):
             path.write_text("garbage")
     with pytest.raises(InputFileError, match=r"no readable image in class\(es\) \['brick'\]"):
         extract_features(
-            scan_image_folder(root), ClassifierConfig(), read=read_image_rgb, jobs=1, progress=False
+            scan_image_folder(root),
+            ClassifierConfig(min_tile_size=32),
+            read=read_image_rgb,
+            jobs=1,
+            progress=False,
         )
 
 
@@ -117,7 +125,7 @@ def test_parallel_extraction_equals_serial_and_shares_equal_feature_settings(tmp
     images = scan_image_folder(make_folder(tmp_path))
     paper = paper_config()
     knn_only_change = dataclasses.replace(paper, k=3)
-    default = ClassifierConfig()  # ragged: g1.png has 9 tiles
+    default = ClassifierConfig(min_tile_size=32)  # ragged: g1.png has 9 tiles
     serial = extract_feature_sets(
         images, [paper, knn_only_change, default], read=read_image_rgb, jobs=1, progress=False
     )

@@ -21,7 +21,7 @@ TILE = 64
 
 
 def test_tile_grid_adapts_to_the_region_size():
-    cfg = ClassifierConfig()
+    cfg = ClassifierConfig(features="sfta+lab", min_tile_size=32)
     assert (cfg.tiles, cfg.min_tile_size) == (4, 32)
     # Below 2 * min_tile_size on the short side: one tile, whatever the long side.
     assert tiles_per_side(63, 500, cfg) == tiles_per_side(1, 1, cfg) == 1
@@ -51,7 +51,9 @@ def test_region_features_length_and_finite():
         features = region_features(image, cfg)
         assert features.shape == (length,)
         assert np.all(np.isfinite(features))
-    assert image_features(image, ClassifierConfig(tiles=3, min_tile_size=8)).shape == (9, 30)
+    assert image_features(
+        image, ClassifierConfig(features="sfta+lab", tiles=3, min_tile_size=8)
+    ).shape == (9, 30)
 
 
 def test_relative_counts_are_fractions_of_the_area():
@@ -77,7 +79,7 @@ def test_colour_statistics_lab_of_a_grey_patch_and_circular_hue():
 
 
 def test_fixed_size_tiles_scale_with_the_area():
-    cfg = ClassifierConfig(tile_size=64)
+    cfg = ClassifierConfig(features="sfta+lab", tile_size=64)
     # Tiles of about 64 px whatever the region: a region 4x the area has 4x the tiles.
     assert tile_grid(120, 160, cfg) == (2, 3)
     assert tile_grid(240, 320, cfg) == (4, 5)

@@ -25,10 +25,10 @@ from terrain_odom.vision import dataset
 from terrain_odom.vision.dataset import LabelledImages, extract_feature_sets
 from terrain_odom.vision.sfta import to_grey
 from terrain_odom.vision.tuning import (
-    DEFAULT_GRID,
     FeatureCache,
     ImageKNN,
     check_grid,
+    default_grid,
     grid_configs,
     image_index,
     nested_search,
@@ -198,7 +198,10 @@ def test_clones_share_the_cache_and_estimator_parameters_are_the_configuration()
 def test_grid_checks_name_the_field():
     base = ClassifierConfig()
     assert check_grid({"k": (1, 3)}, base) == [{"k": [1, 3]}]
-    assert len(grid_configs(check_grid(DEFAULT_GRID, base), base)) == 24
+    assert len(grid_configs(check_grid(default_grid(64), base), base)) == 8
+    assert default_grid(64)["min_tile_size"] == [16, 32]  # 1/4 and 1/2 of the shorter side
+    assert default_grid(20)["min_tile_size"] == [8, 10]  # never under MIN_TILE_SIZE
+    assert "min_tile_size" not in default_grid(None)
     for bad, match in (
         ({"colour": ["lab"]}, "unknown field 'colour'"),
         ({"k": []}, r"grid.k: expected a non-empty list"),

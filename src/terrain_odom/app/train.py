@@ -28,14 +28,16 @@ from terrain_odom.config.classifier import ClassifierConfig, paper_config
 from terrain_odom.errors import ConfigError, InputFileError
 from terrain_odom.io.atomic import write_atomic, write_text_atomic
 from terrain_odom.io.classifier_file import save_classifier
-from terrain_odom.io.images import scan_image_folder
+from terrain_odom.io.images import median_short_side, scan_image_folder
 from terrain_odom.io.paths import check_outputs
 from terrain_odom.io.report import report_header, write_json
 from terrain_odom.reporting.confusion import confusion_figure
 from terrain_odom.reporting.figure import save_png
+from terrain_odom.vision.calibration import Reliability, choose_threshold, reliability
 from terrain_odom.vision.classifier import TerrainClassifier
-from terrain_odom.vision.dataset import LabelledFeatures, SkippedImage
-from terrain_odom.vision.tuning import grid_configs
+from terrain_odom.vision.dataset import LabelledFeatures, LabelledImages, SkippedImage
+from terrain_odom.vision.features import resolve_scale
+from terrain_odom.vision.tuning import Grid, grid_configs
 
 if TYPE_CHECKING:
     from terrain_odom.app.tune import NestedTuning, Tuning
@@ -76,12 +78,29 @@ class CrossValidation:
     folds : int
     confusion : ndarray of int, shape (n_classes, n_classes)
         Image counts; row = true class, column = predicted class.
+    confidence, correct : ndarray, shape (n_images,), optional
+        Each held-out image's confidence and whether its label was right
+        (in image order; for :meth:`reliability`).
     """
 
     cfg: ClassifierConfig
     classes: tuple[str, ...]
     folds: int
     confusion: NDArray[np.int64]
+    confidence: NDArray[np.float64] | None = None
+    correct: NDArray[np.bool_] | None = None
+
+    def reliability(self) -> Reliability | None:
+        """Observed accuracy against confidence of the held-out images (None without them)."""
+        if self.confidence is None or self.correct is None:
+            return None
+        return reliability(self.confidence, self.correct)
+
+    def threshold(self) -> float | None:
+        """Return the tracker's confidence threshold chosen from the held-out images (:func:`choose_threshold`)."""
+        if self.confidence is None or self.correct is None:
+            return None
+        return choose_threshold(self.confidence, self.correct)
 
     @property
     def percent(self) -> NDArray[np.float64]:
@@ -109,7 +128,8 @@ class CrossValidation:
         return name, self.per_class_accuracy[name]
 
     def to_dict(self) -> dict[str, Any]:
-        """Plain data for reports."""
+        """Plain data for reports (with the reliability and threshold when known)."""
+        table = self.reliability()
         return {
             "config": dataclasses.asdict(self.cfg),
             "confusion_counts": self.confusion,
@@ -117,6 +137,11 @@ class CrossValidation:
             "per_class_accuracy_percent": self.per_class_accuracy,
             "mean_accuracy_percent": self.mean_accuracy,
             "overall_accuracy_percent": self.overall_accuracy,
+            **(
+                {}
+                if table is None
+                else {"reliability": table.to_dict(), "min_confidence": self.threshold()}
+            ),
         }
 
 
@@ -162,13 +187,16 @@ def cross_validate(
     splitter = StratifiedKFold(n_splits=folds, shuffle=True, random_state=seed)
     confusion = np.zeros((len(data.classes), len(data.classes)), dtype=np.int64)
     index = {name: i for i, name in enumerate(data.classes)}
+    confidence = np.zeros(data.labels.size)
+    correct = np.zeros(data.labels.size, dtype=bool)
     for train_idx, test_idx in splitter.split(np.zeros((data.labels.size, 1)), data.labels):
         train, test = data.select(train_idx), data.select(test_idx)  # all tiles of an image
         model = TerrainClassifier(cfg).fit(train.features, train.labels, train.region)
-        predicted = model.predict(test.features, test.region)
+        predicted, confidence[test_idx] = model.predict_with_confidence(test.features, test.region)
+        correct[test_idx] = predicted == test.labels
         for true, pred in zip(test.labels, predicted, strict=True):
             confusion[index[true], index[pred]] += 1
-    return CrossValidation(cfg, data.classes, folds, confusion)
+    return CrossValidation(cfg, data.classes, folds, confusion, confidence, correct)
 
 
 def feature_times_ms(data: LabelledFeatures) -> dict[str, dict[str, float]]:
@@ -193,7 +221,9 @@ class TrainSummary:
     skipped : tuple of SkippedImage
     cross_validation : CrossValidation or None
         None when a class has fewer than 2 images. With ``tuning``, of the
-        chosen settings on the folds they were chosen on (optimistic).
+        chosen settings on the folds they were chosen on (optimistic). Its
+        :meth:`~CrossValidation.threshold` is the model's ``min_confidence``
+        (0 without cross-validation).
     tuning : Tuning or None
         The search of ``train(tune=True)`` (``cfg`` is its choice).
     """
@@ -246,7 +276,8 @@ def train(
         scores and the choice.
     grid_path : str or Path, optional
         YAML grid for ``tune`` (:func:`~terrain_odom.app.tune.load_grid`;
-        default :data:`~terrain_odom.vision.tuning.DEFAULT_GRID`); implies ``tune``.
+        default :func:`~terrain_odom.vision.tuning.default_grid` around the
+        images' size); implies ``tune``.
     dask : str, optional
         Run the feature extraction and the search on this Dask cluster
         (``tcp://host:port`` or ``local:N``, :func:`~terrain_odom.app.cluster.dask_cluster`;
@@ -266,7 +297,6 @@ def train(
     """
     from terrain_odom.app.tune import (  # here: app.tune builds on this module's CrossValidation
         feature_cache,
-        load_grid,
         tune_settings,
     )
 
@@ -274,8 +304,8 @@ def train(
     target = output_file(out, MODEL_FILE, MODEL_SUFFIXES)
     check_out(out, MODEL_SUFFIXES)
     tune = tune or grid_path is not None
-    grid = load_grid(grid_path, cfg) if tune else None
     scan = scan_image_folder(images)
+    cfg, grid = _scaled(cfg, scan, tune, grid_path)
     check_outputs([*scan.paths, config_path, grid_path], [target])
     with dask_cluster(dask) as cluster:
         jobs = jobs if cluster is None else cluster.jobs
@@ -286,10 +316,29 @@ def train(
     model = TerrainClassifier(cfg).fit(data.features, data.labels, data.region)
     folds = min(folds, *data.counts().values())
     validation = cross_validate(data, folds=folds) if folds >= 2 else None
+    model.calibrate_novelty()
+    threshold = None if validation is None else validation.threshold()
+    model.min_confidence = 0.0 if threshold is None else threshold
     create_folder(out, MODEL_SUFFIXES)
     with writing_into(out, target, "train", [target.name], MODEL_SUFFIXES):
         save_classifier(model, target, tuning=None if tuning is None else tuning.to_dict())
     return TrainSummary(target, cfg, data.counts(), data.skipped, validation, tuning)
+
+
+def _scaled(
+    cfg: ClassifierConfig, scan: LabelledImages, tune: bool, grid_path: str | Path | None
+) -> tuple[ClassifierConfig, Grid | None]:
+    """``cfg`` with its ``auto`` settings chosen from the images' size, and the grid if ``tune``.
+
+    The size is the images' median shorter side (:func:`~terrain_odom.io.images.median_short_side`);
+    the default grid is built around it (:func:`~terrain_odom.app.tune.load_grid`).
+    """
+    from terrain_odom.app.tune import load_grid
+
+    short_side = median_short_side(scan.paths)
+    if short_side is not None:
+        cfg = resolve_scale(cfg, short_side)
+    return cfg, load_grid(grid_path, cfg, short_side) if tune else None
 
 
 @dataclass(frozen=True)
@@ -389,14 +438,14 @@ def report_accuracy(
         As :func:`train` (a file to write in ``out_dir`` is an input), or a
         class with fewer images than ``folds``.
     """
-    from terrain_odom.app.tune import feature_cache, load_grid, nested_tuning  # as in train
+    from terrain_odom.app.tune import feature_cache, nested_tuning  # as in train
 
     cfg = ClassifierConfig() if cfg is None else cfg
     if folds < 2:
         raise ConfigError(f"folds: must be >= 2, got {folds}")
     out_dir = None if out_dir is None else Path(out_dir)
-    grid = load_grid(grid_path, cfg) if tune or grid_path is not None else None
     scan = scan_image_folder(images)
+    cfg, grid = _scaled(cfg, scan, tune or grid_path is not None, grid_path)
     if out_dir is not None:
         check_outputs(
             [*scan.paths, config_path, grid_path], [out_dir / name for name in ACCURACY_FILES]

@@ -4,8 +4,8 @@
 cross-validation (:func:`~terrain_odom.vision.tuning.search_settings`);
 :func:`nested_tuning` scores that choice by nested cross-validation
 (:func:`~terrain_odom.vision.tuning.nested_search`) on the outer folds the
-untuned report uses. The grid is :data:`~terrain_odom.vision.tuning.DEFAULT_GRID`
-or a YAML file (:func:`load_grid`).
+untuned report uses. The grid is :func:`~terrain_odom.vision.tuning.default_grid` (built
+around the images' size) or a YAML file (:func:`load_grid`).
 """
 
 from __future__ import annotations
@@ -25,12 +25,12 @@ from terrain_odom.errors import ConfigError, InputFileError
 from terrain_odom.io.images import read_image_rgb
 from terrain_odom.vision.dataset import LabelledImages, extract_feature_sets
 from terrain_odom.vision.tuning import (
-    DEFAULT_GRID,
     FeatureCache,
     Grid,
     NestedFold,
     Search,
     check_grid,
+    default_grid,
     grid_configs,
     nested_search,
     search_settings,
@@ -50,8 +50,13 @@ INNER_FOLDS = 3
 """Folds of the search inside each outer training fold of :func:`nested_tuning`."""
 
 
-def load_grid(path: str | Path | None, base: ClassifierConfig) -> Grid:
-    """Return the grid of a YAML file, or :data:`DEFAULT_GRID` without one.
+def load_grid(
+    path: str | Path | None, base: ClassifierConfig, short_side: float | None = None
+) -> Grid:
+    """Return the grid of a YAML file, or the default grid without one.
+
+    The default grid (:func:`~terrain_odom.vision.tuning.default_grid`) is
+    built around ``short_side``, the training images' median shorter side, px.
 
     The file holds a mapping of :class:`ClassifierConfig` fields to lists of
     values (every combination is a candidate), or a list of such mappings
@@ -66,7 +71,7 @@ def load_grid(path: str | Path | None, base: ClassifierConfig) -> Grid:
         Naming the file and the first invalid field or value.
     """
     if path is None:
-        return check_grid(DEFAULT_GRID, base)
+        return check_grid(default_grid(short_side), base)
     path = Path(path)
     data = read_yaml(path, kind="grid file")
     try:

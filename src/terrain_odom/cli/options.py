@@ -32,7 +32,6 @@ if TYPE_CHECKING:
     from terrain_odom.fitting import FitOptions, Horizon
 
 MODEL_CHOICES = ("idd", "edd-sym", "edd-asym", "roc", "linear", "icr", "icr-slip")
-FEATURE_CHOICES = ("sfta", "sfta+lab", "sfta+hsv")
 REMOVED_IN = "0.3"
 """The release that drops the deprecated spellings."""
 
@@ -426,8 +425,8 @@ def add_classifier_options(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument(
         "--features",
-        choices=FEATURE_CHOICES,
-        help="grey SFTA only (Chen et al.) or SFTA + colour statistics",
+        help="texture families sfta (Chen et al.), lbp, glcm joined by '+', optionally with "
+        "one colour space lab or hsv (default sfta+lbp+lab; Chen's recipe: sfta)",
     )
     p.add_argument(
         "--no-scale",
@@ -439,7 +438,8 @@ def add_classifier_options(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--min-tile-size",
         type=int,
-        help="smallest tile side in pixels: smaller images get fewer tiles per side",
+        help="smallest tile side in pixels: smaller images get fewer tiles per side "
+        "(default auto: the training images' median shorter side / --tiles, recorded in the model)",
     )
     p.add_argument(
         "--tile-size",

@@ -6,7 +6,7 @@ import argparse
 from typing import TYPE_CHECKING
 
 from terrain_odom.cli.options import add_classifier_options, add_out_option, classifier_config
-from terrain_odom.cli.train import describe, describe_values, print_skipped
+from terrain_odom.cli.train import describe, describe_threshold, describe_values, print_skipped
 
 if TYPE_CHECKING:
     from terrain_odom.app.train import CrossValidation
@@ -103,6 +103,7 @@ def _cmd_accuracy(args: argparse.Namespace) -> int:
     ):
         print(f"\n{title}: {describe(cv.cfg)}")
         print("\n".join(format_table(cv, report.feature_ms[key])))
+        print(describe_threshold(cv))
     if report.tuned is not None:
         print_tuned(report.tuned)
     if report.outputs:

@@ -13,6 +13,7 @@ from terrain_odom.cli.options import (
 )
 
 if TYPE_CHECKING:
+    from terrain_odom.app.train import CrossValidation
     from terrain_odom.config.classifier import ClassifierConfig
     from terrain_odom.vision.dataset import SkippedImage
     from terrain_odom.vision.tuning import Search
@@ -29,6 +30,19 @@ def describe(cfg: ClassifierConfig) -> str:
             if cfg.tile_size is not None
             else f"tiles={cfg.tiles} min_tile_size={cfg.min_tile_size}"
         )
+    )
+
+
+def describe_threshold(cv: CrossValidation) -> str:
+    """One line: the confidence threshold chosen from the held-out images, and what it keeps."""
+    threshold = cv.threshold()
+    if threshold is None or cv.confidence is None or cv.correct is None:
+        return "confidence: not measured"
+    kept = cv.confidence >= threshold
+    right = 100.0 * float(cv.correct[kept].mean()) if kept.any() else float("nan")
+    return (
+        f"confidence threshold {threshold:.2f} (frames below it are no sighting): "
+        f"{100.0 * float(kept.mean()):.1f} % of held-out images reach it, {right:.1f} % of them right"
     )
 
 
@@ -99,5 +113,6 @@ def _cmd_train(args: argparse.Namespace) -> int:
                 "  (optimistic: the settings were chosen on these folds; "
                 "'report accuracy --tune' scores the tuning by nested cross-validation)"
             )
+        print(describe_threshold(cv))
     print(f"model: {summary.model_path}")
     return 0

@@ -22,7 +22,10 @@ __all__ = [
     "PAPER_K",
     "MIN_TILE_SIZE",
     "FEATURE_FIELDS",
-    "FeatureOption",
+    "TEXTURE_FAMILIES",
+    "COLOUR_SPACES",
+    "AUTO",
+    "feature_parts",
     "ClassifierConfig",
     "paper_config",
     "is_flat_classifier",
@@ -34,7 +37,63 @@ PAPER_K = 5
 MIN_TILE_SIZE = 8
 """Smallest ``tile_size``, px (SFTA's box counting needs a few box sizes)."""
 
-FeatureOption = Literal["sfta", "sfta+lab", "sfta+hsv"]
+TEXTURE_FAMILIES = ("sfta", "lbp", "glcm")
+"""Texture feature families, in their order in a feature vector (:mod:`terrain_odom.vision.features`)."""
+
+COLOUR_SPACES = ("lab", "hsv")
+"""Colour spaces whose channel statistics can follow the texture features."""
+
+AUTO: Literal["auto"] = "auto"
+"""``min_tile_size: auto``: chosen from the training images' size (:func:`~terrain_odom.vision.features.auto_min_tile_size`)."""
+
+
+def feature_parts(features: str) -> tuple[tuple[str, ...], str | None]:
+    """Split a ``features`` setting into its texture families and colour space.
+
+    ``features`` joins with ``+`` one or more of :data:`TEXTURE_FAMILIES`
+    and at most one of :data:`COLOUR_SPACES`, in any order.
+
+    Returns
+    -------
+    families : tuple of str
+        In the order of :data:`TEXTURE_FAMILIES`.
+    colour : str or None
+
+    Raises
+    ------
+    ConfigError
+        An unknown or repeated part, no texture family, two colour spaces.
+
+    Examples
+    --------
+    >>> feature_parts("lab+lbp+sfta")
+    (('sfta', 'lbp'), 'lab')
+    >>> feature_parts("glcm")
+    (('glcm',), None)
+    """
+    parts = features.split("+") if isinstance(features, str) else [features]
+    unknown = [p for p in parts if p not in TEXTURE_FAMILIES + COLOUR_SPACES]
+    if unknown or len(set(parts)) != len(parts):
+        raise ConfigError(
+            f"features: {features!r} is not texture families ({', '.join(TEXTURE_FAMILIES)}) "
+            f"and at most one colour space ({', '.join(COLOUR_SPACES)}) joined by '+', "
+            "each once, e.g. sfta+lab"
+        )
+    families = tuple(f for f in TEXTURE_FAMILIES if f in parts)
+    colours = [c for c in COLOUR_SPACES if c in parts]
+    if not families or len(colours) > 1:
+        raise ConfigError(
+            f"features: {features!r} needs at least one texture family "
+            f"({', '.join(TEXTURE_FAMILIES)}) and at most one colour space"
+        )
+    return families, colours[0] if colours else None
+
+
+def _canonical(features: str) -> str:
+    """``features`` with its parts in the canonical order (families, then colour)."""
+    families, colour = feature_parts(features)
+    return "+".join(families + (() if colour is None else (colour,)))
+
 
 FEATURE_FIELDS = (
     "features",
@@ -54,9 +113,13 @@ class ClassifierConfig:
 
     Attributes
     ----------
-    features : {"sfta", "sfta+lab", "sfta+hsv"}
-        Grey SFTA only (Chen), or SFTA plus the mean and standard deviation
-        of each channel of CIE L*a*b* or HSV (6 values).
+    features : str
+        Texture families of the grey image joined by ``+`` (:func:`feature_parts`):
+        ``sfta`` (Chen), ``lbp`` (uniform local binary patterns),
+        ``glcm`` (grey-level co-occurrence statistics), optionally with the
+        mean and standard deviation of each channel of CIE L*a*b* (``lab``)
+        or HSV (``hsv``), 6 values; e.g. ``sfta`` (Chen), ``sfta+lab``.
+        Stored in the canonical order (families as :data:`TEXTURE_FAMILIES`, then colour).
     n_t : int
         Number of multi-level Otsu thresholds of SFTA (``6 * n_t`` values).
     relative_counts : bool
@@ -73,8 +136,13 @@ class ClassifierConfig:
         Each neighbour's vote counts 1 (Chen) or ``1 / distance``.
     tiles : int
         Most tiles per side for tile voting; 1 classifies the whole region.
-    min_tile_size : int
-        Smallest tile side, px: a region is cut into fewer tiles per side
+    min_tile_size : int or "auto"
+        Smallest tile side, px; ``auto`` (default): the training images'
+        median shorter side divided by ``tiles`` (at least :data:`MIN_TILE_SIZE`),
+        so that a training image is ``tiles x tiles`` tiles whatever its size;
+        ``train`` records the number it chose in the model, and a region
+        described without that choice (:func:`~terrain_odom.vision.features.image_features`
+        on an ``auto`` configuration) uses its own shorter side. A number: a region is cut into fewer tiles per side
         when ``tiles`` would make them smaller (:func:`~terrain_odom.vision.features.tiles_per_side`), and
         a region under ``2 * min_tile_size`` px a side is one tile. Box
         counting fits the box sides ``1, 2, 4, ...`` up to the first at which
@@ -88,7 +156,7 @@ class ClassifierConfig:
         A region's time is then proportional to its area.
     """
 
-    features: FeatureOption = "sfta+lab"
+    features: str = "sfta+lbp+lab"
     n_t: int = 4
     relative_counts: bool = True
     pyramid_levels: int = 1
@@ -96,10 +164,11 @@ class ClassifierConfig:
     k: int = 5
     weights: Literal["uniform", "distance"] = "distance"
     tiles: int = 4
-    min_tile_size: int = 32
+    min_tile_size: int | Literal["auto"] = AUTO
     tile_size: int | None = None
 
     def __post_init__(self) -> None:
+        object.__setattr__(self, "features", _canonical(self.features))
         if self.tile_size is not None and self.tile_size < MIN_TILE_SIZE:
             raise ConfigError(f"tile_size: must be >= {MIN_TILE_SIZE} px, got {self.tile_size}")
 

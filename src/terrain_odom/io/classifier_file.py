@@ -28,7 +28,7 @@ from typing import Any, BinaryIO
 
 import numpy as np
 
-from terrain_odom.config.classifier import FEATURE_FIELDS, ClassifierConfig
+from terrain_odom.config.classifier import AUTO, FEATURE_FIELDS, ClassifierConfig
 from terrain_odom.config.fields import build_section
 from terrain_odom.errors import ConfigError, InputFileError
 from terrain_odom.io.atomic import write_atomic
@@ -113,7 +113,9 @@ def load_classifier(
     path : str or Path
     expected : ClassifierConfig, optional
         If given, the model's feature settings
-        (:data:`~terrain_odom.config.classifier.FEATURE_FIELDS`) must equal these.
+        (:data:`~terrain_odom.config.classifier.FEATURE_FIELDS`) must equal
+        these, but for those ``auto`` in ``expected`` (the model records
+        what its training chose).
 
     Raises
     ------
@@ -129,10 +131,23 @@ def load_classifier(
     cfg = _check_metadata(path, meta, expected)  # versions before the arrays
     _check_arrays(path, cfg, arrays)
     _check_labels(path, meta, arrays)
+    novelty, threshold = meta.get("novelty_distance"), meta.get("min_confidence", 0.0)
+    if not (novelty is None or _is_number(novelty, 0.0)) or not _is_number(threshold, 0.0, 1.0):
+        raise InputFileError(
+            f"{path}: invalid model metadata (novelty_distance {novelty!r}, "
+            f"min_confidence {threshold!r})"
+        )
     try:
-        return TerrainClassifier.from_arrays(cfg, arrays)
+        return TerrainClassifier.from_arrays(
+            cfg, arrays, novelty_distance=novelty, min_confidence=threshold
+        )
     except ValueError as exc:
         raise InputFileError(f"{path}: inconsistent model file ({exc})") from None
+
+
+def _is_number(value: Any, low: float, high: float = float("inf")) -> bool:
+    """Whether ``value`` is a JSON number (not a boolean) in ``[low, high]``."""
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and low <= value <= high
 
 
 def load_tuning(path: str | Path) -> dict[str, Any] | None:
@@ -286,7 +301,7 @@ def _check_metadata(
     if expected is not None:
         for name in FEATURE_FIELDS:
             theirs, ours = getattr(cfg, name), getattr(expected, name)
-            if theirs != ours:
+            if theirs != ours and ours != AUTO:  # auto: whatever the training chose
                 raise InputFileError(
                     f"{path}: model was trained with {name}={theirs!r} but the configuration "
                     f"asks for {name}={ours!r}; retrain the model or change the configuration"

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import os
 import stat
+from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -182,3 +183,22 @@ def read_image_rgb(path: str | Path) -> NDArray[np.uint8] | None:
     """
     data, _ = read_image_bytes(path)
     return None if data is None else decode_image_rgb(data)
+
+
+def median_short_side(paths: Sequence[str | Path]) -> float | None:
+    """Median shorter side of the images, px, from their headers (no decoding); ``None`` if none is readable.
+
+    What ``min_tile_size: auto`` and the default ``--tune`` grid are scaled to
+    (:func:`terrain_odom.vision.features.resolve_scale`). Unreadable images are
+    left out here; the feature extraction reports them.
+    """
+    from PIL import Image, UnidentifiedImageError
+
+    sides = []
+    for path in paths:
+        try:
+            with Image.open(path) as image:
+                sides.append(min(image.size))
+        except (OSError, UnidentifiedImageError, ValueError):
+            continue
+    return float(np.median(sides)) if sides else None

@@ -16,7 +16,16 @@ option of :class:`~terrain_odom.config.classifier.ClassifierConfig`:
   its confidence. Fixed-size tiles describe every region at the scale of the
   training tiles, and make the time a region takes proportional to its area,
   which is what a region of interest saves (Chen's Table 2);
-- **distance weighting** of the neighbours' votes (``weights``).
+- **distance weighting** of the neighbours' votes (``weights``);
+- **unknown ground** (:meth:`TerrainClassifier.calibrate_novelty`): a tile
+  farther from every training tile than twice what nearly all training
+  tiles are from their nearest tile of another training image votes for no class, so that
+  ground unlike any training class gets a low confidence instead of the
+  label of whichever class happens to be nearest;
+- **a confidence threshold** (``min_confidence``, chosen by the caller from
+  cross-validated reliability, :mod:`terrain_odom.vision.calibration`): a
+  region classified with less confidence is no sighting for the terrain
+  tracker (:class:`~terrain_odom.vision.frame_classifier.FrameClassification`).
 
 Regions of different sizes have different numbers of tiles, so the features
 of several regions are *flat*: one row per tile, ``(n_tiles, n_features)``,
@@ -38,7 +47,7 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from sklearn.neighbors import KNeighborsClassifier
+from sklearn.neighbors import KNeighborsClassifier, NearestNeighbors
 from sklearn.pipeline import Pipeline
 from sklearn.preprocessing import StandardScaler
 
@@ -46,10 +55,37 @@ from terrain_odom.config.classifier import ClassifierConfig
 from terrain_odom.errors import ConfigError
 from terrain_odom.vision.features import FEATURE_VERSION, image_features
 
-__all__ = ["MODEL_ARRAYS", "make_pipeline", "check_regions", "TerrainClassifier"]
+__all__ = [
+    "MODEL_ARRAYS",
+    "NOVELTY_QUANTILE",
+    "NOVELTY_MARGIN",
+    "MAJORITY",
+    "make_pipeline",
+    "check_regions",
+    "TerrainClassifier",
+]
 
 MODEL_ARRAYS = ("features", "labels", "region", "scaler_mean", "scaler_scale")
 """Names of the arrays of :meth:`TerrainClassifier.to_arrays`."""
+
+NOVELTY_QUANTILE = 0.99
+"""Quantile of the training tiles' distances to their nearest other training image (see below)."""
+
+MAJORITY = 0.5
+"""Least confidence of a sighting whatever the threshold: the label's share of the region's tiles.
+
+Tiles of unknown ground count against the label, so a region mostly of
+unknown ground is no sighting even when its few known tiles agree.
+"""
+
+NOVELTY_MARGIN = 2.0
+"""The unknown-ground distance as a multiple of that quantile.
+
+The training tiles' distances underestimate a new image's: tiles of the
+simulated 640x480 run (``bench/run.py``), of the trained classes, lie at up
+to 1.3 times the 99 % quantile of the training patches' (median 0.93 times);
+twice it keeps them all.
+"""
 
 
 def make_pipeline(cfg: ClassifierConfig) -> Pipeline:
@@ -146,6 +182,49 @@ class TerrainClassifier:
         self.training_features = np.empty((0, 0))
         self.training_labels = np.empty(0, dtype=str)
         self.training_region = np.empty(0, dtype=np.intp)
+        self.novelty_distance: float | None = None
+        self.min_confidence = 0.0
+
+    def calibrate_novelty(
+        self, quantile: float = NOVELTY_QUANTILE, *, max_queries: int = 4000, seed: int = 0
+    ) -> float:
+        """Set :attr:`novelty_distance` from the training tiles themselves.
+
+        For each of up to ``max_queries`` training tiles (a seeded sample),
+        the distance (standardised when ``cfg.scale``) to the nearest
+        training tile of *another* training image; :data:`NOVELTY_MARGIN`
+        times the ``quantile`` of these is the distance beyond which a tile
+        counts as unknown ground (:meth:`predict_with_confidence`).
+
+        Returns
+        -------
+        float
+            The distance set.
+
+        Raises
+        ------
+        ValueError
+            Not fitted, or fewer than two training images.
+        """
+        if self.n_training_images < 2:
+            raise ValueError("calibrate_novelty needs a classifier fitted on >= 2 images")
+        samples = self._transformed(self.training_features)
+        rng = np.random.default_rng(seed)
+        n = samples.shape[0]
+        queries = np.sort(rng.choice(n, size=min(n, max_queries), replace=False))
+        same = int(np.bincount(self.training_region).max())  # tiles of one image
+        neighbours = NearestNeighbors(n_neighbors=min(n, same + 1)).fit(samples)
+        distance, index = neighbours.kneighbors(samples[queries])
+        other = self.training_region[index] != self.training_region[queries, None]
+        nearest = np.where(other, distance, np.inf).min(axis=1)
+        finite = nearest[np.isfinite(nearest)]
+        self.novelty_distance = NOVELTY_MARGIN * float(np.quantile(finite, quantile))
+        return self.novelty_distance
+
+    def _transformed(self, features: NDArray) -> NDArray:
+        """Features as the neighbour search sees them (standardised when ``cfg.scale``)."""
+        features = np.asarray(features, dtype=np.float64)
+        return self.pipeline["scaler"].transform(features) if self.cfg.scale else features
 
     @property
     def classes(self) -> list[str]:
@@ -196,7 +275,18 @@ class TerrainClassifier:
         self.training_labels = labels[region]
         self.training_region = region
         self.pipeline.fit(self.training_features, self.training_labels)
+        self.novelty_distance = None
         return self
+
+    @property
+    def sighting_threshold(self) -> float:
+        """Least confidence of a sighting: :attr:`min_confidence`, and at least :data:`MAJORITY`."""
+        return max(self.min_confidence, MAJORITY)
+
+    @property
+    def _encoded(self) -> NDArray[np.intp]:
+        """Column of :attr:`classes` of each training tile."""
+        return np.searchsorted(self.pipeline["knn"].classes_, self.training_labels)
 
     def predict_proba(self, features: NDArray) -> NDArray:
         """Neighbour vote shares of every tile.
@@ -210,9 +300,30 @@ class TerrainClassifier:
         -------
         ndarray, shape (n_samples, n_classes)
             Share of the ``k`` neighbours' votes (weighted by inverse distance
-            when ``weights == "distance"``) for each class of :attr:`classes`.
+            when ``weights == "distance"``) for each class of :attr:`classes`
+            (scikit-learn's ``predict_proba``); all zero for a tile farther
+            than :attr:`novelty_distance` from every training tile (unknown ground).
         """
-        return self.pipeline.predict_proba(np.asarray(features, dtype=np.float64))
+        return self._votes(features)
+
+    def _votes(self, features: NDArray) -> NDArray:
+        """:meth:`predict_proba` from one neighbour search (the shares and the nearest distance)."""
+        knn = self.pipeline["knn"]
+        distance, index = knn.kneighbors(self._transformed(features))
+        if self.cfg.weights == "uniform":
+            weight = np.ones_like(distance)
+        else:  # scikit-learn's rule: a neighbour at distance 0 takes the whole vote
+            with np.errstate(divide="ignore"):
+                weight = 1.0 / distance
+            exact = ~np.isfinite(weight)
+            weight = np.where(exact.any(axis=1, keepdims=True), exact.astype(float), weight)
+        shares = np.zeros((distance.shape[0], len(knn.classes_)))
+        rows = np.repeat(np.arange(distance.shape[0]), distance.shape[1])
+        np.add.at(shares, (rows, self._encoded[index].ravel()), weight.ravel())
+        shares /= shares.sum(axis=1, keepdims=True)
+        if self.novelty_distance is not None:
+            shares[distance[:, 0] > self.novelty_distance] = 0.0
+        return shares
 
     def predict_with_confidence(
         self, features: NDArray, region: NDArray | None = None
@@ -235,13 +346,14 @@ class TerrainClassifier:
         confidence : ndarray of float, shape (n_regions,)
             Of a one-tile region: the neighbour vote share of the label. Of a
             region of several tiles: the share of its tiles that voted for
-            the label.
+            the label. Tiles of unknown ground (:meth:`predict_proba`) vote
+            for nothing, so a region of unknown ground has confidence 0.
         """
         features, region, tile_counts = check_regions(features, region)
         proba = self.predict_proba(features)
         shape = (tile_counts.size, proba.shape[1])
         votes, shares = np.zeros(shape), np.zeros(shape)
-        np.add.at(votes, (region, proba.argmax(axis=1)), 1.0)
+        np.add.at(votes, (region, proba.argmax(axis=1)), proba.max(axis=1) > 0)
         np.add.at(shares, region, proba)
         # The summed vote shares (< the region's tiles) only break ties between vote counts;
         # with one tile the label is the tile's.
@@ -308,7 +420,8 @@ class TerrainClassifier:
         metadata : dict
             JSON-able: ``feature_version``, ``config`` (the
             :class:`ClassifierConfig` as a mapping), ``classes``,
-            ``n_training_images``, ``n_training_samples``.
+            ``n_training_images``, ``n_training_samples``,
+            ``novelty_distance`` (None if not calibrated), ``min_confidence``.
 
         Raises
         ------
@@ -335,11 +448,20 @@ class TerrainClassifier:
             "classes": self.classes,
             "n_training_images": self.n_training_images,
             "n_training_samples": len(self.training_labels),
+            "novelty_distance": self.novelty_distance,
+            "min_confidence": self.min_confidence,
         }
         return arrays, metadata
 
     @classmethod
-    def from_arrays(cls, cfg: ClassifierConfig, arrays: Mapping[str, NDArray]) -> TerrainClassifier:
+    def from_arrays(
+        cls,
+        cfg: ClassifierConfig,
+        arrays: Mapping[str, NDArray],
+        *,
+        novelty_distance: float | None = None,
+        min_confidence: float = 0.0,
+    ) -> TerrainClassifier:
         """Rebuild a model from the arrays of :meth:`to_arrays`, without refitting the scaler.
 
         Parameters
@@ -348,6 +470,9 @@ class TerrainClassifier:
             The model's configuration (its metadata's ``config``).
         arrays : mapping of str to ndarray
             At least :data:`MODEL_ARRAYS`.
+        novelty_distance, min_confidence
+            Its metadata's (:meth:`to_arrays`); models saved before they
+            existed have neither: no unknown ground, no threshold.
 
         Raises
         ------
@@ -373,4 +498,5 @@ class TerrainClassifier:
             scaler.n_samples_seen_ = samples.shape[0]
             samples = scaler.transform(samples)
         model.pipeline["knn"].fit(samples, model.training_labels)
+        model.novelty_distance, model.min_confidence = novelty_distance, min_confidence
         return model

@@ -9,13 +9,18 @@ that recipe or adds to it:
   returns them), so that regions of any size (tiles, regions of interest)
   compare with the training images; the paper's raw counts scale with the
   region's size;
+- **other texture families** (``features`` with ``lbp`` or ``glcm``):
+  scikit-image's uniform local binary patterns (:func:`lbp_histograms`) and
+  grey-level co-occurrence statistics (:func:`glcm_statistics`), alone or
+  beside SFTA;
 - **colour statistics** (``features="sfta+lab"`` or ``"sfta+hsv"``): grey
-  SFTA throws away colour, which is what separates e.g. wood from carpet;
+  texture throws away colour, which is what separates e.g. wood from carpet;
 - **image pyramid** (``pyramid_levels``): SFTA also of the region halved
   ``1, 2, ...`` times, describing the texture at coarser scales;
 - **tiles** (``tiles``, ``min_tile_size``, or ``tile_size``): a region is cut
   into up to ``tiles x tiles`` tiles of at least ``min_tile_size`` pixels a
-  side (:func:`tiles_per_side`), or, with ``tile_size``, into tiles of about
+  side (:func:`tiles_per_side`; ``auto``: the training images' size over
+  ``tiles``, :func:`resolve_scale`), or, with ``tile_size``, into tiles of about
   ``tile_size`` pixels a side whatever the region's size (:func:`tile_grid`),
   and each tile gets its own feature vector (:func:`image_features`), for
   the classifier's tile vote.
@@ -23,20 +28,31 @@ that recipe or adds to it:
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Literal
 
 import cv2
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from skimage.feature import graycomatrix, graycoprops
 from skimage.measure import points_in_poly
 
-from terrain_odom.config.classifier import ClassifierConfig
-from terrain_odom.vision.sfta import sfta_features
+from terrain_odom.config.classifier import AUTO, MIN_TILE_SIZE, ClassifierConfig, feature_parts
+from terrain_odom.vision.sfta import sfta_features, to_grey
 
 __all__ = [
     "FEATURE_VERSION",
+    "LBP_POINTS",
+    "GLCM_LEVELS",
+    "GLCM_DISTANCES",
+    "GLCM_PROPERTIES",
     "colour_statistics",
+    "lbp_codes",
+    "lbp_histograms",
+    "glcm_statistics",
     "region_features",
+    "auto_min_tile_size",
+    "resolve_scale",
     "tiles_per_side",
     "tile_grid",
     "tile_boxes",
@@ -47,6 +63,20 @@ __all__ = [
 
 FEATURE_VERSION = 2
 """Version of the feature vector; bump it whenever :func:`image_features` changes."""
+
+LBP_POINTS = ((8, 1.0), (8, 2.0))
+"""``(P, R)`` of the LBP rings: 8 neighbours at 1 px and at 2 px (10 + 10 histogram bins)."""
+
+GLCM_LEVELS = 32
+"""Grey levels the co-occurrence matrix counts (the 256 quantised by 8)."""
+
+GLCM_DISTANCES = (1, 2)
+"""Pixel offsets of the co-occurrence matrices, px."""
+
+GLCM_PROPERTIES = ("contrast", "dissimilarity", "homogeneity", "energy", "correlation")
+"""``graycoprops`` statistics of each matrix."""
+
+_GLCM_ANGLES = (0.0, np.pi / 4, np.pi / 2, 3 * np.pi / 4)
 
 _HUE_LEVELS = 180  # OpenCV's 8-bit hue: 2 degrees per level
 _HUE_COS = np.cos(np.arange(_HUE_LEVELS) * (np.pi / 90.0))
@@ -94,16 +124,59 @@ def _channel_statistics(converted: NDArray[np.uint8], space: Literal["lab", "hsv
     return out
 
 
-def _colour_space(cfg: ClassifierConfig) -> Literal["lab", "hsv"] | None:
-    return {"sfta": None, "sfta+lab": "lab", "sfta+hsv": "hsv"}[cfg.features]
+def lbp_codes(grey: NDArray[np.uint8]) -> list[NDArray]:
+    """Uniform local binary pattern codes of a grey image, one map per :data:`LBP_POINTS` ring.
+
+    The codes of ``skimage.feature.local_binary_pattern(grey, P, R,
+    method="uniform")``: rotation-invariant uniform codes ``0 .. P + 1``
+    (``P + 1``: not uniform), from a compiled loop
+    (:func:`~terrain_odom.vision._kernels.lbp_uniform`, ~3x faster; the
+    tests hold the two equal). Computed on a whole region, so that the
+    rings of a tile's edge pixels see the neighbouring tiles rather than a cut.
+    """
+    from terrain_odom.vision._kernels import lbp_uniform
+
+    return [lbp_uniform(grey, points, radius) for points, radius in LBP_POINTS]
 
 
-def _features(
-    image_rgb: NDArray[np.uint8], colour: NDArray | None, cfg: ClassifierConfig
-) -> NDArray:
-    """:func:`region_features` given the region's colour statistics, if any."""
+def lbp_histograms(codes: list[NDArray]) -> NDArray:
+    """Normalised histograms of :func:`lbp_codes` maps (of one tile): ``sum(P + 2)`` values."""
+    return np.concatenate(
+        [
+            np.bincount(code.ravel(), minlength=points + 2) / code.size
+            for code, (points, _) in zip(codes, LBP_POINTS, strict=True)
+        ]
+    )
+
+
+def glcm_statistics(grey: NDArray[np.uint8]) -> NDArray:
+    """Grey-level co-occurrence statistics of a grey image (tile).
+
+    ``skimage.feature.graycomatrix`` of the grey levels quantised to
+    :data:`GLCM_LEVELS` (``grey * GLCM_LEVELS // 256``), symmetric and
+    normalised, at each distance of :data:`GLCM_DISTANCES` px and the four
+    directions 0, 45, 90, 135 degrees; ``graycoprops`` of each
+    :data:`GLCM_PROPERTIES`, averaged over the directions (rotation
+    invariant). Correlation, undefined on a uniform image, is 1 there (as
+    skimage returns it).
+
+    Returns
+    -------
+    ndarray of float64, shape (len(GLCM_PROPERTIES) * len(GLCM_DISTANCES),)
+        Property by property, each at every distance.
+    """
+    quantised = (grey.astype(np.uint16) * GLCM_LEVELS >> 8).astype(np.uint8)
+    matrix = graycomatrix(
+        quantised, GLCM_DISTANCES, _GLCM_ANGLES, levels=GLCM_LEVELS, symmetric=True, normed=True
+    )
+    values = np.stack([graycoprops(matrix, name).mean(axis=1) for name in GLCM_PROPERTIES])
+    return np.nan_to_num(values, nan=1.0).ravel()
+
+
+def _sfta(image: NDArray[np.uint8], grey: NDArray[np.uint8], cfg: ClassifierConfig) -> NDArray:
+    """SFTA of a tile at each pyramid level (full size from its grey image, then halved RGB)."""
     parts = []
-    level = image_rgb
+    level = image
     for depth in range(cfg.pyramid_levels):
         if depth:
             height, width = level.shape[:2]
@@ -111,12 +184,41 @@ def _features(
             level = np.asarray(
                 cv2.resize(level, size, interpolation=cv2.INTER_AREA), dtype=np.uint8
             )
-        sfta = np.array(sfta_features(level, cfg.n_t), dtype=np.float64)
+        sfta = np.array(sfta_features(level if depth else grey, cfg.n_t), dtype=np.float64)
         if not cfg.relative_counts:  # sfta_features gives fractions of the area
             sfta[1::3] *= level.shape[0] * level.shape[1]
         parts.append(sfta)
+    return np.concatenate(parts)
+
+
+def _tile_maps(image_rgb: NDArray[np.uint8], cfg: ClassifierConfig, grid: tuple[int, int]) -> dict:
+    """Per-pixel maps of a region cut into the tiles of ``grid``: name -> list of tiles."""
+    families, colour = feature_parts(cfg.features)
+    grey = to_grey(image_rgb)
+    maps: dict[str, list] = {"grey": split_tiles(grey, *grid)}
+    if "sfta" in families and cfg.pyramid_levels > 1:
+        maps["rgb"] = split_tiles(image_rgb, *grid)
+    if "lbp" in families:
+        tiles_of_codes = [split_tiles(code, *grid) for code in lbp_codes(grey)]
+        maps["lbp"] = [list(codes) for codes in zip(*tiles_of_codes, strict=True)]
     if colour is not None:
-        parts.append(colour)
+        maps["colour"] = split_tiles(_convert(image_rgb, colour), *grid)  # type: ignore[arg-type]
+    return maps
+
+
+def _tile_vector(maps: dict, i: int, cfg: ClassifierConfig) -> NDArray:
+    """Feature vector of tile ``i`` from its :func:`_tile_maps`."""
+    families, colour = feature_parts(cfg.features)
+    grey = maps["grey"][i]
+    parts = []
+    if "sfta" in families:
+        parts.append(_sfta(maps["rgb"][i] if "rgb" in maps else grey, grey, cfg))
+    if "lbp" in families:
+        parts.append(lbp_histograms(maps["lbp"][i]))
+    if "glcm" in families:
+        parts.append(glcm_statistics(grey))
+    if colour is not None:
+        parts.append(_channel_statistics(maps["colour"][i], colour))  # type: ignore[arg-type]
     return np.concatenate(parts)
 
 
@@ -132,15 +234,40 @@ def region_features(image_rgb: NDArray[np.uint8], cfg: ClassifierConfig) -> NDAr
     Returns
     -------
     ndarray of float64, shape (n_features,)
-        The ``6 * n_t`` SFTA values of each pyramid level (full size first,
+        In the order of ``cfg.features``' families (:data:`~terrain_odom.config.classifier.TEXTURE_FAMILIES`):
+        the ``6 * n_t`` SFTA values of each pyramid level (full size first,
         then halved; counts ``C_i`` times the level's pixel count unless
-        ``cfg.relative_counts``), then the 6 colour statistics if any:
-        ``n_features = 6 * n_t * pyramid_levels (+ 6)``.
+        ``cfg.relative_counts``), the LBP histograms (:func:`lbp_histograms`),
+        the GLCM statistics (:func:`glcm_statistics`), then the 6 colour
+        statistics if any.
     """
-    space = _colour_space(cfg)
-    if space is None:
-        return _features(image_rgb, None, cfg)
-    return _features(image_rgb, _channel_statistics(_convert(image_rgb, space), space), cfg)
+    return _tile_vector(_tile_maps(np.asarray(image_rgb), cfg, (1, 1)), 0, cfg)
+
+
+def auto_min_tile_size(short_side: float, tiles: int) -> int:
+    """``min_tile_size`` of ``auto`` for images of this shorter side, px.
+
+    ``max(MIN_TILE_SIZE, floor(short_side / tiles))``: an image of that
+    shorter side is then cut into ``tiles x tiles`` tiles.
+
+    >>> auto_min_tile_size(64, 4), auto_min_tile_size(320, 4), auto_min_tile_size(20, 4)
+    (16, 80, 8)
+    """
+    return max(MIN_TILE_SIZE, int(short_side // tiles))
+
+
+def resolve_scale(cfg: ClassifierConfig, short_side: float) -> ClassifierConfig:
+    """Return ``cfg`` with an ``auto`` ``min_tile_size`` chosen for images of this shorter side.
+
+    Parameters
+    ----------
+    cfg : ClassifierConfig
+    short_side : float
+        The training images' (median) shorter side, px.
+    """
+    if cfg.min_tile_size != AUTO:
+        return cfg
+    return dataclasses.replace(cfg, min_tile_size=auto_min_tile_size(short_side, cfg.tiles))
 
 
 def tiles_per_side(height: int, width: int, cfg: ClassifierConfig) -> int:
@@ -148,7 +275,9 @@ def tiles_per_side(height: int, width: int, cfg: ClassifierConfig) -> int:
 
     ``min(cfg.tiles, max(1, min(height, width) // cfg.min_tile_size))``: as
     many as ``cfg.tiles`` allows with tiles of at least ``cfg.min_tile_size``
-    pixels a side, and at least one.
+    pixels a side, and at least one. With ``min_tile_size: auto`` not
+    resolved by :func:`resolve_scale`, the region's own shorter side sets it
+    (:func:`auto_min_tile_size`): ``cfg.tiles`` per side.
 
     >>> cfg = ClassifierConfig(tiles=4, min_tile_size=32)
     >>> tiles_per_side(427, 320, cfg), tiles_per_side(120, 160, cfg), tiles_per_side(64, 64, cfg)
@@ -156,7 +285,10 @@ def tiles_per_side(height: int, width: int, cfg: ClassifierConfig) -> int:
     >>> tiles_per_side(63, 200, cfg)
     1
     """
-    return min(cfg.tiles, max(1, min(height, width) // cfg.min_tile_size))
+    short = min(height, width)
+    size = cfg.min_tile_size
+    smallest = auto_min_tile_size(short, cfg.tiles) if size == AUTO else int(size)
+    return min(cfg.tiles, max(1, short // smallest))
 
 
 def tile_grid(height: int, width: int, cfg: ClassifierConfig) -> tuple[int, int]:
@@ -287,7 +419,8 @@ def image_features(
     ndarray of float64, shape (n_tiles, n_features)
         :func:`region_features` of each tile (of those within the polygon),
         row by row, of the :func:`tile_grid` of the region (one row for a
-        single tile).
+        single tile); but the LBP codes are those of the whole region, so
+        that a tile's edge pixels compare with their true neighbours.
     """
     image_rgb = np.asarray(image_rgb)
     if image_rgb.ndim != 3 or image_rgb.shape[2] != 3 or image_rgb.dtype != np.uint8:
@@ -297,11 +430,5 @@ def image_features(
     height, width = image_rgb.shape[:2]
     grid = tile_grid(height, width, cfg)
     keep = range(grid[0] * grid[1]) if within is None else tiles_within(height, width, cfg, within)
-    rgb_tiles = split_tiles(image_rgb, *grid)
-    space = _colour_space(cfg)
-    if space is None:
-        return np.stack([_features(rgb_tiles[i], None, cfg) for i in keep])
-    colour_tiles = split_tiles(_convert(image_rgb, space), *grid)  # one conversion
-    return np.stack(
-        [_features(rgb_tiles[i], _channel_statistics(colour_tiles[i], space), cfg) for i in keep]
-    )
+    maps = _tile_maps(image_rgb, cfg, grid)  # grey, LBP codes and colour: one pass each
+    return np.stack([_tile_vector(maps, i, cfg) for i in keep])

@@ -25,6 +25,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from terrain_odom.config import RoiConfig
+from terrain_odom.config.classifier import feature_parts
 from terrain_odom.errors import ConfigError, InputFileError
 from terrain_odom.records import Sighting
 from terrain_odom.vision.camera import GroundCamera, crop, region_of_interest
@@ -49,7 +50,9 @@ class FrameClassification:
     region of interest (and decoding, when the caller adds it); ``ahead`` is
     the distance from the robot to the classified ground, m;
     ``ms_features_full`` and ``ms_knn_full`` the same on the whole frame
-    when that is timed for comparison.
+    when that is timed for comparison; ``min_confidence`` the model's
+    threshold of sightings (:attr:`sighting`,
+    :attr:`~terrain_odom.vision.classifier.TerrainClassifier.sighting_threshold`).
     """
 
     t: float
@@ -63,11 +66,19 @@ class FrameClassification:
     ms_features_full: float = float("nan")
     ms_knn: float = float("nan")
     ms_knn_full: float = float("nan")
+    min_confidence: float = 0.0
 
     @property
     def sighting(self) -> Sighting | None:
-        """The terrain seen (label and distance ahead), None without a label."""
-        return Sighting(self.label, self.ahead) if self.label else None
+        """The terrain seen (label and distance ahead), for the terrain tracker.
+
+        None without a label, and for a label of confidence 0 (unknown
+        ground) or below the model's ``min_confidence`` (chosen from its
+        cross-validated reliability): the tracker does not count such a frame.
+        """
+        if not self.label or not self.confidence > 0 or self.confidence < self.min_confidence:
+            return None
+        return Sighting(self.label, self.ahead)
 
 
 class FrameClassifier:
@@ -149,7 +160,7 @@ class FrameClassifier:
                 f"{camera.width}x{camera.height} (camera.width/height)"
             )
         self._check_colour(t, image)
-        record = FrameClassification(t)
+        record = FrameClassification(t, min_confidence=self.classifier.sighting_threshold)
         if self.use_roi:
             result = region_of_interest(camera, self.roi, v_l, v_r, icr_params)
             record.roi_status = result.status.value
@@ -184,7 +195,7 @@ class FrameClassifier:
     def _check_colour(self, t: float, image: np.ndarray) -> None:
         """Refuse a grey frame for a colour model: its colour features would be constant."""
         features = self.classifier.cfg.features
-        if features == "sfta":
+        if feature_parts(features)[1] is None:  # no colour statistics
             return
         sample = image[::8, ::8]
         if np.array_equal(sample[..., 0], sample[..., 1]) and np.array_equal(
@@ -193,7 +204,7 @@ class FrameClassifier:
             raise InputFileError(
                 f"the frame at t = {t:g} s is grey (equal colour channels) but the model "
                 f"uses {features} features (colour): give colour frames, or a model trained "
-                "with --features sfta"
+                "without colour (e.g. --features sfta)"
             )
 
     def _classify_timed(

@@ -136,13 +136,7 @@ _N_LEVELS = 256
 _LEVEL_INDEX = np.arange(_N_LEVELS)
 # Rows: pixel count and grey sum of a histogram (times hist).
 _MOMENT_WEIGHTS = np.stack((np.ones(_N_LEVELS), np.arange(_N_LEVELS, dtype=np.float64)))
-# 0.30 R + 0.59 G + 0.11 B + 0.001, rounded by OpenCV: the offset lifts exact
-# halves (x.50) above .5 and moves no other value (they are >= 0.01 away from
-# a half, the float32 error is < 1e-4), so halves round up.
-_GREY_WEIGHTS = {
-    "rgb": np.array([[0.30, 0.59, 0.11, 0.001]]),
-    "bgr": np.array([[0.11, 0.59, 0.30, 0.001]]),
-}
+_COLOUR_ORDERS = ("rgb", "bgr")
 # _BITS[v, i] = bit i of byte v.
 _BITS = np.unpackbits(
     np.arange(_N_LEVELS, dtype=np.uint8)[:, None], axis=1, bitorder="little"
@@ -190,7 +184,13 @@ def to_grey(image: NDArray, *, colour_order: ColourOrder = "rgb") -> NDArray[np.
     >>> to_grey(np.array([[[200, 150, 100]]], dtype=np.uint8), colour_order="bgr").tolist()
     [[141]]
     """
-    if colour_order not in _GREY_WEIGHTS:
+    image = _checked(image, colour_order)
+    return image if image.ndim == 2 else _grey_and_histogram(image, colour_order)[0]
+
+
+def _checked(image: NDArray, colour_order: ColourOrder) -> NDArray:
+    """``image`` as an array, or raise :func:`to_grey`'s errors."""
+    if colour_order not in _COLOUR_ORDERS:
         raise ValueError(f"colour_order must be 'rgb' or 'bgr', not {colour_order!r}")
     image = np.asarray(image)
     if image.dtype != np.uint8:
@@ -198,11 +198,21 @@ def to_grey(image: NDArray, *, colour_order: ColourOrder = "rgb") -> NDArray[np.
             f"image must be uint8, got {image.dtype}; convert a float image in [0, 1] "
             "with (image * 255).round().astype(np.uint8)"
         )
-    if image.ndim == 2:
-        return image
-    if image.ndim != 3 or image.shape[2] != 3:
+    if image.ndim != 2 and (image.ndim != 3 or image.shape[2] != 3):
         raise ValueError(f"image must have shape (H, W) or (H, W, 3), got {image.shape}")
-    return np.asarray(cv2.transform(image, _GREY_WEIGHTS[colour_order]), dtype=np.uint8)
+    return image
+
+
+def _grey_and_histogram(image: NDArray, colour_order: ColourOrder) -> tuple[NDArray, NDArray]:
+    """:func:`to_grey` of a checked image and its 256-bin histogram, in one pass for colour."""
+    if image.ndim == 2:
+        return image, _histogram(image)
+    from terrain_odom.vision._kernels import byte_histogram, grey_levels
+
+    rgb = image if colour_order == "rgb" else image[..., ::-1]
+    grey = np.empty(image.shape[:2], dtype=np.uint8)
+    grey_levels(np.ascontiguousarray(rgb).ravel(), grey.ravel())
+    return grey, byte_histogram(grey.ravel()).astype(np.float64)
 
 
 def multiotsu_thresholds(hist: NDArray, n_t: int) -> NDArray[np.uint8]:
@@ -315,10 +325,11 @@ def sfta_features(
     """
     if n_t < 1:
         raise ValueError(f"n_t must be >= 1, got {n_t}")
-    grey = to_grey(image, colour_order=colour_order)
-    if grey.size == 0:
-        raise ValueError(f"image is empty: shape {grey.shape}")
-    moments = _MOMENT_WEIGHTS * _histogram(grey)
+    image = _checked(image, colour_order)
+    if image.size == 0:
+        raise ValueError(f"image is empty: shape {image.shape[:2]}")
+    grey, hist = _grey_and_histogram(image, colour_order)
+    moments = _MOMENT_WEIGHTS * hist
     thresholds = _thresholds(moments, n_t)
     planes, luts = _class_tables(n_t)
     classes = thresholds.searchsorted(_LEVEL_INDEX)  # thresholds below each level
@@ -371,8 +382,10 @@ def box_counting_dimension(binary: NDArray) -> float:
     binary = np.asarray(binary)
     if binary.ndim != 2 or binary.size == 0:
         raise ValueError(f"binary must be a non-empty 2-D image, got shape {binary.shape}")
-    counts, boxes = _box_counts(np.ascontiguousarray(binary != 0, dtype=np.uint8))
-    return float(_dimensions(counts[:, :1], boxes)[0])
+    from terrain_odom.vision._kernels import box_counts
+
+    hists, boxes = box_counts(np.ascontiguousarray(binary != 0, dtype=np.uint8))
+    return float(_dimensions(np.dot(hists, _BITS)[:, :1], boxes[:, None])[0])
 
 
 def _histogram(grey: MatLike) -> NDArray:
@@ -533,8 +546,13 @@ def _border_dimensions(grey: NDArray[np.uint8], luts: NDArray, n_planes: int) ->
     -------
     ndarray of float64, shape (n_planes,)
     """
+    from terrain_odom.vision._kernels import box_counts
+
     padded = cv2.copyMakeBorder(grey, 1, 1, 1, 1, cv2.BORDER_REPLICATE)
-    dimensions = [_dimensions(*_box_counts(_border(cv2.LUT(padded, lut)))) for lut in luts]
+    dimensions = []
+    for lut in luts:
+        hists, boxes = box_counts(np.asarray(_border(cv2.LUT(padded, lut))))
+        dimensions.append(_dimensions(np.dot(hists, _BITS), boxes[:, None]))
     return (dimensions[0] if len(dimensions) == 1 else np.concatenate(dimensions))[:n_planes]
 
 
@@ -559,64 +577,13 @@ def _border(padded: MatLike) -> MatLike:
     return cv2.bitwise_xor(padded[1:-1, 1:-1], eroded)
 
 
-def _box_counts(planes: MatLike) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
-    """Occupied boxes of side 1, 2, 4, ... of each of 8 bit planes.
-
-    Boxes of side ``2**k`` are the pixels of the image OR-pooled ``k`` times
-    over 2x2 blocks. Stops at the 1x1 level, or as soon as every bit is set
-    in all boxes or in none (larger boxes say nothing more), but not before
-    ``k = 1``.
-
-    Parameters
-    ----------
-    planes : ndarray of uint8, shape (H, W)
-
-    Returns
-    -------
-    counts : ndarray of float64, shape (n_sizes, 8)
-        Row ``k``: per bit, the number of ``2**k`` boxes with the bit set.
-    boxes : ndarray of int64, shape (n_sizes, 1)
-        Number of ``2**k`` boxes in the image.
-    """
-    histograms = np.empty((1 + (max(planes.shape) - 1).bit_length(), _N_LEVELS))
-    boxes = []
-    level = planes
-    for histogram in histograms:
-        histogram[:] = _byte_histogram(level)
-        boxes.append(level.size)
-        if len(boxes) > 1 and histogram[level[0, 0]] == level.size:  # all boxes alike
-            break
-        level = _halve_rows(cv2.transpose(_halve_rows(level)))
-    return np.dot(histograms[: len(boxes)], _BITS), np.array(boxes)[:, None]
-
-
-def _halve_rows(level: MatLike) -> MatLike:
-    """OR of row pairs (0, 1), (2, 3), ...; an odd last row is kept."""
-    n_rows = level.shape[0]
-    if n_rows % 2 == 0:
-        return cv2.bitwise_or(level[0::2], level[1::2])
-    if n_rows == 1:
-        return level
-    halved = np.empty(((n_rows + 1) // 2, level.shape[1]), dtype=np.uint8)
-    cv2.bitwise_or(level[0 : n_rows - 1 : 2], level[1::2], dst=halved[: n_rows // 2])
-    halved[-1] = level[-1]
-    return halved
-
-
-def _byte_histogram(level: MatLike) -> NDArray:
-    """Count of each byte value (256,); the faster call for the size."""
-    if level.size < 2048:
-        return np.bincount(level.ravel(), minlength=_N_LEVELS)
-    return _histogram(level)
-
-
 def _dimensions(counts: NDArray[np.float64], boxes: NDArray[np.int64]) -> NDArray[np.float64]:
     """Box-counting dimension per column of box counts.
 
     Parameters
     ----------
     counts : ndarray of float64, shape (n_sizes, n)
-        Occupied boxes of side ``2**k`` (:func:`_box_counts`); overwritten.
+        Occupied boxes of side ``2**k`` (:func:`~terrain_odom.vision._kernels.box_counts`); overwritten.
     boxes : ndarray of int64, shape (n_sizes, 1)
         Number of boxes of side ``2**k``.
 

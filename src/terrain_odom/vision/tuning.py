@@ -36,14 +36,16 @@ from numpy.typing import NDArray
 from sklearn.base import BaseEstimator, ClassifierMixin
 from sklearn.model_selection import GridSearchCV, ParameterGrid, StratifiedKFold, cross_validate
 
-from terrain_odom.config.classifier import ClassifierConfig
+from terrain_odom.config.classifier import MIN_TILE_SIZE, ClassifierConfig
 from terrain_odom.config.fields import build_section
 from terrain_odom.errors import ConfigError
 from terrain_odom.vision.classifier import TerrainClassifier
 from terrain_odom.vision.dataset import LabelledFeatures
 
 __all__ = [
-    "DEFAULT_GRID",
+    "DEFAULT_FEATURES",
+    "TILE_FRACTIONS",
+    "default_grid",
     "SCORING",
     "Grid",
     "check_grid",
@@ -60,20 +62,38 @@ __all__ = [
 Grid = list[dict[str, list[Any]]]
 """A scikit-learn ``param_grid``: sub-grids, each a field name -> the values to try."""
 
-DEFAULT_GRID: Mapping[str, tuple[Any, ...]] = {
-    "features": ("sfta+lab", "sfta+hsv"),
-    "pyramid_levels": (1, 2),
-    "k": (3, 5, 9),
-    "weights": ("uniform", "distance"),
-}
-"""The grid ``--tune`` searches without ``--grid``: every combination (24 candidates).
+DEFAULT_FEATURES = ("sfta+lab", "sfta+lbp+lab")
+"""Feature families the default grid tries (docs/results/classification.md says why)."""
 
-Four feature settings (colour space x pyramid), each with six KNN settings
-that reuse its features. Kept this small so that the nested cross-validation
-of ``report accuracy --tune`` on the 1,774 indoor photos finishes in minutes on
-2 cores (docs/results/classification.md); fields left out keep the base
-configuration's values.
-"""
+TILE_FRACTIONS = (4, 2)
+"""The default grid's ``min_tile_size``: the images' shorter side over these (1/4 and 1/2)."""
+
+
+def default_grid(short_side: float | None) -> dict[str, list[Any]]:
+    """Return the grid ``--tune`` searches without ``--grid``, built around the images' size.
+
+    ``features`` :data:`DEFAULT_FEATURES` x ``min_tile_size`` the shorter side
+    over each of :data:`TILE_FRACTIONS` (at least
+    :data:`~terrain_odom.config.classifier.MIN_TILE_SIZE`; with ``tiles: 4``:
+    4x4 and 2x2 tiles of a training image) x ``k`` 5 / 9: 8 candidates of 4
+    feature settings. Without a size (``None``), ``min_tile_size`` is left out.
+
+    Parameters
+    ----------
+    short_side : float or None
+        The training images' median shorter side, px.
+
+    Examples
+    --------
+    >>> default_grid(64)["min_tile_size"], default_grid(320)["min_tile_size"]
+    ([16, 32], [80, 160])
+    """
+    grid: dict[str, list[Any]] = {"features": list(DEFAULT_FEATURES), "k": [5, 9]}
+    if short_side is not None:
+        sizes = [max(MIN_TILE_SIZE, int(short_side // f)) for f in TILE_FRACTIONS]
+        grid["min_tile_size"] = list(dict.fromkeys(sizes))
+    return grid
+
 
 SCORING = "balanced_accuracy"
 """scikit-learn scorer of the candidates: the mean of the per-class accuracies."""
@@ -233,7 +253,7 @@ class ImageKNN(ClassifierMixin, BaseEstimator):
         k: int = _DEFAULTS.k,
         weights: str = _DEFAULTS.weights,
         tiles: int = _DEFAULTS.tiles,
-        min_tile_size: int = _DEFAULTS.min_tile_size,
+        min_tile_size: int | str = _DEFAULTS.min_tile_size,
         tile_size: int | None = _DEFAULTS.tile_size,
     ) -> None:
         self.cache = cache
