@@ -25,7 +25,7 @@ from terrain_odom.errors import InputFileError
 if TYPE_CHECKING:  # the feature code (scikit-image, joblib) loads when a folder is scanned
     from terrain_odom.vision.dataset import LabelledImages
 
-__all__ = ["IMAGE_SUFFIXES", "scan_image_folder", "read_image_rgb"]
+__all__ = ["IMAGE_SUFFIXES", "decode_image_rgb", "scan_image_folder", "read_image_rgb"]
 
 IMAGE_SUFFIXES = frozenset({".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff"})
 """Image file suffixes recognised in folders (compared in lower case)."""
@@ -83,6 +83,11 @@ def read_image_rgb(path: str | Path) -> NDArray[np.uint8] | None:
         data = np.fromfile(path, dtype=np.uint8)
     except OSError:
         return None
+    return decode_image_rgb(data)
+
+
+def decode_image_rgb(data: NDArray[np.uint8]) -> NDArray[np.uint8] | None:
+    """Decode the bytes of an image file (JPEG, PNG, ...) as :func:`read_image_rgb` does."""
     import cv2  # ~0.1 s: loaded when an image is read, not by a wheel-only run
 
     bgr = cv2.imdecode(data, cv2.IMREAD_COLOR) if data.size else None
