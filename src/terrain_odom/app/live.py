@@ -28,8 +28,8 @@ Ordering policy (docs/ros.md):
   dropped and counted by reason; each reason is reported once
   (``on_warning``), the counts are in :attr:`LiveOdometry.dropped`.
 
-Camera frames are decoded in the caller's thread and classified on a worker
-thread, off the wheel messages' path: a frame released in time order is
+Camera frames are decoded and classified on a worker thread, off the wheel
+messages' path: a frame released in time order is
 handed to the worker with the held wheel speeds, the current ICRs and the
 odometer; its sighting is fed at the first row after the classification is
 done, placed where the frame saw it (``ahead`` less the distance travelled
@@ -56,6 +56,7 @@ import numpy as np
 from terrain_odom.app.frames import one_thread
 from terrain_odom.config import load_config
 from terrain_odom.errors import ConfigError, InputFileError
+from terrain_odom.estimation._kernels import compile_kernels
 from terrain_odom.estimation.online import OnlineOdometry
 from terrain_odom.io.bag_frames import frame_rgb
 from terrain_odom.io.bag_log import time_origin_ns
@@ -215,7 +216,7 @@ class _Event:
 @dataclass
 class _Frame:
     t: float
-    image: np.ndarray
+    message: BagMessage  # an Image or CompressedImage, decoded by the worker
     speeds: tuple[float, float]
     params: np.ndarray
     odometer: float
@@ -239,8 +240,10 @@ class _FrameWorker:
     def _classify_all(self) -> None:
         while (frame := self.todo.get()) is not None:
             try:
+                msg = frame.message
+                image = frame_rgb(msg.msg, msg.msgtype, f"--image-topic {msg.topic}")
                 result: FrameClassification | Exception = self.classifier.classify(
-                    frame.t, frame.image, *frame.speeds, frame.params
+                    frame.t, image, *frame.speeds, frame.params
                 )
             except Exception as exc:  # a frame the classifier refuses: counted, not fatal
                 result = exc
@@ -323,7 +326,6 @@ class LiveOdometry:
         self._reset_clock()
         self.dropped: dict[str, int] = {}
         self.counts = {role: 0 for role in ROLES} | {"rows": 0, "frames_classified": 0}
-        odometry.estimate()  # load the filter's compiled kernels now, not at the first message
 
     # ------------------------------------------------------------ set-up
     @staticmethod
@@ -346,9 +348,10 @@ class LiveOdometry:
         heading = HeadingStream(f"--heading-topic {topics.heading}", stamps)
         return {"wheels": wheels, "pose": pose, "heading": heading}
 
-    def _reset_clock(self) -> None:
-        """Forget the time line: origin, latest row, wheel sample (a new start)."""
-        self._origin_us: int | None = None
+    def _reset_clock(self, keep_origin: bool = False) -> None:
+        """Forget the time line (latest row, wheel sample; the origin unless ``keep_origin``)."""
+        if not keep_origin:
+            self._origin_us: int | None = None
         self._released: int | None = None  # key of the latest row released, us
         self._wheel_key: int | None = None  # key of the latest wheel row, us
         self._row_key: int | None = None  # key of the latest row fed, us
@@ -391,7 +394,7 @@ class LiveOdometry:
             if stamp is None:
                 self._drop("images: header stamp 0 (unset)")
                 return []
-            return [(stamp, frame_rgb(message.msg, message.msgtype, "images"))]
+            return [(stamp, message)]  # decoded by the frame worker, off the wheel path
         stream = self._streams[role]
         skipped = dict(stream.skipped)
         stream.add(message)
@@ -445,7 +448,7 @@ class LiveOdometry:
             self._count(f"{event.role}: dropped at a jump back in time")
         self._heap.clear()
         self._newest_key = None
-        self._reset_clock()
+        self._reset_clock(keep_origin=True)
 
     def _watermark(self) -> int | None:
         """Key up to which rows are released (``delay`` before the newest stamp)."""
@@ -573,7 +576,7 @@ class LiveOdometry:
             )
         )
 
-    def _frame(self, key: int, image: np.ndarray) -> None:
+    def _frame(self, key: int, message: BagMessage) -> None:
         """Hand a released frame to the worker (with the state it is classified in)."""
         odo = self.odometry
         if self._worker is None:
@@ -586,7 +589,7 @@ class LiveOdometry:
         names = odo.names
         params = [state[names.index(n)] for n in ("y_l", "y_r", "x_icr", "alpha") if n in names]
         t = (key - self._origin_us) / 1e6
-        self._worker.submit(_Frame(t, image, self._speeds, np.array(params), odo.odometer))
+        self._worker.submit(_Frame(t, message, self._speeds, np.array(params), odo.odometer))
         if self.options.frames == "sync":
             self._apply_frames(wait=True)
 
@@ -607,6 +610,10 @@ class LiveOdometry:
             odo.sighting(odo.t, sighting)
 
     # ------------------------------------------------------------ counts
+    def reject(self, role: str, reason: str) -> None:
+        """Count a message of ``role`` the caller could not use (e.g. not deserialisable)."""
+        self._drop(f"{role}: {reason}")
+
     def _count(self, reason: str) -> None:
         self.dropped[reason] = self.dropped.get(reason, 0) + 1
 
@@ -666,4 +673,25 @@ def build_live(
         model = load_classifier(classifier if classifier is not None else default_model())
         frames = FrameClassifier(model, GroundCamera(cfg.camera), cfg.roi)
     odometry = OnlineOdometry(cfg, estimator=estimator)  # type: ignore[arg-type]
+    _warm_up(cfg, estimator, frames)
     return LiveOdometry(odometry, topics, options, frame_classifier=frames, **callbacks)
+
+
+def _warm_up(cfg: Any, estimator: str, frames: FrameClassifier | None) -> None:
+    """Make the first calls now: numba's kernels (~1.5 s, holding the GIL), lazy imports.
+
+    Else they fall on the first messages (or, compiled after a number of
+    calls, on the Nth), stalling the wheels.
+    """
+    compile_kernels()
+    warm = OnlineOdometry(cfg, estimator=estimator)  # type: ignore[arg-type]
+    for k in range(4):
+        warm.wheels(0.02 * k, 0.5, 0.6)
+        warm.pose(0.02 * k, 0.01 * k, 0.0, 0.0)
+    state, std = warm.estimate()
+    twist_with_covariance(0.5, 0.6, warm.names, state, std)
+    if frames is not None:
+        camera = frames.camera
+        noise = np.random.default_rng(0).integers(0, 256, (camera.height, camera.width, 3))
+        params = [state[warm.names.index(n)] for n in ("y_l", "y_r", "x_icr")]
+        frames.classify(0.0, noise.astype(np.uint8), 0.5, 0.6, np.array(params))

@@ -25,6 +25,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import queue
 import sys
 import threading
 import time
@@ -195,30 +196,67 @@ def _icr_message(value: dict, std: dict) -> Any:
 
 
 class _Subscriber:
-    """One topic of a role, any message class: deserialised by the type its connection names."""
+    """One topic of a role, any message class: the raw message queued for the pump, at once.
 
-    def __init__(self, topic: str, role: str, live: LiveOdometry, watch: _Watch) -> None:
+    ``rospy`` calls each topic's callback on a thread of its own; queueing
+    there and converting on one thread (:class:`_Pump`) keeps a busy machine
+    from delaying one topic behind the others (the ordering sees arrival order).
+    """
+
+    def __init__(self, topic: str, role: str, pump: _Pump) -> None:
         import rospy
 
-        self.role, self.live, self.watch = role, live, watch
-        self.classes: dict[str, Any] = {}
-        self.sub = rospy.Subscriber(topic, rospy.AnyMsg, self.callback, queue_size=200)
+        self.role, self.pump = role, pump
+        self.sub = rospy.Subscriber(topic, rospy.AnyMsg, self.callback, queue_size=1000)
 
     def callback(self, raw: Any) -> None:
         import rospy
+
+        self.pump.inbox.put((self.role, raw, rospy.get_rostime().to_nsec()))
+
+
+class _Pump:
+    """Deserialise the queued messages (by the type their connection names) and feed them."""
+
+    def __init__(self, live: LiveOdometry, watch: _Watch) -> None:
+        self.live, self.watch = live, watch
+        self.inbox: queue.Queue[tuple[str, Any, int] | None] = queue.Queue()
+        self.classes: dict[str, Any] = {}
+        self.thread = threading.Thread(target=self._loop, name="terrain-odom-pump", daemon=True)
+
+    def _loop(self) -> None:
+        while (item := self.inbox.get()) is not None:
+            self.feed(*item)
+
+    def feed(self, role: str, raw: Any, receive_ns: int) -> None:
+        """Deserialise one raw message and hand it to the live odometry (or count why not)."""
         from roslib.message import get_message_class
 
-        kind = raw._connection_header["type"]
+        header = raw._connection_header
+        kind = header["type"]
         if kind not in self.classes:
             self.classes[kind] = get_message_class(kind)
         cls = self.classes[kind]
         if cls is None:
-            self.live.message(self.role, kind, None)  # an unknown type: counted as wrong
+            self.live.message(role, kind, None)  # an unknown type: counted as wrong
             return
-        msg = cls().deserialize(raw._buff)
-        if self.role == "wheels":
+        md5 = header.get("md5sum")
+        if md5 not in (None, "*", cls._md5sum):
+            self.live.reject(role, f"a {kind} of another definition (md5sum {md5})")
+            return
+        try:
+            msg = cls().deserialize(raw._buff)
+        except Exception as exc:  # genpy.DeserializationError: counted, the node goes on
+            self.live.reject(role, f"a {kind} that does not deserialise ({exc})")
+            return
+        if role == "wheels":
             self.watch.wheel()
-        self.live.message(self.role, kind, msg, rospy.get_rostime().to_nsec())
+        self.live.message(role, kind, msg, receive_ns)
+
+    def stop(self) -> None:
+        """Feed what is queued, then stop."""
+        self.inbox.put(None)
+        self.thread.join(timeout=10.0)
 
 
 class _Watch:
@@ -288,16 +326,19 @@ def run_node(args: argparse.Namespace) -> LiveOdometry:
     )
     pubs = holder["pubs"] = _Publishers(args)
     watch = _Watch(live, pubs, args.stale)
+    pump = _Pump(live, watch)
     subscribers = [
-        _Subscriber(topic, role, live, watch)
+        _Subscriber(topic, role, pump)
         for role in ROLES
         if (topic := getattr(live.topics, role)) is not None
     ]
+    pump.thread.start()
     watch.thread.start()
     rospy.loginfo(f"terrain-odom: listening to {', '.join(s.sub.name for s in subscribers)}")
     rospy.spin()
     for sub in subscribers:
         sub.sub.unregister()
+    pump.stop()
     watch.stop.set()
     watch.thread.join(timeout=2.0)
     live.close()
