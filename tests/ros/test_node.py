@@ -83,7 +83,7 @@ def test_the_real_bag_played_into_the_node_gives_runs_estimates(ros: Ros, jackal
             "--publish-tf",
         ]  # fmt: skip
     )
-    recorder = ros.record(ros.folder / "jackal_out.bag", OUTPUTS)
+    recorder = ros.record(ros.folder / "jackal_out.bag", [*OUTPUTS, "/tf"])
     _play(ros, bag, "-u", "12")
     _finish(ros, node, recorder)
     recorded = read_bag(ros.folder / "jackal_out.bag")
@@ -107,6 +107,10 @@ def test_the_real_bag_played_into_the_node_gives_runs_estimates(ros: Ros, jackal
     assert icr.shape == (rows.size, 8)
     np.testing.assert_allclose(icr[:, 0], trajectory["y_l"][rows], atol=1e-6)
     np.testing.assert_allclose(icr[:, 7], trajectory["std_alpha"][rows], atol=1e-6)
+    tf = [tr for _, msg in recorded["/tf"] for tr in msg.transforms]
+    assert len(tf) == len(odometry)  # odom -> base_link at each row, the pose's
+    assert (tf[-1].header.frame_id, tf[-1].child_frame_id) == ("odom", "base_link")
+    assert tf[-1].transform.translation.x == odometry[-1].pose.pose.position.x
     status = _status(recorded)
     assert status["dropped"] == {"heading: before the first wheel message": 1}
     assert odometry[-1].child_frame_id == "base_link" and odometry[-1].header.frame_id == "odom"

@@ -122,7 +122,7 @@ class _Publishers:
         if self.tf is not None:
             self.tf.sendTransform(self._transform(stamp, value))
         self.icr.publish(_icr_message(value, std))
-        if out.terrain != self._terrain:
+        if out.terrain and out.terrain != self._terrain:  # none before the first label
             self._terrain = out.terrain
             self.terrain.publish(String(data=out.terrain))
         for change in out.changes:
