@@ -330,3 +330,30 @@ def test_a_sighting_fed_late_is_placed_where_the_frame_looked() -> None:
     for k in range(11, 21):
         odo.wheels(0.1 * k, 1.0, 1.0)
     assert odo.current_terrain == "gravel" and odo.changes[-1].t == pytest.approx(2.0)
+
+
+def test_frames_faster_than_the_classifier_are_skipped_not_queued(sample_dir: Path) -> None:
+    """A classifier 10x slower than the frames: at most a few wait, the rest are counted."""
+    records = [r for r in _sample_records(sample_dir) if r[0] in ROLES_SIM][:600]
+    live = build_live(
+        sample_dir / "config.yaml",
+        LiveTopics("/joint_states", pose="/pose", images="/camera/image/compressed"),
+        LiveOptions(delay=0.0),
+    )
+    worker = live._worker
+    assert worker is not None
+    classify = worker.classifier.classify
+    waiting = []
+
+    def slow(*args: Any, **kwargs: Any) -> Any:
+        time.sleep(0.05)
+        return classify(*args, **kwargs)
+
+    worker.classifier = SimpleNamespace(classify=slow)  # type: ignore[assignment]
+    for topic, kind, ns, msg in records:
+        live.message(ROLES_SIM[topic], kind, msg, ns)
+        waiting.append(worker.pending)
+    live.close()
+    skipped = live.dropped["images: the classifier is behind (frames skipped to keep up)"]
+    assert max(waiting) <= 3 and skipped > 0
+    assert live.counts["frames_classified"] + skipped == live.counts["images"]

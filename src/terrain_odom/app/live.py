@@ -33,7 +33,8 @@ messages' path: a frame released in time order is
 handed to the worker with the held wheel speeds, the current ICRs and the
 odometer; its sighting is fed at the first row after the classification is
 done, placed where the frame saw it (``ahead`` less the distance travelled
-since: :attr:`~terrain_odom.estimation.online.OnlineOdometry.odometer`).
+since: :attr:`~terrain_odom.estimation.online.OnlineOdometry.odometer`); a
+frame arriving while :data:`MAX_PENDING_FRAMES` wait is skipped (counted).
 ``frames="sync"`` waits for each classification instead (a replay that
 must equal ``run`` in every terrain mode, at the cost of stalling).
 """
@@ -80,6 +81,8 @@ __all__ = [
 ]
 
 FRAME_POLICIES = ("async", "sync")
+MAX_PENDING_FRAMES = 3
+"""Frames waiting for the classifier beyond which a new one is skipped (counted)."""
 ROLES = ("wheels", "pose", "heading", "images")
 _RANK = {"wheels": 0, "pose": 1, "heading": 2, "images": 3}  # order within one microsecond
 _NS_PER_US = 1000
@@ -132,8 +135,10 @@ class LiveOptions:
     def __post_init__(self) -> None:
         for name in ("delay", "max_gap", "jump_back", "idle"):
             value = getattr(self, name)
+            bound = ">=" if name == "delay" else ">"
             if not (0.0 <= value < math.inf) or (name != "delay" and value == 0.0):
-                raise ConfigError(f"{name} must be finite and > 0 s (delay >= 0), got {value}")
+                flag = name.replace("_", "-")
+                raise ConfigError(f"--{flag} must be finite and {bound} 0 s, got {value}")
         if self.frames not in FRAME_POLICIES:
             raise ConfigError(f"frames must be one of {', '.join(FRAME_POLICIES)}")
 
@@ -584,6 +589,9 @@ class LiveOdometry:
             return
         if self._wheel_key is None or self._origin_us is None:
             self._drop("images: before the first wheel message")
+            return
+        if self._worker.pending >= MAX_PENDING_FRAMES:
+            self._drop("images: the classifier is behind (frames skipped to keep up)")
             return
         state, _ = odo.estimate()
         names = odo.names

@@ -226,7 +226,10 @@ class _Pump:
 
     def _loop(self) -> None:
         while (item := self.inbox.get()) is not None:
-            self.feed(*item)
+            try:
+                self.feed(*item)
+            except Exception as exc:  # never let one message stop the pump: count it
+                self.live.reject(item[0], f"an error on it ({type(exc).__name__}: {exc})")
 
     def feed(self, role: str, raw: Any, receive_ns: int) -> None:
         """Deserialise one raw message and hand it to the live odometry (or count why not)."""
@@ -312,9 +315,8 @@ def run_node(args: argparse.Namespace) -> LiveOdometry:
     """Start the node, spin until shutdown (SIGINT, ``rosnode kill``); return the live odometry."""
     import rospy
 
-    rospy.init_node("terrain_odom")
     holder: dict[str, _Publishers] = {}
-    live = build_live(
+    live = build_live(  # first: bad options and files stop the node before it joins the master
         args.config,
         _topics(args),
         LiveOptions(args.delay, args.max_gap, args.jump_back, args.frames, args.idle),
@@ -324,6 +326,7 @@ def run_node(args: argparse.Namespace) -> LiveOdometry:
         on_output=lambda out: holder["pubs"].publish(out),
         on_warning=lambda text: rospy.logwarn(f"terrain-odom: {text}"),
     )
+    rospy.init_node("terrain_odom")
     pubs = holder["pubs"] = _Publishers(args)
     watch = _Watch(live, pubs, args.stale)
     pump = _Pump(live, watch)
@@ -334,6 +337,12 @@ def run_node(args: argparse.Namespace) -> LiveOdometry:
     ]
     pump.thread.start()
     watch.thread.start()
+    robot = live.odometry.config.robot
+    source = "--config" if args.config else "the built-in defaults: give --config"
+    rospy.loginfo(
+        f"terrain-odom: robot track_width {robot.track_width:g} m, wheel_radius "
+        f"{robot.wheel_radius:g} m ({source} or --track-width/--wheel-radius)"
+    )
     rospy.loginfo(f"terrain-odom: listening to {', '.join(s.sub.name for s in subscribers)}")
     rospy.spin()
     for sub in subscribers:
