@@ -61,7 +61,7 @@ from terrain_odom.estimation._kernels import compile_kernels
 from terrain_odom.estimation.online import OnlineOdometry
 from terrain_odom.io.bag_frames import frame_rgb
 from terrain_odom.io.bag_log import time_origin_ns
-from terrain_odom.io.bag_messages import ROLE_TYPES, message_type
+from terrain_odom.io.bag_messages import ROLE_TYPES, TF_MESSAGE, message_type
 from terrain_odom.io.bag_reader import BagMessage, short_type
 from terrain_odom.io.bag_streams import HeadingStream, PoseStream, StampRule, WheelStream
 from terrain_odom.kinematics.models import twist_icr, twist_icr_jacobian
@@ -376,6 +376,9 @@ class LiveOdometry:
             accepted = ", ".join(short_type(t) for t in ROLE_TYPES[role])
             self._drop(f"{role}: a message of type {short_type(kind)} (expected {accepted})")
             return
+        if kind == TF_MESSAGE and self.topics.pose_frames is None:
+            self._drop("pose: a tf2_msgs/TFMessage topic needs --pose-frames PARENT CHILD")
+            return
         first = self._types.setdefault(role, kind)
         if kind != first:
             self._drop(f"{role}: a {short_type(kind)} after {short_type(first)} messages")
@@ -632,6 +635,11 @@ class LiveOdometry:
             self._count(reason)
         if first:
             self.on_warning(f"dropped: {reason} (counted; reported once)")
+
+    def status(self) -> dict[str, dict[str, int]]:
+        """Return copies of :attr:`counts` and :attr:`dropped` (safe while messages come in)."""
+        with self._lock:
+            return {"counts": dict(self.counts), "dropped": dict(self.dropped)}
 
     def summary(self) -> str:
         """One line: messages taken per role, rows, and drops by reason."""

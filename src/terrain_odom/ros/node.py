@@ -293,8 +293,8 @@ class _Watch:
     def publish_status(self) -> None:
         from std_msgs.msg import String
 
-        status = {"counts": self.live.counts, "dropped": self.live.dropped}
-        self.pubs.status.publish(String(data=json.dumps(status, sort_keys=True)))
+        status = json.dumps(self.live.status(), sort_keys=True)
+        self.pubs.status.publish(String(data=status))
 
 
 def _topics(args: argparse.Namespace) -> LiveTopics:
