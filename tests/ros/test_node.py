@@ -80,6 +80,8 @@ def test_the_real_bag_played_into_the_node_gives_runs_estimates(ros: Ros, jackal
             IMU,
             "--delay",
             "0.5",
+            "--idle",
+            "1",
             "--publish-tf",
         ]  # fmt: skip
     )

@@ -29,7 +29,7 @@ import queue
 import sys
 import threading
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 from terrain_odom.app.live import (
@@ -267,6 +267,7 @@ class _Watch:
 
     def __init__(self, live: LiveOdometry, pubs: _Publishers, stale: float) -> None:
         self.live, self.pubs, self.stale = live, pubs, stale
+        self.pending: Callable[[], bool] = lambda: False  # messages queued, not yet converted
         self.last_wheel: float | None = None
         self.silent = False
         self.stop = threading.Event()
@@ -281,7 +282,8 @@ class _Watch:
 
         ticks = 0
         while not self.stop.wait(0.05):
-            self.live.poll()
+            if not self.pending():  # queued messages: the node is behind, the streams go on
+                self.live.poll()
             ticks += 1
             since = None if self.last_wheel is None else time.monotonic() - self.last_wheel
             if since is not None and since > self.stale and not self.silent:
@@ -330,6 +332,7 @@ def run_node(args: argparse.Namespace) -> LiveOdometry:
     pubs = holder["pubs"] = _Publishers(args)
     watch = _Watch(live, pubs, args.stale)
     pump = _Pump(live, watch)
+    watch.pending = lambda: not pump.inbox.empty()
     subscribers = [
         _Subscriber(topic, role, pump)
         for role in ROLES
