@@ -313,8 +313,12 @@ def test_a_slow_frame_does_not_stall_the_wheels_and_lands_where_it_looked(
     ]
 
 
-def test_a_sighting_fed_late_is_placed_where_the_frame_looked() -> None:
-    """Fed after the robot moved d m, a sighting ``ahead`` m away is applied at ``ahead - d``."""
+def test_the_odometer_the_late_sightings_are_placed_by() -> None:
+    """``OnlineOdometry.odometer``: 0 until a sighting ahead, then the distance driven.
+
+    The live layer places a sighting fed late at ``ahead`` less the
+    odometer's advance since its frame; a change 2 m ahead lands 2 m on.
+    """
     cfg = Config()
     odo = OnlineOdometry(cfg)
     odo.wheels(0.0, 1.0, 1.0)
