@@ -435,6 +435,16 @@ class OnlineOdometry:
         return self._flow.seen or ""
 
     @property
+    def odometer(self) -> float:
+        """Distance the terrain changes are placed by, m (counting from the first sighting ahead).
+
+        A sighting made at odometer value ``d0`` and fed later at ``d1``
+        (a frame classified off the wheel path) is placed where it was seen
+        with ``ahead - (d1 - d0)``.
+        """
+        return self._flow.travelled
+
+    @property
     def changes(self) -> list[TerrainChange]:
         """Terrain changes applied so far."""
         return self._flow.changes

@@ -21,8 +21,9 @@ from rosbags.image import ImageConversionError, ImageFormatError, message_to_cvi
 from terrain_odom.errors import InputFileError
 from terrain_odom.io.atomic import write_atomic, write_text_atomic
 from terrain_odom.io.bag_messages import COMPRESSED_IMAGE
+from terrain_odom.io.images import decode_image_rgb
 
-__all__ = ["FRAME_FORMATS", "write_frame", "write_frames_csv"]
+__all__ = ["FRAME_FORMATS", "frame_rgb", "write_frame", "write_frames_csv"]
 
 #: Image formats of the frames written, by file suffix.
 FRAME_FORMATS = ("jpg", "png")
@@ -61,12 +62,40 @@ def _check_raw_size(msg: Any, where: str) -> None:
         )
 
 
-def _encode(msg: Any, msgtype: str, fmt: str, where: str) -> bytes:
-    """Decode an image message to 8-bit BGR (or mono) and encode it as ``fmt``."""
+def _decode_8bit(msg: Any, msgtype: str, where: str) -> np.ndarray:
+    """Decode an image message to 8-bit BGR (or mono)."""
     image = _decode(msg, msgtype, where)
     if image.dtype != np.uint8:  # 16-bit or float images: scale to 8 bit for the classifier
         low, high = float(image.min()), float(image.max())
         image = ((image - low) * (255.0 / max(high - low, 1e-12))).astype(np.uint8)
+    return image
+
+
+def frame_rgb(msg: Any, msgtype: str, where: str) -> np.ndarray:
+    """Decode an image message to the RGB uint8 frame (H, W, 3) the classifier takes.
+
+    A compressed image decodes as its file would (:func:`~terrain_odom.io.images.decode_image_rgb`,
+    as ``run`` reads an imported frame); a raw image as :func:`write_frame`
+    writes it, in RGB. ``msg.data`` may be ``bytes`` (``rospy``) or an array (``rosbags``).
+
+    Raises
+    ------
+    InputFileError
+        If the message cannot be decoded.
+    """
+    if msgtype == COMPRESSED_IMAGE:
+        rgb = decode_image_rgb(bytes(msg.data))
+        if rgb is None:
+            raise InputFileError(f"{where}: cannot decode the image (not a {msg.format} image)")
+        return rgb
+    image = _decode_8bit(msg, msgtype, where)
+    code = cv2.COLOR_GRAY2RGB if image.ndim == 2 else cv2.COLOR_BGR2RGB
+    return np.asarray(cv2.cvtColor(image, code), dtype=np.uint8)
+
+
+def _encode(msg: Any, msgtype: str, fmt: str, where: str) -> bytes:
+    """Decode an image message to 8-bit BGR (or mono) and encode it as ``fmt``."""
+    image = _decode_8bit(msg, msgtype, where)
     ok, data = cv2.imencode(f".{fmt}", image)
     if not ok:
         raise InputFileError(f"{where}: cannot encode the image as {fmt}")

@@ -41,6 +41,7 @@ __all__ = [
     "Intrinsics",
     "yaw_from_quaternion",
     "stamp_ns",
+    "message_type",
     "match_joints",
     "joint_speeds",
     "track_speeds",
@@ -115,8 +116,36 @@ def yaw_from_quaternion(x: float, y: float, z: float, w: float) -> float:
 
 
 def stamp_ns(stamp: Any) -> int:
-    """Nanoseconds of a ``builtin_interfaces/Time`` (``sec``, ``nanosec``)."""
+    """Nanoseconds of a message stamp.
+
+    The one accessor of a stamp's fields: ``rosbags`` gives ROS 1 and ROS 2
+    stamps alike as ``builtin_interfaces/Time`` (``sec``, ``nanosec``),
+    ``rospy`` as ``rospy.Time`` (``secs``, ``nsecs``).
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace as Ns
+    >>> stamp_ns(Ns(sec=2, nanosec=5)), stamp_ns(Ns(secs=2, nsecs=5))
+    (2000000005, 2000000005)
+    """
+    if hasattr(stamp, "secs"):
+        return int(stamp.secs) * 1_000_000_000 + int(stamp.nsecs)
     return int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
+
+
+def message_type(name: str) -> str:
+    """Return a message type name in ``rosbags``' form (``pkg/msg/Name``).
+
+    ROS 1 names types ``pkg/Name`` (``rospy``'s ``_type``, a connection
+    header's ``type``); the constants of this module are ``pkg/msg/Name``.
+
+    Examples
+    --------
+    >>> message_type("nav_msgs/Odometry"), message_type("nav_msgs/msg/Odometry")
+    ('nav_msgs/msg/Odometry', 'nav_msgs/msg/Odometry')
+    """
+    package, _, rest = name.partition("/")
+    return name if "/" in rest else f"{package}/msg/{rest}"
 
 
 def match_joints(names: Sequence[str], patterns: Sequence[str]) -> list[int]:

@@ -162,6 +162,17 @@ class _Stream:
             stamps, values = stamps[~odd], values[~odd]
         return StampedRows(stamps, values)
 
+    def take(self, width: int) -> StampedRows:
+        """Return the stamps and values kept since the last call, and forget them.
+
+        For a live stream (message by message): what :meth:`add` converted,
+        at flat memory.
+        """
+        rows = self.rows(width)
+        del self.stamps_kept[:]
+        del self.values_kept[:]
+        return rows
+
 
 @dataclass
 class WheelStream(_Stream):
@@ -290,17 +301,32 @@ class PoseStream(_Stream):
             )
         if topic_type != NAV_SAT_FIX:
             return self.rows(3)
-        return self._enu_rows()
-
-    def _enu_rows(self) -> StampedRows:
         if not self.stamps_kept:
             raise InputFileError(
                 f"{self.where}: a NavSatFix topic without fixes (every message has status < 0 "
                 "or NaN position); expected at least one fix with a solution"
             )
-        geo = self.rows(3)
-        first = int(np.argmin(geo.stamp_ns))
-        self.origin_used = self.origin or tuple(float(v) for v in geo.values[first])  # type: ignore[assignment]
+        return self._enu(self.rows(3))
+
+    def take_poses(self, topic_type: str) -> StampedRows:
+        """Return the poses converted since the last call (as :meth:`pose_rows`), and forget them.
+
+        A live stream: GPS fixes in the east-north frame of ``origin``, else
+        of the first fix taken.
+        """
+        self.sigmas.clear()
+        rows = self.take(3)
+        return self._enu(rows) if topic_type == NAV_SAT_FIX and len(rows) else rows
+
+    def _enu(self, geo: StampedRows) -> StampedRows:
+        """East, north, NaN of fixes (lat, lon deg, alt m) in the frame of ``origin_used``.
+
+        ``origin_used`` is set on the first call: ``origin``, else the first
+        fix in time among ``geo``.
+        """
+        if self.origin_used is None:
+            first = int(np.argmin(geo.stamp_ns))
+            self.origin_used = self.origin or tuple(float(v) for v in geo.values[first])  # type: ignore[assignment]
         assert self.origin_used is not None
         enu = enu_from_geodetic(
             geo.values[:, 0], geo.values[:, 1], geo.values[:, 2], self.origin_used
@@ -334,6 +360,11 @@ class HeadingStream(_Stream):
             return
         self._keep(message, yaw)
         self.sigmas.append(float(np.sqrt(max(float(message.msg.orientation_covariance[8]), 0.0))))
+
+    def take_headings(self) -> StampedRows:
+        """Return the yaws converted since the last call, and forget them (a live stream)."""
+        self.sigmas.clear()
+        return self.take(0)
 
     def heading_rows(self) -> StampedRows:
         """Stamps and yaw (rad), shape (N,).

@@ -15,10 +15,11 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from rosbags.interfaces import Nodetype
 from rosbags.rosbag1 import Writer as Writer1
 from rosbags.rosbag2 import StoragePlugin
 from rosbags.rosbag2 import Writer as Writer2
-from rosbags.typesys import Stores, get_typestore
+from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from scipy.spatial.transform import Rotation
 
 from terrain_odom.config import CameraConfig
@@ -38,7 +39,7 @@ from terrain_odom.io.bag_messages import (
 from terrain_odom.io.frames import FrameList
 from terrain_odom.records import WheelLog
 
-__all__ = ["BAG_KINDS", "MessageFactory", "Record", "log_records", "write_bag"]
+__all__ = ["BAG_KINDS", "MessageFactory", "Record", "log_records", "ros1_message", "write_bag"]
 
 #: ``ros1`` (a .bag file), ``sqlite3`` and ``mcap`` (ROS 2 bag folders).
 BAG_KINDS = ("ros1", "sqlite3", "mcap")
@@ -50,14 +51,20 @@ Record = tuple[str, str, int, Any]
 def write_bag(path: str | os.PathLike[str], kind: str, records: Iterable[Record]) -> Path:
     """Write ``records`` (in the order given) as a bag of ``kind``; return the path written.
 
-    ``ros1`` writes the file ``path``; ``sqlite3`` and ``mcap`` write the
+    ``ros1`` writes the file ``path``, with ROS 1 (Noetic) message
+    definitions (the messages converted: :func:`ros1_message`), so that ROS 1
+    itself plays it (``rosbag play``); ``sqlite3`` and ``mcap`` write the
     bag folder ``path`` (its ``.mcap`` file alone is a bag too).
     """
     store = get_typestore(Stores.ROS2_HUMBLE)
     path = Path(path)
     writer: Any  # rosbags' two writers share the calls used here
     if kind == "ros1":
-        writer, serialize = Writer1(path), store.serialize_ros1
+        ros1 = get_typestore(Stores.ROS1_NOETIC)  # tf2_msgs is not in it: ROS 1's definition
+        ros1.register(get_types_from_msg("geometry_msgs/TransformStamped[] transforms", TF_MESSAGE))
+        writer = Writer1(path)
+        records = ((t, k, ns, ros1_message(msg, k, ros1)) for t, k, ns, msg in records)
+        store, serialize = ros1, ros1.serialize_ros1
     else:
         plugin = StoragePlugin.MCAP if kind == "mcap" else StoragePlugin.SQLITE3
         writer = Writer2(path, version=9, storage_plugin=plugin)
@@ -69,6 +76,55 @@ def write_bag(path: str | os.PathLike[str], kind: str, records: Iterable[Record]
                 connections[topic] = writer.add_connection(topic, msgtype, typestore=store)
             writer.write(connections[topic], ns, serialize(msg, msgtype))
     return path
+
+
+def ros1_message(msg: Any, msgtype: str, store: Any) -> Any:
+    """Return a message of ``rosbags``' ROS 2 types as the ROS 1 type of ``store`` (Noetic).
+
+    Fields are matched by name, case aside (ROS 2's ``CameraInfo.k`` is ROS
+    1's ``K``); a field ROS 2 lacks (``Header.seq``) gets its zero.
+
+    Examples
+    --------
+    >>> ros1 = get_typestore(Stores.ROS1_NOETIC)
+    >>> msg = ros1_message(MessageFactory().header(2 * 10**9 + 5, "map"), "std_msgs/msg/Header", ros1)
+    >>> msg.seq, msg.stamp.sec, msg.stamp.nanosec, msg.frame_id
+    (0, 2, 5, 'map')
+    """
+    _, fields = store.fielddefs[msgtype]
+    names = {name.lower(): name for name in vars(msg)} if hasattr(msg, "__dict__") else {}
+    names |= {f.lower(): f for f in getattr(msg, "__dataclass_fields__", {})}
+    values = {}
+    for name, (node, detail) in fields:
+        given = names.get(name.lower())
+        value = getattr(msg, given) if given is not None else None
+        if node == Nodetype.NAME:
+            value = (
+                ros1_message(value, detail, store) if value is not None else _zero(detail, store)
+            )
+        elif node in (Nodetype.ARRAY, Nodetype.SEQUENCE) and detail[0][0] == Nodetype.NAME:
+            value = [ros1_message(v, detail[0][1], store) for v in (value or [])]
+        elif value is None:
+            value = _zero_field(node, detail)
+        values[name] = value
+    return store.types[msgtype](**values)
+
+
+def _zero(msgtype: str, store: Any) -> Any:
+    """Return the all-zero message of ``msgtype``."""
+    _, fields = store.fielddefs[msgtype]
+    values = {}
+    for name, (node, detail) in fields:
+        values[name] = _zero(detail, store) if node == Nodetype.NAME else _zero_field(node, detail)
+    return store.types[msgtype](**values)
+
+
+def _zero_field(node: int, detail: Any) -> Any:
+    """Return the zero of a base field (0, 0.0, False, '') or an empty array."""
+    if node != Nodetype.BASE:
+        return np.zeros(0) if node == Nodetype.SEQUENCE else []
+    kind = detail[0]
+    return "" if kind == "string" else (False if kind == "bool" else 0)
 
 
 class MessageFactory:

@@ -1,0 +1,1 @@
+"""The ROS 1 node (``terrain-odom-ros``): the outermost layer, beside the command line."""
