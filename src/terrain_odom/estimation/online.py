@@ -138,7 +138,10 @@ class OnlineOdometry:
             ekf = SlipEkf(config.slip_ekf, config.robot.track_width, config.terrain)
             steps = _SlipSteps(ekf, mounting)
         else:
-            steps = _IcrSteps(IcrEkf(config.ekf, config.terrain, priors=priors, mounting=mounting))
+            ekf = IcrEkf(
+                config.ekf, config.terrain, priors=priors, mounting=mounting, robot=config.robot
+            )
+            steps = _IcrSteps(ekf)
         self.config = config
         self.estimator = estimator
         self._steps = steps
@@ -341,11 +344,14 @@ class OnlineOdometry:
         terrain[k:] = self.current_terrain
         if k < n_rows:
             assert isinstance(self._steps, _IcrSteps) and self._t is not None  # _steady()
-            states[k:], stds[k:], updates = self._steps.filter.run_rows(
+            ekf = self._steps.filter
+            counted = ekf.gating[4:].copy()
+            states[k:], stds[k:], updates = ekf.run_rows(
                 (self._t, *self._speeds), t[k:], (v_l[k:], v_r[k:]), pose[k:]
             )
             self.n_updates += updates
             self.pose_use.fused(pose[k:])
+            self.pose_use.gated(ekf.gating[4:] - counted)
             self._t, self._speeds = float(t[-1]), (float(v_l[-1]), float(v_r[-1]))
         return states, stds, terrain
 
@@ -577,13 +583,15 @@ class _IcrSteps:
             return False
         nan = math.nan
         x, y, yaw = z.tolist()
-        self.filter.update(np.array([x if position else nan, y if position else nan,
-                                     yaw if heading else nan]))  # fmt: skip
+        counted = self.filter.gating[4:].copy()
+        nis = self.filter.update(np.array([x if position else nan, y if position else nan,
+                                           yaw if heading else nan]))  # fmt: skip
         if position:
             use.used(_POSITION)
         if heading:
             use.used(_HEADING)
-        return True
+        use.gated(self.filter.gating[4:] - counted)
+        return not math.isnan(nis)
 
     def _anchor(self, z: np.ndarray, *, heading: bool) -> None:
         """Reset the heading (``heading``) or the position to the measured one."""
