@@ -521,9 +521,6 @@ class _RowFilter(Protocol):
 
 _YAW = 2
 _POSITION, _HEADING = "position", "heading"
-_BEFORE_HEADING = (
-    "before a heading (the robot has not yet moved far enough to take it from the course)"
-)
 _HEADING_AGE = 1.0  # s: the slip EKF's dead-reckoned heading older than this orients no position
 _CLOSE_FIX = "no heading, and within a quarter chord of the previous fix (standing)"
 
@@ -534,10 +531,11 @@ class _IcrSteps:
     Each segment anchors the heading at its first measured heading and the
     position at its first position once the heading is known. Without a
     measured heading (a GPS alone), the heading is taken from the course:
-    the first fix anchors the position in a provisional frame, and once a
-    fix lies ``min_course`` m from it the frame is turned so that the
-    filter's predicted antenna displacement points along the measured one.
-    Components measured before that are dropped (and counted).
+    the first fix anchors the position in a provisional frame, the fixes
+    after it hold the position (no dead reckoning on a heading not yet
+    known), and once a fix lies ``min_course`` m from the first the frame
+    is turned so that the filter's dead-reckoned antenna displacement
+    points along the measured one. Only then do fixes update the filter.
     """
 
     def __init__(self, ekf: IcrEkf) -> None:
@@ -575,10 +573,9 @@ class _IcrSteps:
             if self._heading:
                 self._anchor(z, heading=False)
                 use.used(_POSITION)
-            elif self._course_heading(z):
-                use.used(_POSITION)
             else:
-                use.drop(_POSITION, _BEFORE_HEADING)
+                self._course_heading(z)
+                use.used(_POSITION)
         if not (position or heading):
             return False
         nan = math.nan
@@ -608,23 +605,29 @@ class _IcrSteps:
             self._position = True
         ekf.reset_pose(pose, sigma)
 
-    def _course_heading(self, z: np.ndarray) -> bool:
+    def _course_heading(self, z: np.ndarray) -> None:
         """Take the heading from the course between fixes (no heading measured yet).
 
-        Returns whether the fix was used (as the provisional anchor, or to
-        turn the frame).
+        The first fix anchors the position in a provisional frame (the
+        heading as it was); later fixes hold the position at them until one
+        lies ``min_course`` m from the first, whose chord turns the frame.
         """
         ekf = self.filter
         predicted = sensor_pose(ekf.pose, ekf.mounting)[:2]
         if self._course is None:
             ekf.reset_pose(robot_pose(z, ekf.mounting, yaw=ekf.pose[_YAW]), ekf.std[:3])
             self._course = (z[:2].copy(), sensor_pose(ekf.pose, ekf.mounting)[:2])
-            return True
+            return
         measured = z[:2] - self._course[0]
         moved = predicted - self._course[1]
         distance = float(np.hypot(*measured))
         if distance < self._min_course or not np.hypot(*moved) > 0.5 * distance:
-            return False
+            # Not far enough yet: hold the position at the fix (the provisional heading is
+            # arbitrary, dead reckoning on it would draw an excursion), keeping the
+            # dead-reckoned chord: the frame's origin moves by what the fix moved the state.
+            ekf.reset_pose(robot_pose(z, ekf.mounting, yaw=ekf.pose[_YAW]), ekf.std[:3])
+            self._course = (self._course[0], self._course[1] - predicted + z[:2])
+            return
         turn = np.arctan2(measured[1], measured[0]) - np.arctan2(moved[1], moved[0])
         yaw = float(wrap_angle(ekf.pose[_YAW] + turn))
         sigma = ekf.std[:3]
@@ -632,7 +635,6 @@ class _IcrSteps:
         sigma[_YAW] = np.hypot(2.0 * max(self._r[:2]) / distance, 0.1)  # fix noise, path shape
         ekf.reset_pose(robot_pose(z, ekf.mounting, yaw=yaw), sigma)
         self._heading = self._position = True
-        return True
 
     def icr_params(self, v_l: float, v_r: float) -> np.ndarray:
         return self.filter.params
