@@ -18,6 +18,7 @@ from terrain_odom import __version__
 from terrain_odom.cli import (
     bag_import,
     compare,
+    degrade,
     evaluate,
     fit,
     inspect,
@@ -37,6 +38,7 @@ SUBCOMMANDS = (
     train,
     report,
     simulate,
+    degrade,
     fit,
     compare,
     inspect,
