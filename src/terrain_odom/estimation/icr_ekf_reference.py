@@ -8,7 +8,8 @@ filterpy's Joseph-form update with SciPy's inverse and the pose sensors'
 :func:`~terrain_odom.estimation.pose_measurement.measurement` after a chi-square
 gate in numpy, numpy clipping. Everything
 else (terrain resets, memory, priors) is inherited, so both run the same logs
-through the same streaming path. The tests hold the kernels to it within
+through the same streaming path (a stretch of rows through the reference's
+own predict and update, row by row). The tests hold the kernels to it within
 1e-12 and ``bench/ekf_speed.py`` times both; it is ~100x slower, and imports
 filterpy (and SciPy's statistics) on first use.
 """
@@ -117,6 +118,24 @@ class FilterpyIcrEkf(IcrEkf):
         self._x[:], self._P[:] = ekf.x[:, 0], ekf.P
         self._constrain()
         return self.last_nis
+
+    def run_rows(
+        self,
+        since: tuple[float, float, float],
+        t: np.ndarray,
+        speeds: tuple[np.ndarray, np.ndarray],
+        z: np.ndarray,
+    ) -> tuple[np.ndarray, np.ndarray, int]:
+        """Predict and update row by row (see :meth:`IcrEkf.run_rows`), through filterpy."""
+        held_t, v_l, v_r = since
+        states, stds = np.empty((t.size, self._x.size)), np.empty((t.size, self._x.size))
+        updates = 0
+        for i in range(t.size):
+            self.predict(v_l, v_r, t[i] - held_t)
+            held_t, v_l, v_r = t[i], speeds[0][i], speeds[1][i]
+            updates += not np.isnan(self.update(z[i]))
+            states[i], stds[i] = self._x, np.sqrt(np.maximum(np.diag(self._P), 0.0))
+        return states, stds, updates
 
     def _gated_rows(self, z: np.ndarray, rows: np.ndarray, r_full: np.ndarray) -> np.ndarray:
         """Return the measured ``rows`` that pass the chi-square gate (see :meth:`IcrEkf.update`).

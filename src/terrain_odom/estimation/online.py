@@ -532,8 +532,9 @@ class _IcrSteps:
     position at its first position once the heading is known. Without a
     measured heading (a GPS alone), the heading is taken from the course:
     the first fix anchors the position in a provisional frame, the fixes
-    after it hold the position (no dead reckoning on a heading not yet
-    known), and once a fix lies ``min_course`` m from the first the frame
+    after it keep the position within two ``sigma_r`` of them (no dead
+    reckoning far on a heading not yet known), and once a fix lies
+    ``min_course`` m from the first the frame
     is turned so that the filter's dead-reckoned antenna displacement
     points along the measured one. Only then do fixes update the filter.
     """
@@ -609,8 +610,9 @@ class _IcrSteps:
         """Take the heading from the course between fixes (no heading measured yet).
 
         The first fix anchors the position in a provisional frame (the
-        heading as it was); later fixes hold the position at them until one
-        lies ``min_course`` m from the first, whose chord turns the frame.
+        heading as it was); until a fix lies ``min_course`` m from the
+        first, whose chord turns the frame, a fix more than two ``sigma_r``
+        from the dead-reckoned position resets it to the fix.
         """
         ekf = self.filter
         predicted = sensor_pose(ekf.pose, ekf.mounting)[:2]
@@ -622,11 +624,12 @@ class _IcrSteps:
         moved = predicted - self._course[1]
         distance = float(np.hypot(*measured))
         if distance < self._min_course or not np.hypot(*moved) > 0.5 * distance:
-            # Not far enough yet: hold the position at the fix (the provisional heading is
-            # arbitrary, dead reckoning on it would draw an excursion), keeping the
-            # dead-reckoned chord: the frame's origin moves by what the fix moved the state.
-            ekf.reset_pose(robot_pose(z, ekf.mounting, yaw=ekf.pose[_YAW]), ekf.std[:3])
-            self._course = (self._course[0], self._course[1] - predicted + z[:2])
+            # Not far enough yet. Dead reckoning on the provisional heading would draw an
+            # excursion: the position is held to the fix once two sigma_r off it, the frame's
+            # origin moved with it (the dead-reckoned chord is kept).
+            if np.hypot(*(predicted - z[:2])) > 2.0 * max(self._r[:2]):
+                ekf.reset_pose(robot_pose(z, ekf.mounting, yaw=ekf.pose[_YAW]), ekf.std[:3])
+                self._course = (self._course[0], self._course[1] - predicted + z[:2])
             return
         turn = np.arctan2(measured[1], measured[0]) - np.arctan2(moved[1], moved[0])
         yaw = float(wrap_angle(ekf.pose[_YAW] + turn))
