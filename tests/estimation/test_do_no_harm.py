@@ -50,7 +50,7 @@ def _with_gate(cfg: Config, **gate: object) -> Config:
 
 
 def _fixes_with_a_jump(log: WheelLog) -> tuple[WheelLog, int]:
-    """The log's positions alone, one fix 10 km off (a NavSatFix gone wild)."""
+    """Return the log's positions alone, one fix 10 km off (a NavSatFix gone wild), and its row."""
     pose = log.pose.copy()
     pose[:, 2] = np.nan
     row = np.flatnonzero(log.has_pose & (log.t >= JUMP_AT))[0]
@@ -59,7 +59,7 @@ def _fixes_with_a_jump(log: WheelLog) -> tuple[WheelLog, int]:
 
 
 def _kidnapped(log: WheelLog) -> WheelLog:
-    """No poses for 30 s, then every position 104 m off where the filter is (a new GPS frame)."""
+    """Return the log with no poses for 30 s, then every position 104 m off (a new GPS frame)."""
     pose = log.pose.copy()
     gap = (log.t >= OUTAGE[0]) & (log.t < OUTAGE[1])
     pose[gap] = np.nan
@@ -71,7 +71,10 @@ def test_a_10_km_jump_is_rejected_and_counted(log):
     jumped, row = _fixes_with_a_jump(log)
     odo = OnlineOdometry(CFG)
     result = run_odometry(jumped, odo)
-    assert odo.pose_use.summary() == "position 1199 of 1200 used, 1 rejected by the gate, heading 0 of 0"
+    assert (
+        odo.pose_use.summary()
+        == "position 1199 of 1200 used, 1 rejected by the gate, heading 0 of 0"
+    )
     fixes = log.has_pose
     assert np.abs(result.states[fixes, 1] - log.pose[fixes, 1]).max() < 0.1  # never moved it
     np.testing.assert_allclose(result.states[-1, 3:6], TRUE[:3], atol=0.03)
@@ -145,7 +148,9 @@ def test_a_gps_only_start_stays_near_the_fixes_before_the_course_heading(drive_d
 
     Before, it dead-reckoned 8 m on the provisional heading: 11-18 m off on these logs.
     """
-    clean = read_wheel_log(drive_dir / "warthog_wheels_grass_2024_7_29_14h4s53.csv", wheel_radius=0.3)
+    clean = read_wheel_log(
+        drive_dir / "warthog_wheels_grass_2024_7_29_14h4s53.csv", wheel_radius=0.3
+    )
     clean = clean.take(clean.t < 70.0)
     gps = Degradation(imu_rate=0.0, gps_walk=0.0, latency=0.0, antenna=(0.0, 0.0), seed=3)
     degraded = degrade_log(clean, gps)
@@ -155,13 +160,17 @@ def test_a_gps_only_start_stays_near_the_fixes_before_the_course_heading(drive_d
     )
     result = run_odometry(degraded.log, OnlineOdometry(cfg))
     rows = np.flatnonzero(clean.has_pose)
-    truth = np.column_stack([np.interp(degraded.log.t, clean.t[rows], clean.pose[rows, k]) for k in (0, 1)])
+    truth = np.column_stack(
+        [np.interp(degraded.log.t, clean.t[rows], clean.pose[rows, k]) for k in (0, 1)]
+    )
     error = np.hypot(*(result.states[:, :2] - truth).T)
     before = result.stds[:, 2] > 0.3  # no heading yet: the provisional frame
     assert before.sum() > 1000 and error[before].max() < 2.0 * 0.8 + 3.0 * 0.8
 
 
-def _outage_errors(log: WheelLog, truth: WheelLog, states: np.ndarray, seconds: float) -> np.ndarray:
+def _outage_errors(
+    log: WheelLog, truth: WheelLog, states: np.ndarray, seconds: float
+) -> np.ndarray:
     """Median end-position error of dead reckoning over windows, learned ICRs vs ideal diff drive.
 
     From the true pose at each start (every 5 s, windows where the robot

@@ -797,9 +797,10 @@ def _lever_arm_warning(x_icr: float, cfg: Config) -> list[str]:
         return []
     sensor = cfg.pose_sensor
     return [
-        f"the estimated x_icr, {x_icr:+.2f} m over the second half, lies beyond {limit:g} m: "
-        f"a position antenna {abs(x_icr):.2f} m {'ahead of' if x_icr < 0 else 'behind'} the "
-        f"reference point? (pose_sensor.antenna_x is {sensor.antenna_x:g} m)"
+        f"the estimated x_icr, {x_icr:+.2f} m over the second half, lies beyond {limit:.2f} m "
+        f"(its bound: {bound:.2f} m): a position antenna {abs(x_icr):.2f} m "
+        f"{'ahead of' if x_icr < 0 else 'behind'} the reference point (pose_sensor.antenna_x is "
+        f"{sensor.antenna_x:g} m), or a heading error or latency read as side slip?"
     ]
 
 

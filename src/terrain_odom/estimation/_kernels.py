@@ -378,7 +378,9 @@ def _gate(
             continue
         if g == 0:
             det = s[0, 0] * s[1, 1] - s[0, 1] * s[1, 0]
-            nis = (y[0] * (s[1, 1] * y[0] - s[0, 1] * y[1]) + y[1] * (s[0, 0] * y[1] - s[1, 0] * y[0])) / det
+            nis = (
+                y[0] * (s[1, 1] * y[0] - s[0, 1] * y[1]) + y[1] * (s[0, 0] * y[1] - s[1, 0] * y[0])
+            ) / det
         else:
             nis = y[last] * y[last] / s[last, last]
         if not nis > gate[g]:  # within the bound (NaN: the update finds it non-finite)

@@ -268,7 +268,8 @@ class IcrEkf:
         self._q_density = self._sigmas(config.sigma_q) ** 2
         self._r_diag = np.array([config.sigma_r.x, config.sigma_r.y, config.sigma_r.yaw]) ** 2
         self._r = np.diag(self._r_diag)
-        lim = self.limits = config.limits.resolve(robot)
+        self.limits: IcrLimits = config.limits.resolve(robot)
+        lim = self.limits
         self._limits = np.array(
             [lim.half_width_min, lim.half_width_max, lim.x_icr_max, lim.alpha_min, lim.alpha_max]
         )

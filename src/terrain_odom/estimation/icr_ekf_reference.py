@@ -153,7 +153,7 @@ class FilterpyIcrEkf(IcrEkf):
         y[rows == 2] = wrap_angle(y[rows == 2])
         s = H @ self._P @ H.T + r_full[np.ix_(rows, rows)]
         gate, bounds = self.config.gate, gate_bounds(self.config.gate)
-        keep = []
+        keep: list[int] = []
         for g, part in enumerate((np.flatnonzero(rows < 2), np.flatnonzero(rows == 2))):
             if part.size == 0:
                 continue

@@ -138,10 +138,10 @@ class OnlineOdometry:
             ekf = SlipEkf(config.slip_ekf, config.robot.track_width, config.terrain)
             steps = _SlipSteps(ekf, mounting)
         else:
-            ekf = IcrEkf(
+            icr_ekf = IcrEkf(
                 config.ekf, config.terrain, priors=priors, mounting=mounting, robot=config.robot
             )
-            steps = _IcrSteps(ekf)
+            steps = _IcrSteps(icr_ekf)
         self.config = config
         self.estimator = estimator
         self._steps = steps
