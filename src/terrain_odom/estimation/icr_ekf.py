@@ -23,7 +23,7 @@ are the filterpy formulation written out, and the tests hold them to a
 filterpy ``ExtendedKalmanFilter`` driven by :func:`icr_step_with_jacobian`
 within 1e-12 on simulated and real logs.
 - After every update the ICR state is clipped to physical limits that
-  follow the robot (``y_l - y_r`` between half and three track widths,
+  follow the robot (``y_l`` and ``-y_r`` within 0.2 to 2 track widths,
   ``|x_icr|`` within half its length), so ``y_l - y_r`` never reaches zero.
 - Pose updates pass a chi-square gate on their innovation (positions and
   headings separately), with re-acquisition after rejections in a row.
