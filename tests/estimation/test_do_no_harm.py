@@ -109,7 +109,7 @@ def test_kernels_equal_filterpy_when_the_gate_rejects_and_reacquires(log, monkey
     pose = _kidnapped(log).pose
     pose[row, 1] += 10_000.0
     pose[:, 2] = log.pose[:, 2] + 0.3 * (log.t > 100.0)  # the heading jumps 17 deg
-    cfg = _with_gate(CFG, reacquire_after=2, reacquire=0.25)
+    cfg = _with_gate(CFG, headings=True, reacquire_after=2, reacquire=0.25)
     gated = dataclasses.replace(log, pose=pose)
     odo = OnlineOdometry(cfg)
     run_odometry(gated, odo)
@@ -126,9 +126,9 @@ def test_kernels_equal_filterpy_when_the_gate_rejects_and_reacquires(log, monkey
 def test_icrs_pushed_beyond_their_limits_are_clipped_to_exactly_them(cls):
     robot = RobotConfig(track_width=1.0, length=2.0)
     wide = cls(EkfConfig(), robot=robot, priors=IcrPriors(start=IcrState(5.0, -0.01, -3.0, 2.0)))
-    assert wide.params.tolist() == [2.0, -0.2, -1.0, 1.5]  # 2 B, 0.2 B, length / 2, alpha_max
+    assert wide.params.tolist() == [3.0, -0.2, -1.0, 1.5]  # 3 B, 0.2 B, length / 2, alpha_max
     narrow = cls(EkfConfig(), robot=robot, priors=IcrPriors(start=IcrState(0.01, -9.0, 3.0, 0.1)))
-    assert narrow.params.tolist() == [0.2, -2.0, 1.0, 0.3]
+    assert narrow.params.tolist() == [0.2, -3.0, 1.0, 0.3]
     inside = cls(EkfConfig(), robot=robot, priors=IcrPriors(start=IcrState(0.9, -0.7, 0.2, 0.9)))
     assert inside.params.tolist() == [0.9, -0.7, 0.2, 0.9]  # untouched
 
@@ -139,7 +139,7 @@ def test_the_initial_icrs_and_limits_follow_the_track_width():
     limits = husky.limits
     np.testing.assert_allclose(
         [limits.half_width_min, limits.half_width_max, limits.x_icr_max],
-        [0.2 * 0.555, 2.0 * 0.555, 1.5 * 0.555 / 2],  # robot.length: 1.5 B by default
+        [0.2 * 0.555, 3.0 * 0.555, 1.5 * 0.555 / 2],  # robot.length: 1.5 B by default
     )
 
 

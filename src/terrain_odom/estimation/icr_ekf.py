@@ -23,7 +23,7 @@ are the filterpy formulation written out, and the tests hold them to a
 filterpy ``ExtendedKalmanFilter`` driven by :func:`icr_step_with_jacobian`
 within 1e-12 on simulated and real logs.
 - After every update the ICR state is clipped to physical limits that
-  follow the robot (``y_l`` and ``-y_r`` within 0.2 to 2 track widths,
+  follow the robot (``y_l`` and ``-y_r`` within 0.2 to 3 track widths,
   ``|x_icr|`` within half its length), so ``y_l - y_r`` never reaches zero.
 - Pose updates pass a chi-square gate on their innovation (positions and
   headings separately), with re-acquisition after rejections in a row.
@@ -92,18 +92,19 @@ def gate_bounds(gate: PoseGate) -> tuple[float, float]:
     """Return the NIS bounds of a position (2 degrees of freedom) and a heading (1).
 
     The ``gate.probability`` quantiles of the chi-square distribution
-    (``inf`` when the gate is off): ``-2 ln(1 - p)`` and the square of the
-    normal quantile of ``(1 + p) / 2``.
+    (``inf`` when the gate is off, and for headings unless ``gate.headings``):
+    ``-2 ln(1 - p)`` and the square of the normal quantile of ``(1 + p) / 2``.
 
     Examples
     --------
-    >>> [round(b, 2) for b in gate_bounds(PoseGate(probability=0.999))]
+    >>> [round(b, 2) for b in gate_bounds(PoseGate(probability=0.999, headings=True))]
     [13.82, 10.83]
     """
     if not gate.enabled:
         return math.inf, math.inf
     p = gate.probability
-    return -2.0 * math.log1p(-p), NormalDist().inv_cdf(0.5 + 0.5 * p) ** 2
+    heading = NormalDist().inv_cdf(0.5 + 0.5 * p) ** 2 if gate.headings else math.inf
+    return -2.0 * math.log1p(-p), heading
 
 
 def _params(state: np.ndarray) -> tuple[float, float, float, float]:
