@@ -19,7 +19,7 @@ CLEAN = Degradation(
 
 
 def _circle(duration: float = 60.0, rate: float = 20.0, segment: int = 0) -> WheelLog:
-    """A robot on a circle of radius 5 m at 1 m/s (truth on every row)."""
+    """Return a robot on a circle of radius 5 m at 1 m/s (truth on every row)."""
     t = np.arange(0.0, duration, 1.0 / rate)
     yaw = t / 5.0
     pose = np.column_stack([5.0 * np.sin(yaw), 5.0 * (1.0 - np.cos(yaw)), wrap_angle(yaw)])
