@@ -215,7 +215,7 @@ def test_report_embeds_the_config_used(log_path: Path, tmp_path: Path) -> None:
     sigma_r = report["config"]["ekf"]["sigma_r"]
     assert sigma_r == {"x": 0.123, "y": 0.05, "yaw": 0.031}  # y keeps the default
     assert report["config"]["terrain"]["confirm"] == 3
-    assert report["config"]["robot"] == {"wheel_radius": 0.1, "track_width": 0.5}
+    assert report["config"]["robot"] == {"wheel_radius": 0.1, "track_width": 0.5, "length": None}
     # the config was really used: the pose anchor's std is sigma_r, and the change
     # is confirmed on the third 'asphalt' row
     traj = read_trajectory_csv(summary.trajectory_csv)

@@ -51,12 +51,12 @@ def test_fixes_alone_update_with_counts_on_the_console_and_in_the_report(logs, t
     assert main([*args, "--config", str(logs / "gps.yaml")]) == 0
     lines = capsys.readouterr().out.splitlines()
     (pose,) = [line for line in lines if line.startswith("pose:")]
-    assert "heading 0 of 0" in pose and "position: before a heading" in pose
+    assert pose == "pose:       position 300 of 300 used, heading 0 of 0"
     report = json.loads((out / "report.json").read_text())
     use = report["counts"]["pose_components"]
-    assert use["position"] == report["counts"]["pose_measurements"] == 300
-    assert use["used_position"] + sum(use["dropped"].values()) == 300
-    assert report["counts"]["updates"] == use["used_position"] - 2  # two fixes anchor
+    assert use["position"] == report["counts"]["pose_measurements"] == use["used_position"] == 300
+    # the fixes before the heading from the course (3 m of travel) hold the position
+    assert 2 < use["used_position"] - report["counts"]["updates"] < 30
     # the 0.5-m lever arm, unknown to the run, is learned as an x_icr: a warning says so
     (warning,) = [line for line in lines if line.startswith("warning:")]
     assert "antenna" in warning and "ahead of" in warning

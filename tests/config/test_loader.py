@@ -38,7 +38,8 @@ def test_every_shipped_config_loads():
         if path.name.startswith("grid_"):  # --grid files (tests/vision/test_small_patches.py)
             continue
         cfg = load_config(path)
-        assert cfg.ekf.initial.y_l > 0 > cfg.ekf.initial.y_r, path
+        initial = cfg.ekf.initial.resolve(cfg.robot)
+        assert initial.y_l > 0 > initial.y_r, path
 
 
 def test_warthog_geometry():

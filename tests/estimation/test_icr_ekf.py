@@ -9,6 +9,7 @@ import pytest
 
 from terrain_odom.config import (
     EkfConfig,
+    EkfLimits,
     IcrSigmas,
     IcrState,
     PoseIcrSigmas,
@@ -68,12 +69,17 @@ def test_step_is_exact_arc_for_constant_twist():
     np.testing.assert_array_equal(out[3:], x[3:])
 
 
+WIDE = EkfLimits(half_width_min=0.05, half_width_max=20.0, x_icr_max=10.0)
+"""Limits far from the ICRs simulated here (on robots of no set track width)."""
+
+
 def _config(**kw) -> EkfConfig:
     base = dict(
         initial=IcrState(0.5, -0.5, 0.0, 1.0),
         sigma_p0=PoseIcrSigmas(0.05, 0.05, 0.02, 0.5, 0.5, 0.3, 0.1),
         sigma_q=PoseIcrSigmas(0.01, 0.01, 0.005, 1e-4, 1e-4, 1e-4, 1e-5),
         sigma_r=PoseSigmas(0.02, 0.02, 0.01),
+        limits=WIDE,
     )
     base.update(kw)
     return EkfConfig(**base)

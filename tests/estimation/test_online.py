@@ -70,8 +70,8 @@ def _stream(log: WheelLog, odo: OnlineOdometry, labels: bool = True) -> np.ndarr
 
 def test_calls_reproduce_the_icr_ekf_row_loop_exactly():
     log = _simulated_log()
-    priors = IcrPriors(terrains={"gravel": load_config().ekf.initial})
     cfg = load_config()
+    priors = IcrPriors(terrains={"gravel": cfg.ekf.initial.resolve(cfg.robot)})
     batch = run_icr_ekf(log, cfg, labels=log.terrain, priors=priors)
     assert len(batch.changes) >= 2  # grass -> gravel, gravel -> grass
     odo = OnlineOdometry(cfg, priors=priors)

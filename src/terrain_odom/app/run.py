@@ -733,20 +733,24 @@ def _report_inputs(
 def _lever_arm_warning(x_icr: float, cfg: Config) -> list[str]:
     """Warn when ``x_icr`` lies beyond :func:`~terrain_odom.evaluation.mounting.x_icr_limit`.
 
-    The estimate judged is the mean over the second half of the run's rows.
+    The estimate judged is the mean over the second half of the run's rows;
+    within 10 % of the filter's bound (``ekf.limits.x_icr_max``, which holds
+    it) counts as beyond.
 
     A position antenna ``a`` m ahead of the reference point, left out of
     ``pose_sensor``, moves sideways in turns as ICRs ``a`` m further back do;
     without a heading the log cannot tell the two apart before the run.
     """
-    limit = x_icr_limit(cfg.robot.track_width)
+    bound = cfg.ekf.limits.resolve(cfg.robot).x_icr_max
+    limit = min(x_icr_limit(cfg.robot.track_width), 0.9 * bound)
     if not abs(x_icr) > limit:
         return []
     sensor = cfg.pose_sensor
     return [
-        f"the estimated x_icr, {x_icr:+.2f} m over the second half, lies beyond {limit:g} m: "
-        f"a position antenna {abs(x_icr):.2f} m {'ahead of' if x_icr < 0 else 'behind'} the "
-        f"reference point? (pose_sensor.antenna_x is {sensor.antenna_x:g} m)"
+        f"the estimated x_icr, {x_icr:+.2f} m over the second half, lies beyond {limit:.2f} m "
+        f"(its bound: {bound:.2f} m): a position antenna {abs(x_icr):.2f} m "
+        f"{'ahead of' if x_icr < 0 else 'behind'} the reference point (pose_sensor.antenna_x is "
+        f"{sensor.antenna_x:g} m), or a heading error or latency read as side slip?"
     ]
 
 

@@ -247,7 +247,9 @@ def _pose_sensor(scenario: Scenario) -> dict[str, float]:
 
 def _write_config(sim: Simulation, path: Path) -> None:
     sections: dict[str, Any] = {
-        "robot": dataclasses.asdict(sim.scenario.robot),
+        "robot": {  # a value left null (robot.length) is the default: left out
+            k: v for k, v in dataclasses.asdict(sim.scenario.robot).items() if v is not None
+        },
         "camera": dataclasses.asdict(sim.scenario.camera),
         "ekf": {"sigma_q": SIM_ICR_SIGMA_Q},
     }

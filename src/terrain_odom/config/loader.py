@@ -93,16 +93,30 @@ def _check_pose_sensor(sensor: PoseSensorConfig) -> None:
 
 
 def _check_consistency(cfg: Config) -> None:
-    ini, lim = cfg.ekf.initial, cfg.ekf.limits
+    ini, lim = cfg.ekf.initial.resolve(cfg.robot), cfg.ekf.limits.resolve(cfg.robot)
     if not ini.y_l > 0.0 > ini.y_r:
         raise ConfigError(
             f"ekf.initial needs y_l > 0 > y_r (left ICR left of the body), "
             f"got y_l={ini.y_l}, y_r={ini.y_r}"
         )
     if not lim.half_width_min < lim.half_width_max:
-        raise ConfigError("ekf.limits.half_width_min must be < half_width_max")
+        raise ConfigError(
+            f"ekf.limits: half_width_min ({lim.half_width_min:g} m) must be < half_width_max "
+            f"({lim.half_width_max:g} m; null: from robot.track_width)"
+        )
     if not lim.alpha_min <= ini.alpha <= lim.alpha_max:
         raise ConfigError("ekf.initial.alpha must lie in [alpha_min, alpha_max]")
+    for name, value, low, high in (
+        ("y_l", ini.y_l, lim.half_width_min, lim.half_width_max),
+        ("y_r", -ini.y_r, lim.half_width_min, lim.half_width_max),
+        ("x_icr", abs(ini.x_icr), 0.0, lim.x_icr_max),
+    ):
+        if not low <= value <= high:
+            raise ConfigError(
+                f"ekf.initial.{name}: {getattr(ini, name):g} m is beyond ekf.limits "
+                f"(|{name}| in [{low:g}, {high:g}] m, from robot.track_width and robot.length "
+                "unless set)"
+            )
     slip = cfg.slip_ekf
     if not (slip.lateral_acceleration or slip.curvature):
         raise ConfigError(

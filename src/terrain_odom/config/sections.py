@@ -16,6 +16,7 @@ from typing import Literal
 from terrain_odom.config.camera import CameraConfig, RoiConfig
 from terrain_odom.config.classifier import ClassifierConfig
 from terrain_odom.config.fields import NON_NEGATIVE, SIGNED
+from terrain_odom.errors import ConfigError
 
 __all__ = [
     "FORMAT_VERSION",
@@ -25,6 +26,11 @@ __all__ = [
     "PoseSigmas",
     "IcrSigmas",
     "IcrLimits",
+    "EkfLimits",
+    "InitialIcrs",
+    "PoseGate",
+    "LENGTH_PER_TRACK",
+    "HALF_WIDTH_PER_TRACK",
     "EkfConfig",
     "TerrainConfig",
     "EvaluationConfig",
@@ -41,6 +47,12 @@ __all__ = [
 ]
 
 FORMAT_VERSION = 1
+LENGTH_PER_TRACK = 1.5
+"""Default ``robot.length`` per metre of ``robot.track_width``."""
+HALF_WIDTH_PER_TRACK = (0.2, 3.0)
+"""Default bounds of the ICR EKF's ``y_l`` and ``-y_r`` per metre of track width: the ICR
+spacing ``y_l - y_r`` stays within 0.4 to 6 track widths (Martinez et al. 2004 measured 1.85 on
+a tracked robot on hard ground, the Warthog's effective track is ~1.7 of its nominal one)."""
 MAX_POSE_DELAY = 5.0
 """Largest ``time.pose_delay`` accepted, s (beyond it a value is a unit mistake, not a latency)."""
 MAX_ANTENNA_OFFSET = 10.0
@@ -57,10 +69,21 @@ class RobotConfig:
         Wheel (sprocket) radius, m; converts ``omega_l, omega_r`` to surface speed.
     track_width : float
         Nominal track width ``B``, m (distance between track centre lines).
+    length : float or None
+        Length of the robot's footprint along x, m: bounds the ICR EKF's
+        ``|x_icr|`` to half of it (:class:`EkfLimits`). ``None``:
+        :data:`LENGTH_PER_TRACK` times ``track_width`` (Warthog 1.52 m on a
+        1.08-m track, Husky 0.99 m on 0.555 m, Jackal 0.51 m on 0.37 m).
     """
 
     wheel_radius: float = 0.1
     track_width: float = 0.5
+    length: float | None = None
+
+    @property
+    def body_length(self) -> float:
+        """:attr:`length`, or its default from the track width, m."""
+        return self.length if self.length is not None else LENGTH_PER_TRACK * self.track_width
 
 
 @dataclass(frozen=True)
@@ -71,6 +94,34 @@ class IcrState:
     y_r: float = field(default=-0.25, metadata=SIGNED)
     x_icr: float = field(default=0.0, metadata=SIGNED)
     alpha: float = 1.0
+
+    def resolve(self, robot: RobotConfig) -> IcrState:
+        """Return these ICRs (already numbers): an ``IcrState`` serves as ``EkfConfig.initial``."""
+        return self
+
+
+@dataclass(frozen=True)
+class InitialIcrs:
+    """Initial ICR parameters of the ICR EKF: ``y_l, y_r, x_icr`` (m) and ``alpha``.
+
+    ``y_l``/``y_r`` ``None``: half the robot's track width to the left / right
+    (ideal differential drive), see :meth:`resolve`.
+    """
+
+    y_l: float | None = None
+    y_r: float | None = field(default=None, metadata=SIGNED)
+    x_icr: float = field(default=0.0, metadata=SIGNED)
+    alpha: float = 1.0
+
+    def resolve(self, robot: RobotConfig) -> IcrState:
+        """Return the initial ICRs for ``robot`` (``None`` values from its track width)."""
+        half = 0.5 * robot.track_width
+        return IcrState(
+            half if self.y_l is None else self.y_l,
+            -half if self.y_r is None else self.y_r,
+            self.x_icr,
+            self.alpha,
+        )
 
 
 @dataclass(frozen=True)
@@ -127,6 +178,84 @@ class IcrLimits:
 
 
 @dataclass(frozen=True)
+class EkfLimits:
+    """Physical bounds the ICR EKF's state is clipped into after every update.
+
+    By default they follow the robot (:meth:`resolve`): ``y_l`` and ``-y_r``
+    within :data:`HALF_WIDTH_PER_TRACK` times the track width ``B`` (so
+    ``y_l - y_r`` between ``0.4 B`` and ``6 B``), ``|x_icr|`` within half
+    the robot's length (``robot.length``).
+
+    Attributes
+    ----------
+    half_width_min, half_width_max : float or None
+        Bounds of ``y_l`` and ``-y_r``, m; ``None``: ``0.2 B`` and ``3 B`` (the real Jackal bag's IMU asks for a spacing of 4.1 B).
+    x_icr_max : float or None
+        Bound of ``|x_icr|``, m; ``None``: half of ``robot.length``.
+    alpha_min, alpha_max : float
+        Bounds of the slip factor.
+    """
+
+    half_width_min: float | None = None
+    half_width_max: float | None = None
+    x_icr_max: float | None = None
+    alpha_min: float = 0.3
+    alpha_max: float = 1.5
+
+    def resolve(self, robot: RobotConfig) -> IcrLimits:
+        """Return the bounds for ``robot`` (``None`` values from its track width and length)."""
+        low, high = (f * robot.track_width for f in HALF_WIDTH_PER_TRACK)
+        return IcrLimits(
+            low if self.half_width_min is None else self.half_width_min,
+            high if self.half_width_max is None else self.half_width_max,
+            0.5 * robot.body_length if self.x_icr_max is None else self.x_icr_max,
+            self.alpha_min,
+            self.alpha_max,
+        )
+
+
+@dataclass(frozen=True)
+class PoseGate:
+    """Chi-square gate of the ICR EKF's pose updates (positions and headings separately).
+
+    Attributes
+    ----------
+    enabled : bool
+        Gate the updates (``false``: every measured component is fused).
+    headings : bool
+        Gate the headings too (default: positions only). On the real Jackal
+        bag's IMU (docs/bags.md) the heading gate rejected 31 of 3059
+        headings and let the filter's yaw stray 0.042 rad from the IMU
+        instead of 0.025.
+    probability : float
+        A position (2 degrees of freedom) or heading (1) whose normalised
+        innovation squared lies beyond this quantile of the chi-square
+        distribution is rejected (0.9999: 18.4 and 15.1; a shipped
+        configuration's simulated logs have pose errors beyond 0.999).
+    reacquire_after : int
+        Rejections of a component in a row after which the next one beyond
+        the bound is fused all the same: a lone jump is rejected, a filter
+        truly off (after an outage, a reset) or meeting a sudden change of
+        terrain re-acquires. Where its NIS is beyond ten bounds, the pose
+        variance it measures is first grown in proportion, so the pose snaps
+        back to the measurement without the ICRs taking the blame.
+    reacquire : float
+        Seconds of rejections in a row after which the same happens (for a
+        fast sensor, e.g. an IMU at 50 Hz, with ``reacquire_after`` > 1), s.
+    """
+
+    enabled: bool = True
+    headings: bool = False
+    probability: float = 0.9999
+    reacquire_after: int = 1
+    reacquire: float = 1.0
+
+    def __post_init__(self) -> None:
+        if not 0.5 <= self.probability < 1.0:
+            raise ConfigError(f"probability: must be in [0.5, 1), got {self.probability!r}")
+
+
+@dataclass(frozen=True)
 class EkfConfig:
     """Tuning of the ICR extended Kalman filter (Chen et al. 2023, eq. 4-16).
 
@@ -134,8 +263,9 @@ class EkfConfig:
     ----------
     estimate_alpha : bool
         Add the longitudinal slip factor ``alpha`` to the state.
-    initial : IcrState
-        Initial ICR parameters.
+    initial : InitialIcrs
+        Initial ICR parameters (``y_l, y_r`` from the track width unless set;
+        an :class:`IcrState` gives them all).
     sigma_p0 : PoseIcrSigmas
         Initial standard deviations (``P0``).
     sigma_q : PoseIcrSigmas
@@ -156,12 +286,14 @@ class EkfConfig:
         Standard deviations of an offline prior (``run --priors``): the ICR
         block of ``P`` wherever a fitted parameter set seeds the estimate,
         at the start or on a change to its terrain (instead of ``P_B``).
-    limits : IcrLimits
-        Bounds of the ICR state.
+    limits : EkfLimits
+        Bounds of the ICR state (following the robot unless set).
+    gate : PoseGate
+        Outlier gate of the pose updates.
     """
 
     estimate_alpha: bool = True
-    initial: IcrState = field(default_factory=IcrState)
+    initial: InitialIcrs = field(default_factory=InitialIcrs)
     sigma_p0: PoseIcrSigmas = field(default_factory=PoseIcrSigmas)
     sigma_q: PoseIcrSigmas = field(
         default_factory=lambda: PoseIcrSigmas(
@@ -175,7 +307,8 @@ class EkfConfig:
     sigma_prior: IcrSigmas = field(
         default_factory=lambda: IcrSigmas(y_l=0.05, y_r=0.05, x_icr=0.05, alpha=0.01)
     )
-    limits: IcrLimits = field(default_factory=IcrLimits)
+    limits: EkfLimits = field(default_factory=EkfLimits)
+    gate: PoseGate = field(default_factory=PoseGate)
 
 
 @dataclass(frozen=True)

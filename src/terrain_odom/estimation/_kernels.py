@@ -45,6 +45,8 @@ PURE_CALLS = 2000
 _SERIES_LIMIT = 1e-2  # as terrain_odom.kinematics.integration._SERIES_LIMIT
 _FIRST_COUPLED = (2, 2, 3)  # pose row i of F: zero left of column _FIRST_COUPLED[i] but F[i, i] = 1
 _TWO_PI = 2.0 * math.pi
+_REACQUIRED_NIS = 10.0
+"""A re-acquired component's NIS, in gate bounds, beyond which the pose variances grow."""
 
 
 def _wrap(angle: float) -> float:
@@ -238,16 +240,21 @@ def _icr_update(
     r: np.ndarray,
     mounting: np.ndarray,
     limits: np.ndarray,
+    gate: np.ndarray,
+    gating: np.ndarray,
+    t: float,
 ) -> tuple[float, bool]:
     """Fuse the measured components of a pose row in place; return the NIS.
 
     filterpy's Joseph-form update with the pose sensors' measurement (the
     antenna position ``x, y`` as a pair, the heading; ``h`` and ``H`` at the
-    prior state, heading innovation wrapped). A heading without a position
-    leaves ``alpha`` alone: its gain row is zero (a Schmidt update; ``P``
-    through the Joseph form, which holds for any gain). Then the state is
-    constrained: yaw wrapped, ``y_l`` in ``[lim0, lim1]``, ``y_r`` in ``[-lim1, -lim0]``,
-    ``|x_icr| <= lim2``, ``alpha`` in ``[lim3, lim4]``; ``P`` symmetrised.
+    prior state, heading innovation wrapped), after a chi-square gate
+    (:func:`_gate`) that may reject the position or the heading. A heading
+    fused without a position leaves ``alpha`` alone: its gain row is zero (a
+    Schmidt update; ``P`` through the Joseph form, which holds for any gain).
+    Then the state is constrained: yaw wrapped, ``y_l`` in ``[lim0, lim1]``,
+    ``y_r`` in ``[-lim1, -lim0]``, ``|x_icr| <= lim2``, ``alpha`` in
+    ``[lim3, lim4]``; ``P`` symmetrised.
 
     Parameters
     ----------
@@ -262,30 +269,48 @@ def _icr_update(
         ``antenna_x, antenna_y, heading_offset``.
     limits : ndarray, shape (5,)
         ``half_width_min, half_width_max, x_icr_max, alpha_min, alpha_max``.
+    gate : ndarray, shape (4,)
+        NIS bounds of a position and of a heading (inf: no gate), and after
+        how many rejections in a row or how many seconds of them a
+        component is re-acquired.
+    gating : ndarray, shape (8,)
+        The gate's state, updated in place: time of the first of the current
+        rejections of positions and of headings (NaN: none), their number,
+        then the counts of rejected positions, headings, re-acquired
+        positions, headings.
+    t : float
+        The filter's clock, s.
 
     Returns
     -------
     nis : float
-        Normalised innovation squared; NaN (and nothing done) if nothing
-        was measured.
+        Normalised innovation squared of the components fused; NaN (and
+        nothing done) if none was measured or all were rejected.
     finite : bool
         Whether ``x`` and ``P`` are finite after the update.
     """
     n = x.shape[0]
     pair = math.isfinite(z[0]) and math.isfinite(z[1])
-    rows = np.flatnonzero(np.array([pair, pair, math.isfinite(z[2])]))
-    m = rows.size
-    if m == 0:
+    heading = math.isfinite(z[2])
+    if not (pair or heading):
         return math.nan, True
+    rows = _rows(pair, heading)
     h, jac = _sensor(x, rows, mounting)
-    k_gain, si = _gain(p, jac, rows, r)
+    y = _innovation(z, h, rows)
+    pht, s = _innovation_covariance(p, jac, rows, r)
+    fuse_pair, fuse_heading, grown = _gate(p, y, s, pair, heading, gate, gating, t)
+    if not (fuse_pair or fuse_heading):
+        return math.nan, True
+    if grown or fuse_pair != pair or fuse_heading != heading:
+        pair = fuse_pair
+        rows = _rows(pair, fuse_heading)
+        h, jac = _sensor(x, rows, mounting)
+        y = _innovation(z, h, rows)
+        pht, s = _innovation_covariance(p, jac, rows, r)
+    m = rows.size
+    k_gain, si = _gain_from(pht, s)
     if n > 6 and not pair:  # heading only: alpha not observable, held (Schmidt update)
         k_gain[6, :] = 0.0
-    y = np.empty(m)
-    for j in range(m):
-        y[j] = z[rows[j]] - h[j]
-        if rows[j] == 2:
-            y[j] = _wrap(y[j])
     for i in range(n):
         for j in range(m):
             x[i] += k_gain[i, j] * y[j]
@@ -297,12 +322,95 @@ def _icr_update(
     return nis, _constrain(x, p, limits)
 
 
-def _gain(
+def _rows(pair: bool, heading: bool) -> np.ndarray:
+    """Return the measured rows of ``x, y, yaw``: the position pair, the heading."""
+    return np.flatnonzero(np.array([pair, pair, heading]))
+
+
+def _innovation(z: np.ndarray, h: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """Return ``z[rows] - h``, the heading's wrapped."""
+    m = rows.size
+    y = np.empty(m)
+    for j in range(m):
+        y[j] = z[rows[j]] - h[j]
+        if rows[j] == 2:
+            y[j] = _wrap(y[j])
+    return y
+
+
+def _gate(
+    p: np.ndarray,
+    y: np.ndarray,
+    s: np.ndarray,
+    pair: bool,
+    heading: bool,
+    gate: np.ndarray,
+    gating: np.ndarray,
+    t: float,
+) -> tuple[bool, bool, bool]:
+    """Decide which measured components to fuse: the chi-square gate with re-acquisition.
+
+    The position's NIS (its 2x2 block of ``S``, 2 degrees of freedom) and the
+    heading's (its variance in ``S``, 1) are each held to their bound
+    ``gate[0]``, ``gate[1]``. A component beyond it is rejected, unless
+    ``gate[2]`` components of its kind in a row, or all for ``gate[3]``
+    seconds, were rejected before it: then it is fused, the pose variances
+    it measures first grown (``P`` in place) in proportion to its NIS beyond
+    :data:`_REACQUIRED_NIS` times the bound, so a filter that is truly off
+    (after an outage, a reset) snaps back to the measurement without its
+    ICRs taking the blame, while an innovation a few times the bound (a
+    sudden change of terrain) teaches the ICRs as usual. A lone jump is
+    rejected. ``gating`` (see :func:`icr_update`) keeps the time and number
+    of the current rejections of each kind, and the counts.
+
+    Returns
+    -------
+    pair, heading : bool
+        Whether the position and the heading are to be fused.
+    grown : bool
+        Whether ``P`` was changed (``S`` must be computed again).
+    """
+    fuse = [pair, heading]
+    grown = False
+    last = y.size - 1
+    for g in range(2):
+        if not fuse[g]:
+            continue
+        if g == 0:
+            det = s[0, 0] * s[1, 1] - s[0, 1] * s[1, 0]
+            nis = (
+                y[0] * (s[1, 1] * y[0] - s[0, 1] * y[1]) + y[1] * (s[0, 0] * y[1] - s[1, 0] * y[0])
+            ) / det
+        else:
+            nis = y[last] * y[last] / s[last, last]
+        if not nis > gate[g]:  # within the bound (NaN: the update finds it non-finite)
+            gating[g], gating[2 + g] = math.nan, 0.0
+            continue
+        if math.isnan(gating[g]):
+            gating[g] = t
+        if gating[2 + g] < gate[2] and t - gating[g] < gate[3]:
+            fuse[g] = False
+            gating[2 + g] += 1.0
+            gating[4 + g] += 1.0
+            continue
+        gating[g], gating[2 + g] = math.nan, 0.0  # re-acquired: the pose variances absorb it
+        gating[6 + g] += 1.0
+        grown = True
+        grow = max(nis / (_REACQUIRED_NIS * gate[g]) - 1.0, 0.0)
+        if g == 0:
+            p[0, 0] += grow * s[0, 0]
+            p[1, 1] += grow * s[1, 1]
+        else:
+            p[2, 2] += grow * s[last, last]
+    return fuse[0], fuse[1], grown
+
+
+def _innovation_covariance(
     p: np.ndarray, jac: np.ndarray, rows: np.ndarray, r: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Return the Kalman gain ``K = P H^T S^-1`` and ``S^-1``, ``S = H P H^T + R`` (``R`` of ``rows``)."""
+    """Return ``P H^T`` and ``S = H P H^T + R`` (``R`` of ``rows``)."""
     n, m = p.shape[0], rows.size
-    pht = np.zeros((n, m))  # P H^T
+    pht = np.zeros((n, m))
     for i in range(n):
         for j in range(m):
             for k in range(n):
@@ -314,6 +422,19 @@ def _gain(
             for k in range(n):
                 acc += jac[i, k] * pht[k, j]
             s[i, j] = acc
+    return pht, s
+
+
+def _gain(
+    p: np.ndarray, jac: np.ndarray, rows: np.ndarray, r: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Return the Kalman gain ``K = P H^T S^-1`` and ``S^-1``, ``S = H P H^T + R`` (``R`` of ``rows``)."""
+    return _gain_from(*_innovation_covariance(p, jac, rows, r))
+
+
+def _gain_from(pht: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Return the Kalman gain ``K = P H^T S^-1`` and ``S^-1`` from ``P H^T`` and ``S``."""
+    n, m = pht.shape
     si = _inverse(s)
     k_gain = np.zeros((n, m))
     for i in range(n):
@@ -388,9 +509,10 @@ def _std_into(p: np.ndarray, out: np.ndarray) -> None:
 def _icr_rows(
     x: np.ndarray,
     p: np.ndarray,
-    noise: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+    noise: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray],
     rows: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
     held: np.ndarray,
+    gating: np.ndarray,
     states: np.ndarray,
     stds: np.ndarray,
 ) -> tuple[int, float, int]:
@@ -410,28 +532,30 @@ def _icr_rows(
     x, p : ndarray, shapes (n,), (n, n)
         State and covariance.
     noise : tuple of ndarray
-        ``q_density`` (n,), ``r`` (3, 3), ``mounting`` (3,), ``limits`` (5,)
-        as for :func:`icr_predict` and :func:`icr_update`.
+        ``q_density`` (n,), ``r`` (3, 3), ``mounting`` (3,), ``limits`` (5,),
+        ``gate`` (4,) as for :func:`icr_predict` and :func:`icr_update`.
     rows : tuple of ndarray
         ``t`` (B,), s, increasing; ``v_l``, ``v_r`` (B,), m/s; ``z`` (B, 3),
         the measured pose (NaN where not measured).
     held : ndarray, shape (4,)
         ``t, v_l, v_r`` of the previous wheel sample and the filter's clock
         (its sum of steps, s); advanced in place to the last row.
+    gating : ndarray, shape (8,)
+        The gate's state and counts (see :func:`icr_update`), in place.
     states, stds : ndarray, shape (B, n)
         Filled with the estimate after each row.
 
     Returns
     -------
     updates : int
-        Rows whose pose updated the filter.
+        Rows whose pose updated the filter (a component passed the gate).
     nis : float
         Normalised innovation squared of the last update (NaN if none).
     bad : int
         The row after which the state was not finite (the rows after it are
         not run), or -1.
     """
-    q_density, r, mounting, limits = noise
+    q_density, r, mounting, limits, gate = noise
     t, v_l, v_r, z = rows
     updates, last_nis = 0, math.nan
     for i in range(t.shape[0]):
@@ -439,7 +563,7 @@ def _icr_rows(
         _icr_predict(x, p, q_density, held[1], held[2], dt)
         held[3] += dt
         held[0], held[1], held[2] = t[i], v_l[i], v_r[i]
-        nis, finite = _icr_update(x, p, z[i], r, mounting, limits)
+        nis, finite = _icr_update(x, p, z[i], r, mounting, limits, gate, gating, held[3])
         if not finite:
             return updates, last_nis, i
         if not math.isnan(nis):
@@ -453,7 +577,9 @@ def _icr_rows(
 _PURE: dict[str, Callable[..., Any]] = {
     name: globals()[name]
     for name in ("_wrap", "_arc", "_step_jacobian", "_matmul", "_symmetrise", "_inverse")
-    + ("_sensor", "_gain", "_joseph", "_icr_predict", "_icr_update", "_constrain", "_std")
+    + ("_sensor", "_rows", "_innovation", "_gate", "_innovation_covariance", "_gain_from")
+    + ("_gain",)
+    + ("_joseph", "_icr_predict", "_icr_update", "_constrain", "_std")
     + ("_std_into", "_icr_rows")
 }
 _PUBLIC = ("icr_predict", "icr_update", "constrain", "std", "icr_rows")

@@ -22,8 +22,11 @@ The predict and update run as compiled kernels
 are the filterpy formulation written out, and the tests hold them to a
 filterpy ``ExtendedKalmanFilter`` driven by :func:`icr_step_with_jacobian`
 within 1e-12 on simulated and real logs.
-- After every update the ICR state is clipped to physical limits, so
-  ``y_l - y_r`` can never reach zero.
+- After every update the ICR state is clipped to physical limits that
+  follow the robot (``y_l`` and ``-y_r`` within 0.2 to 3 track widths,
+  ``|x_icr|`` within half its length), so ``y_l - y_r`` never reaches zero.
+- Pose updates pass a chi-square gate on their innovation (positions and
+  headings separately), with re-acquisition after rejections in a row.
 
 References
 ----------
@@ -37,11 +40,20 @@ import logging
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from statistics import NormalDist
 
 import numpy as np
 from numpy.typing import ArrayLike
 
-from terrain_odom.config import EkfConfig, IcrSigmas, IcrState, TerrainConfig
+from terrain_odom.config import (
+    EkfConfig,
+    IcrLimits,
+    IcrSigmas,
+    IcrState,
+    PoseGate,
+    RobotConfig,
+    TerrainConfig,
+)
 from terrain_odom.errors import EstimationError
 from terrain_odom.estimation import _kernels
 from terrain_odom.estimation.pose_measurement import Mounting
@@ -59,6 +71,7 @@ __all__ = [
     "IcrPriors",
     "icr_step",
     "icr_step_jacobian",
+    "gate_bounds",
     "STATE_NAMES",
 ]
 
@@ -73,6 +86,25 @@ _NON_FINITE = "EKF state became non-finite; check the noise configuration"
 def state_names(estimate_alpha: bool) -> tuple[str, ...]:
     """Names of the filter's states, in order; ``alpha`` last when estimated."""
     return STATE_NAMES if estimate_alpha else STATE_NAMES[:6]
+
+
+def gate_bounds(gate: PoseGate) -> tuple[float, float]:
+    """Return the NIS bounds of a position (2 degrees of freedom) and a heading (1).
+
+    The ``gate.probability`` quantiles of the chi-square distribution
+    (``inf`` when the gate is off, and for headings unless ``gate.headings``):
+    ``-2 ln(1 - p)`` and the square of the normal quantile of ``(1 + p) / 2``.
+
+    Examples
+    --------
+    >>> [round(b, 2) for b in gate_bounds(PoseGate(probability=0.999, headings=True))]
+    [13.82, 10.83]
+    """
+    if not gate.enabled:
+        return math.inf, math.inf
+    p = gate.probability
+    heading = NormalDist().inv_cdf(0.5 + 0.5 * p) ** 2 if gate.headings else math.inf
+    return -2.0 * math.log1p(-p), heading
 
 
 def _params(state: np.ndarray) -> tuple[float, float, float, float]:
@@ -183,6 +215,21 @@ class IcrEkf:
     mounting : Mounting, optional
         Antenna lever arm and heading offset of the pose sensors
         (:mod:`~terrain_odom.estimation.pose_measurement`); none by default.
+    robot : RobotConfig, optional
+        The robot whose track width and length give the initial ICRs and
+        their limits where ``config`` leaves them ``None``
+        (:meth:`~terrain_odom.config.InitialIcrs.resolve`,
+        :meth:`~terrain_odom.config.EkfLimits.resolve`); the defaults if omitted.
+
+    Attributes
+    ----------
+    limits : IcrLimits
+        The bounds the ICR state is clipped into, m.
+    gating : ndarray, shape (8,)
+        The pose gate's state: time (filter clock, s) of the first of the
+        current rejections of positions and of headings (NaN: none), their
+        number, then the counts of rejected positions, rejected headings,
+        re-acquired positions, re-acquired headings.
 
     Examples
     --------
@@ -201,14 +248,16 @@ class IcrEkf:
         pose: ArrayLike | None = None,
         priors: IcrPriors | None = None,
         mounting: Mounting | None = None,
+        robot: RobotConfig | None = None,
     ) -> None:
+        robot = robot if robot is not None else RobotConfig()
         self.config = config
         self.mounting = mounting if mounting is not None else Mounting()
         self.terrain_config = terrain if terrain is not None else TerrainConfig()
         self.priors = priors if priors is not None else IcrPriors()
         self.names = state_names(config.estimate_alpha)
         n = len(self.names)
-        ini = config.initial
+        ini = config.initial.resolve(robot)
         if not ini.y_l > ini.y_r:
             raise EstimationError(f"initial ICRs need y_l > y_r, got y_l={ini.y_l}, y_r={ini.y_r}")
         x0 = np.array([0.0, 0.0, 0.0, ini.y_l, ini.y_r, ini.x_icr, ini.alpha])[:n]
@@ -220,10 +269,14 @@ class IcrEkf:
         self._q_density = self._sigmas(config.sigma_q) ** 2
         self._r_diag = np.array([config.sigma_r.x, config.sigma_r.y, config.sigma_r.yaw]) ** 2
         self._r = np.diag(self._r_diag)
-        lim = config.limits
+        self.limits: IcrLimits = config.limits.resolve(robot)
+        lim = self.limits
         self._limits = np.array(
             [lim.half_width_min, lim.half_width_max, lim.x_icr_max, lim.alpha_min, lim.alpha_max]
         )
+        gate = config.gate
+        self._gate = np.array([*gate_bounds(gate), gate.reacquire_after, gate.reacquire])
+        self.gating = np.array([math.nan, math.nan, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0])
         self.t = 0.0
         self.terrain: str | None = None
         self._terrain_since = 0.0
@@ -293,6 +346,14 @@ class IcrEkf:
         form, the covariance of any gain, so alpha's variance stays and its
         covariances with the updated states change consistently.
 
+        The position and the heading each pass a chi-square gate on their
+        innovation first (``config.gate``; :func:`gate_bounds`): one beyond
+        it is not fused (a GPS jump), unless ``gate.reacquire_after``
+        components of its kind in a row, or all for ``gate.reacquire``
+        seconds, were rejected before it: then the pose variances grow by its
+        innovation squared and it is fused (the filter re-acquires after an
+        outage). :attr:`gating` counts both.
+
         Parameters
         ----------
         z : array_like, shape (3,)
@@ -305,8 +366,8 @@ class IcrEkf:
         Returns
         -------
         float
-            Normalised innovation squared of this update (NaN if nothing was
-            measured).
+            Normalised innovation squared of the components fused (NaN if
+            nothing was measured or all were rejected).
         """
         z = np.asarray(z, dtype=float)
         if R is None:
@@ -315,7 +376,15 @@ class IcrEkf:
             r_full = np.asarray(R, dtype=float)
             r_full = np.diag(r_full) if r_full.ndim == 1 else r_full
         nis, finite = _kernels.icr_update(
-            self._x, self._P, z, r_full, self._mounting_array(), self._limits
+            self._x,
+            self._P,
+            z,
+            r_full,
+            self._mounting_array(),
+            self._limits,
+            self._gate,
+            self.gating,
+            self.t,
         )
         if not finite:
             raise EstimationError(_NON_FINITE)
@@ -364,9 +433,11 @@ class IcrEkf:
             raise EstimationError(f"predict needs dt > 0 s, got {steps.min()}")
         held = np.array([*since, self.t])
         states, stds = np.empty((t.size, self._x.size)), np.empty((t.size, self._x.size))
-        noise = (self._q_density, self._r, self._mounting_array(), self._limits)
+        noise = (self._q_density, self._r, self._mounting_array(), self._limits, self._gate)
         rows = (t, *speeds, np.ascontiguousarray(z, dtype=float))
-        updates, nis, bad = _kernels.icr_rows(self._x, self._P, noise, rows, held, states, stds)
+        updates, nis, bad = _kernels.icr_rows(
+            self._x, self._P, noise, rows, held, self.gating, states, stds
+        )
         if bad >= 0:
             raise EstimationError(_NON_FINITE)
         self.t = float(held[3])
@@ -389,7 +460,8 @@ class IcrEkf:
 
         The ICR parameters and their covariance are kept; the pose covariance
         is set to ``sigma**2`` (the measurement noise by default) and its
-        correlation with the parameters is cleared.
+        correlation with the parameters is cleared; the gate's rejections
+        in a row are forgotten.
         """
         x = self._x
         x[_POSE] = np.asarray(pose, dtype=float)
@@ -399,6 +471,7 @@ class IcrEkf:
         P[_POSE, :] = 0.0
         P[:, _POSE] = 0.0
         P[_POSE, _POSE] = np.diag(var)
+        self.gating[:4] = [math.nan, math.nan, 0.0, 0.0]
 
     # ---------------------------------------------------- terrain adaptation
     def set_terrain(self, label: str) -> None:

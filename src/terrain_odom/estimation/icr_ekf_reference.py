@@ -5,9 +5,11 @@ with predict and update done as before the kernels of
 :mod:`terrain_odom.estimation._kernels`: a filterpy ``ExtendedKalmanFilter``
 whose prediction is :func:`~terrain_odom.estimation.icr_ekf.icr_step_with_jacobian`,
 filterpy's Joseph-form update with SciPy's inverse and the pose sensors'
-:func:`~terrain_odom.estimation.pose_measurement.measurement`, numpy clipping. Everything
+:func:`~terrain_odom.estimation.pose_measurement.measurement` after a chi-square
+gate in numpy, numpy clipping. Everything
 else (terrain resets, memory, priors) is inherited, so both run the same logs
-through the same streaming path. The tests hold the kernels to it within
+through the same streaming path (a stretch of rows through the reference's
+own predict and update, row by row). The tests hold the kernels to it within
 1e-12 and ``bench/ekf_speed.py`` times both; it is ~100x slower, and imports
 filterpy (and SciPy's statistics) on first use.
 """
@@ -17,10 +19,12 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+import scipy.linalg
 from numpy.typing import ArrayLike
 
 from terrain_odom.errors import EstimationError
-from terrain_odom.estimation.icr_ekf import IcrEkf, icr_step_with_jacobian
+from terrain_odom.estimation._kernels import _REACQUIRED_NIS
+from terrain_odom.estimation.icr_ekf import IcrEkf, gate_bounds, icr_step_with_jacobian
 from terrain_odom.estimation.pose_measurement import measured_rows, measurement
 from terrain_odom.kinematics import wrap_angle
 
@@ -86,11 +90,11 @@ class FilterpyIcrEkf(IcrEkf):
     def update(self, z: ArrayLike, *, R: ArrayLike | None = None) -> float:  # noqa: N803
         """Fuse a pose measurement (see :meth:`IcrEkf.update`)."""
         z = np.asarray(z, dtype=float)
-        rows = measured_rows(z)
-        if rows.size == 0:
-            return float("nan")
         r_full = np.diag(self._r_diag) if R is None else np.asarray(R, dtype=float)
         r_full = np.diag(r_full) if r_full.ndim == 1 else r_full
+        rows = self._gated_rows(z, measured_rows(z), r_full)
+        if rows.size == 0:
+            return float("nan")
         yaw_row = np.flatnonzero(rows == 2)
 
         def residual(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -115,9 +119,64 @@ class FilterpyIcrEkf(IcrEkf):
         self._constrain()
         return self.last_nis
 
+    def run_rows(
+        self,
+        since: tuple[float, float, float],
+        t: np.ndarray,
+        speeds: tuple[np.ndarray, np.ndarray],
+        z: np.ndarray,
+    ) -> tuple[np.ndarray, np.ndarray, int]:
+        """Predict and update row by row (see :meth:`IcrEkf.run_rows`), through filterpy."""
+        held_t, v_l, v_r = since
+        states, stds = np.empty((t.size, self._x.size)), np.empty((t.size, self._x.size))
+        updates = 0
+        for i in range(t.size):
+            self.predict(v_l, v_r, t[i] - held_t)
+            held_t, v_l, v_r = t[i], speeds[0][i], speeds[1][i]
+            updates += not np.isnan(self.update(z[i]))
+            states[i], stds[i] = self._x, np.sqrt(np.maximum(np.diag(self._P), 0.0))
+        return states, stds, updates
+
+    def _gated_rows(self, z: np.ndarray, rows: np.ndarray, r_full: np.ndarray) -> np.ndarray:
+        """Return the measured ``rows`` that pass the chi-square gate (see :meth:`IcrEkf.update`).
+
+        The position's NIS is that of its 2x2 block of ``S = H P H^T + R``
+        (SciPy's inverse), the heading's its innovation squared over its
+        variance in ``S``; a re-acquired component beyond ``_REACQUIRED_NIS`` bounds grows the
+        pose variances it measures by ``S``'s in proportion (:attr:`gating` as
+        the kernels keep it).
+        """
+        if rows.size == 0:
+            return rows
+        h, H = measurement(self._x, rows, self.mounting)  # noqa: N806
+        y = z[rows] - h
+        y[rows == 2] = wrap_angle(y[rows == 2])
+        s = H @ self._P @ H.T + r_full[np.ix_(rows, rows)]
+        gate, bounds = self.config.gate, gate_bounds(self.config.gate)
+        keep: list[int] = []
+        for g, part in enumerate((np.flatnonzero(rows < 2), np.flatnonzero(rows == 2))):
+            if part.size == 0:
+                continue
+            nis = y[part] @ scipy.linalg.inv(s[np.ix_(part, part)]) @ y[part]
+            if not nis > bounds[g]:
+                self.gating[[g, 2 + g]] = np.nan, 0.0
+            else:
+                if np.isnan(self.gating[g]):
+                    self.gating[g] = self.t
+                in_row = self.gating[2 + g]
+                if in_row < gate.reacquire_after and self.t - self.gating[g] < gate.reacquire:
+                    self.gating[[2 + g, 4 + g]] += 1
+                    continue
+                self.gating[[g, 2 + g]] = np.nan, 0.0
+                self.gating[6 + g] += 1
+                grow = max(nis / (_REACQUIRED_NIS * bounds[g]) - 1.0, 0.0)
+                self._P[rows[part], rows[part]] += grow * np.diag(s)[part]
+            keep.extend(rows[part])
+        return np.array(keep, dtype=int)
+
     def _constrain(self) -> None:
         """Wrap yaw, clip the ICR state into its limits (numpy), symmetrise P."""
-        x, lim = self._x, self.config.limits
+        x, lim = self._x, self.limits
         x[2] = wrap_angle(x[2])
         x[3] = np.clip(x[3], lim.half_width_min, lim.half_width_max)
         x[4] = np.clip(x[4], -lim.half_width_max, -lim.half_width_min)

@@ -138,7 +138,10 @@ class OnlineOdometry:
             ekf = SlipEkf(config.slip_ekf, config.robot.track_width, config.terrain)
             steps = _SlipSteps(ekf, mounting)
         else:
-            steps = _IcrSteps(IcrEkf(config.ekf, config.terrain, priors=priors, mounting=mounting))
+            icr_ekf = IcrEkf(
+                config.ekf, config.terrain, priors=priors, mounting=mounting, robot=config.robot
+            )
+            steps = _IcrSteps(icr_ekf)
         self.config = config
         self.estimator = estimator
         self._steps = steps
@@ -341,11 +344,14 @@ class OnlineOdometry:
         terrain[k:] = self.current_terrain
         if k < n_rows:
             assert isinstance(self._steps, _IcrSteps) and self._t is not None  # _steady()
-            states[k:], stds[k:], updates = self._steps.filter.run_rows(
+            ekf = self._steps.filter
+            counted = ekf.gating[4:].copy()
+            states[k:], stds[k:], updates = ekf.run_rows(
                 (self._t, *self._speeds), t[k:], (v_l[k:], v_r[k:]), pose[k:]
             )
             self.n_updates += updates
             self.pose_use.fused(pose[k:])
+            self.pose_use.gated(ekf.gating[4:] - counted)
             self._t, self._speeds = float(t[-1]), (float(v_l[-1]), float(v_r[-1]))
         return states, stds, terrain
 
@@ -527,9 +533,6 @@ class _RowFilter(Protocol):
 
 _YAW = 2
 _POSITION, _HEADING = "position", "heading"
-_BEFORE_HEADING = (
-    "before a heading (the robot has not yet moved far enough to take it from the course)"
-)
 _HEADING_AGE = 1.0  # s: the slip EKF's dead-reckoned heading older than this orients no position
 _CLOSE_FIX = "no heading, and within a quarter chord of the previous fix (standing)"
 
@@ -540,10 +543,12 @@ class _IcrSteps:
     Each segment anchors the heading at its first measured heading and the
     position at its first position once the heading is known. Without a
     measured heading (a GPS alone), the heading is taken from the course:
-    the first fix anchors the position in a provisional frame, and once a
-    fix lies ``min_course`` m from it the frame is turned so that the
-    filter's predicted antenna displacement points along the measured one.
-    Components measured before that are dropped (and counted).
+    the first fix anchors the position in a provisional frame, the fixes
+    after it keep the position within two ``sigma_r`` of them (no dead
+    reckoning far on a heading not yet known), and once a fix lies
+    ``min_course`` m from the first the frame
+    is turned so that the filter's dead-reckoned antenna displacement
+    points along the measured one. Only then do fixes update the filter.
     """
 
     def __init__(self, ekf: IcrEkf) -> None:
@@ -581,21 +586,22 @@ class _IcrSteps:
             if self._heading:
                 self._anchor(z, heading=False)
                 use.used(_POSITION)
-            elif self._course_heading(z):
-                use.used(_POSITION)
             else:
-                use.drop(_POSITION, _BEFORE_HEADING)
+                self._course_heading(z)
+                use.used(_POSITION)
         if not (position or heading):
             return False
         nan = math.nan
         x, y, yaw = z.tolist()
-        self.filter.update(np.array([x if position else nan, y if position else nan,
-                                     yaw if heading else nan]))  # fmt: skip
+        counted = self.filter.gating[4:].copy()
+        nis = self.filter.update(np.array([x if position else nan, y if position else nan,
+                                           yaw if heading else nan]))  # fmt: skip
         if position:
             use.used(_POSITION)
         if heading:
             use.used(_HEADING)
-        return True
+        use.gated(self.filter.gating[4:] - counted)
+        return not math.isnan(nis)
 
     def _anchor(self, z: np.ndarray, *, heading: bool) -> None:
         """Reset the heading (``heading``) or the position to the measured one."""
@@ -612,23 +618,31 @@ class _IcrSteps:
             self._position = True
         ekf.reset_pose(pose, sigma)
 
-    def _course_heading(self, z: np.ndarray) -> bool:
+    def _course_heading(self, z: np.ndarray) -> None:
         """Take the heading from the course between fixes (no heading measured yet).
 
-        Returns whether the fix was used (as the provisional anchor, or to
-        turn the frame).
+        The first fix anchors the position in a provisional frame (the
+        heading as it was); until a fix lies ``min_course`` m from the
+        first, whose chord turns the frame, a fix more than two ``sigma_r``
+        from the dead-reckoned position resets it to the fix.
         """
         ekf = self.filter
         predicted = sensor_pose(ekf.pose, ekf.mounting)[:2]
         if self._course is None:
             ekf.reset_pose(robot_pose(z, ekf.mounting, yaw=ekf.pose[_YAW]), ekf.std[:3])
             self._course = (z[:2].copy(), sensor_pose(ekf.pose, ekf.mounting)[:2])
-            return True
+            return
         measured = z[:2] - self._course[0]
         moved = predicted - self._course[1]
         distance = float(np.hypot(*measured))
         if distance < self._min_course or not np.hypot(*moved) > 0.5 * distance:
-            return False
+            # Not far enough yet. Dead reckoning on the provisional heading would draw an
+            # excursion: the position is held to the fix once two sigma_r off it, the frame's
+            # origin moved with it (the dead-reckoned chord is kept).
+            if np.hypot(*(predicted - z[:2])) > 2.0 * max(self._r[:2]):
+                ekf.reset_pose(robot_pose(z, ekf.mounting, yaw=ekf.pose[_YAW]), ekf.std[:3])
+                self._course = (self._course[0], self._course[1] - predicted + z[:2])
+            return
         turn = np.arctan2(measured[1], measured[0]) - np.arctan2(moved[1], moved[0])
         yaw = float(wrap_angle(ekf.pose[_YAW] + turn))
         sigma = ekf.std[:3]
@@ -636,7 +650,6 @@ class _IcrSteps:
         sigma[_YAW] = np.hypot(2.0 * max(self._r[:2]) / distance, 0.1)  # fix noise, path shape
         ekf.reset_pose(robot_pose(z, ekf.mounting, yaw=yaw), sigma)
         self._heading = self._position = True
-        return True
 
     def icr_params(self, v_l: float, v_r: float) -> np.ndarray:
         return self.filter.params

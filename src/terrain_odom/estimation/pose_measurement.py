@@ -32,6 +32,7 @@ from numpy.typing import ArrayLike
 from terrain_odom.kinematics import wrap_angle
 
 __all__ = [
+    "GATED",
     "Mounting",
     "PoseUse",
     "chord_turn",
@@ -238,6 +239,8 @@ def chord_turn(
 
 
 _UNPAIRED = "x without y (or y without x)"
+GATED = "rejected by the gate"
+"""Why a component was dropped by the ICR EKF's chi-square gate (:class:`PoseUse`)."""
 
 
 @dataclass
@@ -254,7 +257,12 @@ class PoseUse:
     used_position, used_heading : int
         Fused by the filter (or used as the anchor of a later update).
     dropped : dict of str to int
-        Components not used, by reason (``"position: ..."``, ``"heading: ..."``).
+        Components not used, by reason (``"position: ..."``, ``"heading: ..."``;
+        ``"position: rejected by the gate"``: the innovation beyond the
+        chi-square gate, see :data:`GATED`).
+    reacquired_position, reacquired_heading : int
+        Components beyond the gate fused all the same, with the pose
+        variance grown (the filter re-acquired after rejections in a row).
     """
 
     position: int = 0
@@ -262,6 +270,8 @@ class PoseUse:
     used_position: int = 0
     used_heading: int = 0
     dropped: dict[str, int] = field(default_factory=dict)
+    reacquired_position: int = 0
+    reacquired_heading: int = 0
 
     def measured(self, rows: Sequence[int] | np.ndarray, z: np.ndarray) -> None:
         """Count the components of one measurement ``z`` (``rows``: its usable ones)."""
@@ -295,6 +305,20 @@ class PoseUse:
         else:
             self.used_heading += 1
 
+    def gated(self, counts: Sequence[float]) -> None:
+        """Take the gate's counts (rejected positions, headings, re-acquired ones) since counted used.
+
+        The rejected components were counted used (:meth:`used`, :meth:`fused`):
+        they move to :attr:`dropped` as :data:`GATED`.
+        """
+        rejected_position, rejected_heading, again_position, again_heading = map(int, counts)
+        for what, rejected in (("position", rejected_position), ("heading", rejected_heading)):
+            if rejected:
+                setattr(self, f"used_{what}", getattr(self, f"used_{what}") - rejected)
+                self.drop(what, GATED, rejected)
+        self.reacquired_position += again_position
+        self.reacquired_heading += again_heading
+
     def drop(self, what: str, why: str, count: int = 1) -> None:
         """Count ``count`` ``position`` or ``heading`` components dropped because ``why``."""
         key = f"{what}: {why}"
@@ -308,11 +332,19 @@ class PoseUse:
         >>> use = PoseUse(position=10, used_position=8, dropped={"position: before a heading": 2})
         >>> use.summary()
         'position 8 of 10 used, heading 0 of 0 (dropped: 2 position: before a heading)'
+        >>> PoseUse(position=989, used_position=960, dropped={"position: " + GATED: 29}).summary()
+        'position 960 of 989 used, 29 rejected by the gate, heading 0 of 0'
         """
-        line = (
-            f"position {self.used_position} of {self.position} used, "
-            f"heading {self.used_heading} of {self.heading}"
-        )
-        if self.dropped:
-            line += " (dropped: " + ", ".join(f"{n} {k}" for k, n in self.dropped.items()) + ")"
+        parts = []
+        for what, used in (("position", " used"), ("heading", "")):
+            part = f"{what} {getattr(self, f'used_{what}')} of {getattr(self, what)}{used}"
+            rejected = self.dropped.get(f"{what}: {GATED}", 0)
+            again = getattr(self, f"reacquired_{what}")
+            part += f", {rejected} {GATED}" if rejected else ""
+            part += f" ({again} re-acquired)" if again else ""
+            parts.append(part)
+        line = ", ".join(parts)
+        others = {k: n for k, n in self.dropped.items() if not k.endswith(GATED)}
+        if others:
+            line += " (dropped: " + ", ".join(f"{n} {k}" for k, n in others.items()) + ")"
         return line
