@@ -137,7 +137,7 @@ def test_late_nan_and_wrong_type_messages_are_dropped_counted_and_reported_once(
         live.message(ROLE[m.topic], m.msgtype, m.msg, m.receive_ns)
     live.close()
     assert len(out) > n_before + 90
-    assert live.dropped["wheels: non-finite value"] == 2
+    assert live.dropped["wheels: wheel speed not finite (NaN or inf)"] == 2
     assert live.dropped["wheels: a message of type sensor_msgs/Imu (expected "
                         "sensor_msgs/JointState, nav_msgs/Odometry, geometry_msgs/TwistStamped)"] == 1  # fmt: skip
     assert sum(n for r, n in live.dropped.items() if "std_msgs/String" in r) == 1

@@ -13,7 +13,7 @@ import pytest
 
 from terrain_odom.config import (
     EkfConfig,
-    IcrLimits,
+    EkfLimits,
     IcrState,
     PoseIcrSigmas,
     PoseSigmas,
@@ -21,7 +21,7 @@ from terrain_odom.config import (
 from terrain_odom.estimation import IcrEkf, IcrPriors
 from terrain_odom.sim.model_log import constant_model_log
 
-LIMITS = IcrLimits(
+LIMITS = EkfLimits(
     half_width_min=0.2, half_width_max=2.0, x_icr_max=0.05, alpha_min=0.8, alpha_max=1.1
 )
 
