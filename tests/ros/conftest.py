@@ -179,6 +179,9 @@ def read_bag(path: Path) -> dict[str, list[tuple[int, Any]]]:
     """Return the messages of a recorded bag by topic: ``(receive ns, message)``."""
     from terrain_odom.io.bag_reader import open_bag, stream_messages
 
+    # rosbag record's C++ child closes the file after the wrapper the test stopped has exited
+    active = path.with_name(path.name + ".active")
+    wait_for(f"{path.name} closed", lambda: path.is_file() and not active.exists(), 60.0)
     out: dict[str, list[tuple[int, Any]]] = {}
     with open_bag(path) as reader:
         for m in stream_messages(reader, path, list(reader.connections), False):

@@ -184,14 +184,14 @@ def test_bad_input_is_counted_reported_once_and_the_node_lives_on(ros: Ros) -> N
     echoed = ros.tool("rostopic", "echo", "-n", "1", "/terrain_odom/status")
     status = json.loads(yaml.safe_load(echoed.split("---")[0])["data"])
     dropped = status["dropped"]
-    assert dropped["wheels: non-finite value"] == 5
+    assert dropped["wheels: wheel speed not finite (NaN or inf)"] == 5
     assert dropped["wheels: late (stamped before a row already processed)"] == 3
     assert dropped["heading: a message of type std_msgs/String (expected sensor_msgs/Imu)"] == 3
     assert dropped["time jumped back (restarts)"] == 1
     assert status["counts"]["rows"] >= 190  # both runs of 100 good messages, but the buffered
     log = ros.log("node.log")
     warned = [line for line in log.splitlines() if "[WARN]" in line]
-    for reason in ("non-finite value", "late (stamped", "std_msgs/String", "jumped back"):
+    for reason in ("not finite (NaN or inf)", "late (stamped", "std_msgs/String", "jumped back"):
         assert sum(reason in line for line in warned) == 1, (
             reason
         )  # logged once (then counted; in the summary)
@@ -199,4 +199,4 @@ def test_bad_input_is_counted_reported_once_and_the_node_lives_on(ros: Ros) -> N
     ros.tool("rosnode", "kill", "/terrain_odom")
     assert node.wait(30) == 0, ros.log("node.log")
     summary = ros.log("node.log").rsplit("terrain-odom-ros: ", 1)[1]
-    assert "5 wheels: non-finite value" in summary
+    assert "5 wheels: wheel speed not finite (NaN or inf)" in summary
