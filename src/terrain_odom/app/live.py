@@ -429,8 +429,8 @@ class LiveOdometry:
         if role == "pose" and not any(map(math.isfinite, value)):
             self._drop("pose: no finite component")  # a NaN component alone: not measured
             return
-        if role in ("wheels", "heading") and not all(map(math.isfinite, np.atleast_1d(value))):
-            self._drop(f"{role}: non-finite value")
+        if role == "heading" and not math.isfinite(value):  # import's stream drops NaN wheels
+            self._drop("heading: non-finite value")
             return
         key = (stamp_ns + _NS_PER_US // 2) // _NS_PER_US
         if self._released is not None and key <= self._released:
