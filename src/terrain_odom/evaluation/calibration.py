@@ -262,11 +262,12 @@ def fit_sensors(
     has_heading = int(log.has_yaw.sum()) >= 2
     fixes = _fixes(log, time, lim)
     if has_heading:
-        scale = _yaw_scale_from_headings(log, time, track_width)
-        track = _track(log, time, _measured_heading(log, time, heading_delay))
+        scale = _yaw_scale_from_headings(log, time, track_width, heading_delay)
     else:
         scale = _yaw_scale_from_positions(log, time, track_width, fixes, lim)
-        track = _track(log, time, scale * _ideal_yaw(log, time, track_width))
+    # the wheels' turn, not the measured heading: a heading's slow wander bends the path
+    # within a window, which no rotation undoes, and biases the lever arm towards 0
+    track = _track(log, time, scale * _ideal_yaw(log, time, track_width))
     used = int(np.unique(fixes.window).size)
     if used < lim.min_windows:
         return _unobservable(
@@ -278,8 +279,11 @@ def fit_sensors(
         )
     delay = _position_delay(track, fixes, lim, position_delay)
     fit = _fit_windows(track, fixes, delay.value if delay.observable else 0.0, lever=True)
-    # the wheel path drawn with the measured heading is turned by the offset: c_w undoes it
-    offsets = -np.angle(fit.c) if has_heading else None
+    offsets = (
+        _window_offsets(track, fixes, fit, _measured_heading(log, time, heading_delay), delay)
+        if has_heading
+        else None
+    )
     return SensorFit(
         delay,
         _heading_offset(fit, offsets, fixes, lim) if offsets is not None else _no_heading(),
@@ -290,6 +294,20 @@ def fit_sensors(
         scale,
         used,
     )
+
+
+def _window_offsets(
+    track: _Track, fixes: _Fixes, fit: _WindowFit, measured: np.ndarray, delay: Estimate
+) -> np.ndarray:
+    """Per window: circular mean of the measured heading minus the robot's at its fixes, rad.
+
+    The robot's heading at a fix is the wheels' turn there plus the window's
+    rotation ``arg c_w``; ``measured`` is the measured heading at the track's rows.
+    """
+    s = fixes.t - (delay.value if delay.observable else 0.0)
+    robot = np.interp(s, track.t, track.psi) + np.angle(fit.c[fixes.window])
+    diff = np.exp(1j * (np.interp(s, track.t, measured) - robot))
+    return np.angle(_wsum(diff, fixes.window, fit.c.size))
 
 
 def _unobservable(why: str, scale: float, windows: int) -> SensorFit:
@@ -584,11 +602,23 @@ def _heading_increments(
     return wrap_angle(log.pose[b, 2] - log.pose[a, 2]), ideal[b] - ideal[a]
 
 
-def _yaw_scale_from_headings(log: WheelLog, time: np.ndarray, track_width: float) -> float:
-    """Least-squares ratio of the measured heading increments to the ideal turn over them."""
-    measured, ideal = _heading_increments(log, time, track_width)
-    energy = float(ideal @ ideal)
-    return float(measured @ ideal) / energy if energy > 0 else 1.0
+def _yaw_scale_from_headings(
+    log: WheelLog, time: np.ndarray, track_width: float, delay: float, span: float = 1.0
+) -> float:
+    """Least-squares ratio of the measured heading's turn to the ideal turn over ``span`` s.
+
+    The heading is moved by its ``delay`` first, and the turns are taken
+    over chained intervals of ``span`` s, not between consecutive headings:
+    over a tenth of a second a heading's latency or jitter decorrelates
+    the two turns and shrinks the ratio.
+    """
+    measured = _measured_heading(log, time, delay)
+    ideal = _ideal_yaw(log, time, track_width)
+    rows = np.flatnonzero(np.r_[True, np.diff(np.floor(time / span)) != 0])
+    same = np.diff(log.segment_runs()[rows]) == 0
+    dm, di = np.diff(measured[rows])[same], np.diff(ideal[rows])[same]
+    energy = float(di @ di)
+    return float(dm @ di) / energy if energy > 0 else 1.0
 
 
 def _yaw_scale_from_positions(
