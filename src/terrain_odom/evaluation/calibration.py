@@ -61,11 +61,14 @@ from terrain_odom.records import WheelLog
 __all__ = [
     "CalibrationLimits",
     "Estimate",
+    "LeverArm",
     "SensorFit",
     "circular_median",
     "correlation_time",
     "fit_sensors",
+    "lever_significant",
     "run_time",
+    "x_icr_limit",
 ]
 
 _MAD = 1.4826
@@ -96,7 +99,15 @@ class CalibrationLimits:
     max_delay_std : float
         Largest standard error of an estimated delay, s.
     max_antenna_std : float
-        Largest standard error of an observable lever arm component, m.
+        Largest standard error of a lever arm component calibrated to its
+        target, m.
+    lever_fraction, min_lever : float
+        A lever arm component with a larger standard error is still applied
+        (coarse) where it is significant: beyond three standard errors and
+        beyond the larger of this fraction of the track width and this many
+        metres (:func:`x_icr_limit`; a smaller one is not told from a
+        robot's own ``x_icr``). The check of a run judges what is left
+        after the configured antenna by the same rule.
     min_windows : int
         Fewest usable windows for any estimate.
     yaw_scales : tuple of float
@@ -112,6 +123,8 @@ class CalibrationLimits:
     parabola: float = 0.2
     max_delay_std: float = 0.15
     max_antenna_std: float = 0.1
+    lever_fraction: float = 0.5
+    min_lever: float = 0.35
     min_windows: int = 8
     yaw_scales: tuple[float, float] = (0.3, 1.5)
 
@@ -139,6 +152,31 @@ class Estimate:
 
 
 @dataclass(frozen=True)
+class LeverArm:
+    """The lever arm as the least squares gives it, observable or not.
+
+    Attributes
+    ----------
+    x, y : float
+        Antenna minus the point that does not slide sideways (``x_icr``,
+        ``(y_l + y_r) / 2``), robot frame, m (NaN without enough windows).
+    std_x, std_y : float
+        Standard errors, m (inf where the log does not turn unevenly).
+    kept : float
+        Share of the turning that is neither straight driving nor steady arcs.
+    """
+
+    x: float
+    y: float
+    std_x: float
+    std_y: float
+    kept: float
+
+
+_NO_LEVER = LeverArm(float("nan"), float("nan"), float("inf"), float("inf"), 0.0)
+
+
+@dataclass(frozen=True)
 class SensorFit:
     """What :func:`fit_sensors` found (see the module).
 
@@ -158,6 +196,9 @@ class SensorFit:
         Measured turn / ideal differential drive's turn.
     windows : int
         Windows of positions used.
+    lever : LeverArm
+        The least-squares lever arm behind ``antenna_x``, ``antenna_y``
+        (what the checks judge).
     """
 
     position_delay: Estimate
@@ -169,6 +210,7 @@ class SensorFit:
     heading_wander: Estimate
     yaw_scale: float
     windows: int
+    lever: LeverArm = _NO_LEVER
 
 
 def circular_median(angles: np.ndarray, weights: np.ndarray | None = None) -> float:
@@ -278,7 +320,11 @@ def fit_sensors(
             used,
         )
     delay = _position_delay(track, fixes, lim, position_delay)
-    fit = _fit_windows(track, fixes, delay.value if delay.observable else 0.0, lever=True)
+    # the lever arm at the least-squares delay, also where its standard error is too large
+    # to calibrate it (the two are fitted jointly; at a wrong delay the lever arm is wrong)
+    best = delay.value if np.isfinite(delay.value) else 0.0
+    fit = _fit_windows(track, fixes, best, lever=True)
+    lever = _lever_arm(fit)
     offsets = (
         _window_offsets(track, fixes, fit, _measured_heading(log, time, heading_delay), delay)
         if has_heading
@@ -287,12 +333,13 @@ def fit_sensors(
     return SensorFit(
         delay,
         _heading_offset(fit, offsets, fixes, lim) if offsets is not None else _no_heading(),
-        *_antenna(fit, lim),
+        *_antenna(lever, lim, track_width),
         _position_noise(fit, fixes),
         _heading_noise(log, time, track_width, scale) if has_heading else _no_heading(),
         _heading_wander(fit, offsets, fixes, lim) if offsets is not None else _no_heading(),
         scale,
         used,
+        lever,
     )
 
 
@@ -304,7 +351,7 @@ def _window_offsets(
     The robot's heading at a fix is the wheels' turn there plus the window's
     rotation ``arg c_w``; ``measured`` is the measured heading at the track's rows.
     """
-    s = fixes.t - (delay.value if delay.observable else 0.0)
+    s = fixes.t - (delay.value if np.isfinite(delay.value) else 0.0)
     robot = np.interp(s, track.t, track.psi) + np.angle(fit.c[fixes.window])
     diff = np.exp(1j * (np.interp(s, track.t, measured) - robot))
     return np.angle(_wsum(diff, fixes.window, fit.c.size))
@@ -542,8 +589,23 @@ def correlation_time(x: np.ndarray) -> float:
     return tau
 
 
-def _antenna(fit: _WindowFit, lim: CalibrationLimits) -> tuple[Estimate, Estimate]:
-    """Return the lever arm and its standard errors, or why it is not observable."""
+def x_icr_limit(track_width: float, limits: CalibrationLimits | None = None) -> float:
+    """Return the lever arm (m) beyond which it is told from a robot's own ``x_icr``.
+
+    The larger of ``limits.lever_fraction`` of the track width and
+    ``limits.min_lever`` (:class:`CalibrationLimits`).
+    """
+    lim = limits or CalibrationLimits()
+    return max(lim.lever_fraction * track_width, lim.min_lever)
+
+
+def lever_significant(value: float, std: float, track_width: float, lim: CalibrationLimits) -> bool:
+    """Whether a lever arm component is beyond :func:`x_icr_limit` and three standard errors."""
+    return bool(np.isfinite(value) and abs(value) > max(x_icr_limit(track_width, lim), 3.0 * std))
+
+
+def _lever_arm(fit: _WindowFit) -> LeverArm:
+    """Return the least-squares lever arm and its standard errors (inf where rank-deficient)."""
     dof = max(2 * fit.residual.size - 4 * fit.c.size - 2, 1)
     sigma2 = fit.cost / dof
     eig = np.linalg.eigvalsh(fit.a_info)
@@ -551,17 +613,26 @@ def _antenna(fit: _WindowFit, lim: CalibrationLimits) -> tuple[Estimate, Estimat
         std = np.array([np.inf, np.inf])
     else:
         std = np.sqrt(sigma2 * np.diag(np.linalg.inv(fit.a_info)))
+    return LeverArm(fit.a.real, fit.a.imag, float(std[0]), float(std[1]), fit.u_kept)
+
+
+def _antenna(
+    lever: LeverArm, lim: CalibrationLimits, track_width: float
+) -> tuple[Estimate, Estimate]:
+    """Return the lever arm as estimates: calibrated, coarse (significant), or not observable."""
+    what = "(from the point that does not slide sideways: only antenna - x_icr is observable)"
     out = []
-    for value, s, name in ((fit.a.real, std[0], "x"), (fit.a.imag, std[1], "y")):
+    for value, s, name in ((lever.x, lever.std_x, "x"), (lever.y, lever.std_y, "y")):
         if s <= lim.max_antenna_std:
-            out.append(
-                Estimate(
-                    float(value),
-                    float(s),
-                    True,
-                    "least squares of positions against the wheel path in uneven turns",
-                )
+            how = f"least squares of positions against the wheel path in uneven turns {what}"
+            out.append(Estimate(float(value), float(s), True, how))
+        elif lever_significant(value, s, track_width, lim):
+            how = (
+                f"coarse (standard error > {lim.max_antenna_std:g} m), applied as it is "
+                f"significant: least squares of positions against the wheel path {what}; "
+                "measure the antenna for better"
             )
+            out.append(Estimate(float(value), float(s), True, how))
         else:
             out.append(
                 Estimate(
@@ -569,9 +640,10 @@ def _antenna(fit: _WindowFit, lim: CalibrationLimits) -> tuple[Estimate, Estimat
                     float("nan"),
                     False,
                     f"standard error of antenna_{name} {s:.2f} m > {lim.max_antenna_std:g} m "
-                    f"(least squares gives {value:+.2f} m; {100 * fit.u_kept:.0f} % of the "
-                    "turning is neither straight driving nor steady arcs): drive longer, with "
-                    "S-bends and turns of changing sharpness",
+                    f"and least squares gives {value:+.2f} m, within the noise or a robot's own "
+                    f"x_icr ({100 * lever.kept:.0f} % of the turning is neither straight "
+                    "driving nor steady arcs): drive longer, with S-bends and turns of "
+                    "changing sharpness, or measure the antenna",
                 )
             )
     return out[0], out[1]
