@@ -106,7 +106,7 @@ def test_without_the_lever_arm_the_filter_would_learn_it_and_the_checks_flag_it(
     found = check_log(sim_log, TRACK, heading_offset=OFFSET)
     assert [f.check for f in found.findings] == ["lever_arm"]
     assert found.mounting is not None
-    assert found.mounting.x_icr == pytest.approx(GRASS.x_icr - ANTENNA, abs=0.15)
+    assert found.mounting.lever.x == pytest.approx(ANTENNA - GRASS.x_icr, abs=0.15)
     assert "antenna" in found.findings[0].message
 
 

@@ -108,6 +108,8 @@ class CalibrationLimits:
         metres (:func:`x_icr_limit`; a smaller one is not told from a
         robot's own ``x_icr``). The check of a run judges what is left
         after the configured antenna by the same rule.
+    max_coarse_std : float
+        Largest standard error of a coarse lever arm component, m.
     min_windows : int
         Fewest usable windows for any estimate.
     yaw_scales : tuple of float
@@ -125,6 +127,7 @@ class CalibrationLimits:
     max_antenna_std: float = 0.1
     lever_fraction: float = 0.5
     min_lever: float = 0.35
+    max_coarse_std: float = 0.5
     min_windows: int = 8
     yaw_scales: tuple[float, float] = (0.3, 1.5)
 
@@ -600,8 +603,13 @@ def x_icr_limit(track_width: float, limits: CalibrationLimits | None = None) -> 
 
 
 def lever_significant(value: float, std: float, track_width: float, lim: CalibrationLimits) -> bool:
-    """Whether a lever arm component is beyond :func:`x_icr_limit` and three standard errors."""
-    return bool(np.isfinite(value) and abs(value) > max(x_icr_limit(track_width, lim), 3.0 * std))
+    """Whether a lever arm component is beyond :func:`x_icr_limit` and three standard errors.
+
+    A component with a standard error beyond ``lim.max_coarse_std`` is not
+    (the log hardly turns unevenly: its least squares is anywhere).
+    """
+    beyond = abs(value) > max(x_icr_limit(track_width, lim), 3.0 * std)
+    return bool(np.isfinite(value) and std <= lim.max_coarse_std and beyond)
 
 
 def _lever_arm(fit: _WindowFit) -> LeverArm:
