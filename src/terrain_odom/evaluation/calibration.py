@@ -51,6 +51,7 @@ What the fit gives:
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -141,7 +142,9 @@ class Estimate:
     value : float
         The estimate (NaN when not observable), in the quantity's unit.
     std : float
-        Its standard error (NaN when not observable).
+        Its standard error (NaN when not observable, except a delay too
+        uncertain to calibrate: its standard error, which the lever arm's
+        includes).
     observable : bool
         Whether the log holds enough of the motion that reveals it.
     how : str
@@ -327,7 +330,7 @@ def fit_sensors(
     # to calibrate it (the two are fitted jointly; at a wrong delay the lever arm is wrong)
     best = delay.value if np.isfinite(delay.value) else 0.0
     fit = _fit_windows(track, fixes, best, lever=True)
-    lever = _lever_arm(fit)
+    lever = _with_delay_error(_lever_arm(fit), track, fixes, best, delay)
     offsets = (
         _window_offsets(track, fixes, fit, _measured_heading(log, time, heading_delay), delay)
         if has_heading
@@ -522,6 +525,7 @@ def _position_delay(
             f"too little change of speed and heading against the position noise to time the "
             f"positions (standard error {std:.2f} s > {lim.max_delay_std:g} s)",
             value,
+            std,  # too large to calibrate the delay; the lever arm's error includes it
         )
     return Estimate(
         value,
@@ -532,10 +536,10 @@ def _position_delay(
     )
 
 
-def _delay_unobservable(why: str, value: float) -> Estimate:
+def _delay_unobservable(why: str, value: float, std: float = float("nan")) -> Estimate:
     return Estimate(
         value,
-        float("nan"),
+        std,
         False,
         f"{why}: drive with starts, stops and turns, or give the delay in seconds",
     )
@@ -622,6 +626,29 @@ def _lever_arm(fit: _WindowFit) -> LeverArm:
     else:
         std = np.sqrt(sigma2 * np.diag(np.linalg.inv(fit.a_info)))
     return LeverArm(fit.a.real, fit.a.imag, float(std[0]), float(std[1]), fit.u_kept)
+
+
+def _with_delay_error(
+    lever: LeverArm, track: _Track, fixes: _Fixes, best: float, delay: Estimate, h: float = 0.05
+) -> LeverArm:
+    """Add the position delay's error to the lever arm's (they are fitted jointly).
+
+    ``std^2 += (d a / d delay)^2 std_delay^2``, the slope by central
+    differences over ``h`` s; inf where the delay's standard error is not
+    known (a lever arm at an untimed delay can be anything).
+    """
+    if delay.std == 0.0:  # given
+        return lever
+    if not np.isfinite(delay.std):
+        return dataclasses.replace(lever, std_x=float("inf"), std_y=float("inf"))
+    up = _fit_windows(track, fixes, best + h, lever=True).a
+    down = _fit_windows(track, fixes, best - h, lever=True).a
+    slope = (up - down) / (2.0 * h)
+    return dataclasses.replace(
+        lever,
+        std_x=float(np.hypot(lever.std_x, slope.real * delay.std)),
+        std_y=float(np.hypot(lever.std_y, slope.imag * delay.std)),
+    )
 
 
 def _antenna(
