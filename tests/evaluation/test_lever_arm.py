@@ -27,7 +27,7 @@ Y_L, Y_R = 0.42, -0.40
 
 
 def _robot(x_icr: float, seconds: float = 300.0) -> WheelLog:
-    """An ICR-model robot with exact poses (the truth to degrade)."""
+    """Return an ICR-model robot with exact poses (the truth to degrade)."""
     return constant_model_log(
         "icr", (Y_L, Y_R, x_icr), seconds=seconds, seed=4, track_width=TRACK, noise=(0, 0, 0)
     )
@@ -78,15 +78,20 @@ def test_the_check_passes_after_calibrate_and_refuses_without(robots):
     log = _gps(robots[0.3], 0.3, 0)
     cfg = Config(robot=RobotConfig(track_width=TRACK))
     cfg = dataclasses.replace(
-        cfg, pose_sensor=dataclasses.replace(cfg.pose_sensor, antenna_x="auto", antenna_y="auto")
+        cfg,
+        pose_sensor=dataclasses.replace(
+            cfg.pose_sensor, antenna_x="auto", antenna_y="auto", heading_offset="auto"
+        ),
     )
     delayed, resolved, found, _ = calibrate_inputs(log, cfg)
     ax = float(resolved.pose_sensor.antenna_x)
     assert ax == pytest.approx(ANTENNA - 0.3, abs=0.15)
     assert not [n for n in found.notes if "lever_arm" in n]
-    after = check_log(delayed, TRACK, antenna=(ax, float(resolved.pose_sensor.antenna_y)))
-    assert "lever_arm" not in [f.check for f in after.findings]
-    (finding,) = [f for f in check_log(delayed, TRACK).findings if f.check == "lever_arm"]
+    offset = float(resolved.pose_sensor.heading_offset)
+    arm = (ax, float(resolved.pose_sensor.antenna_y))
+    assert check_log(delayed, TRACK, antenna=arm, heading_offset=offset).ok
+    without = check_log(delayed, TRACK, heading_offset=offset).findings
+    (finding,) = [f for f in without if f.check == "lever_arm"]
     told = float(finding.message.split("set it to ")[1].split(",")[0])
     # the same estimator; the check fits the position delay left in the delayed log again
     assert told == pytest.approx(ax, abs=0.15)

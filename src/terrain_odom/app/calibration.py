@@ -29,6 +29,7 @@ from terrain_odom.estimation.time_offset import (
 )
 from terrain_odom.evaluation import check_log
 from terrain_odom.evaluation.calibration import Estimate, SensorFit, fit_sensors
+from terrain_odom.evaluation.mounting import MountingLimits, fit_mounting
 from terrain_odom.records import WheelLog
 
 __all__ = [
@@ -192,7 +193,8 @@ def calibrate_config(
     cfg = _with_delays(cfg, position_delay, heading_delay)
     notes: list[str] = []
     if fit is not None:
-        cfg = _mounting(cfg, fit, wants, found, log)
+        delayed = delay_sensors(log, position_delay, heading_delay)
+        cfg = _mounting(cfg, fit, wants, found, delayed)
         if wants["noise"]:
             cfg = _noise(cfg, fit, found, notes)
     elif wants["noise"]:
@@ -319,7 +321,10 @@ def _mounting(
     changes: dict[str, Any] = {}
     picks = []
     if wants["heading_offset"] and int(log.has_yaw.sum()) >= 2:
-        picks.append(("heading_offset", fit.heading_offset, "rad"))
+        offset = fit.heading_offset
+        if not offset.observable:  # too few windows: the straight chords, as the check
+            offset = _chord_offset(log, cfg.robot.track_width, offset)
+        picks.append(("heading_offset", offset, "rad"))
     if wants["antenna"]:
         picks += [("antenna_x", fit.antenna_x, "m"), ("antenna_y", fit.antenna_y, "m")]
     for name, est, unit in picks:
@@ -330,6 +335,26 @@ def _mounting(
         if est.observable:
             changes[name] = float(est.value)
     return dataclasses.replace(cfg, pose_sensor=dataclasses.replace(sensor, **changes))
+
+
+def _chord_offset(log: WheelLog, track_width: float, windows: Estimate) -> Estimate:
+    """Return the heading offset over straight chords where the windows cannot give it.
+
+    ``log`` has its delays applied. Enough straight chords for the check to
+    judge them (:class:`~terrain_odom.evaluation.mounting.MountingLimits`),
+    else ``windows`` (not observable) is returned.
+    """
+    lim = MountingLimits()
+    fit = fit_mounting(log, track_width, limits=lim)
+    n = fit.straight
+    if not (np.isfinite(fit.heading_offset) and n >= lim.min_judged):
+        return windows
+    std = fit.heading_spread * float(np.sqrt(fit.correlation / n))
+    how = (
+        f"circular median of measured heading minus course over {n} straight chords of "
+        f"{lim.chord:g} m ({windows.how.split(':')[0]}, too few for the windows' fit)"
+    )
+    return Estimate(fit.heading_offset, std, True, how)
 
 
 def _check_auto(configured: float | str, est: Estimate, key: str, log: WheelLog) -> None:

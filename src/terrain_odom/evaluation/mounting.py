@@ -31,6 +31,7 @@ import numpy as np
 
 from terrain_odom.evaluation.calibration import (
     CalibrationLimits,
+    Estimate,
     LeverArm,
     circular_median,
     correlation_time,
@@ -115,6 +116,10 @@ class MountingFit:
         their offsets in time order (a heading that wanders slowly, a GPS
         bias): the offset's standard error is ``spread sqrt(correlation /
         straight)``.
+    windowed : Estimate or None
+        The heading offset left after the configured one by calibrate's own
+        fit (:func:`~terrain_odom.evaluation.calibration.fit_sensors`), rad;
+        where it is observable the check judges it instead of the chords'.
     """
 
     heading_offset: float
@@ -123,6 +128,7 @@ class MountingFit:
     lever: LeverArm
     antenna: tuple[float, float] = (0.0, 0.0)
     correlation: float = 1.0
+    windowed: Estimate | None = None
 
 
 @dataclass(frozen=True)
@@ -175,9 +181,15 @@ def fit_mounting(
         spread = float(1.4826 * np.median(np.abs(wrap_angle(course - value))))
         correlation = correlation_time(wrap_angle(course - value))
     # at the least-squares position delay left in the log, as calibrate fits it
-    lever = fit_sensors(log, track_width, limits=lim.lever).lever
+    sensors = fit_sensors(log, track_width, limits=lim.lever)
     configured = (float(arm[0]), float(arm[1]))
-    return MountingFit(value, spread, int(course.size), lever, configured, correlation)
+    est = sensors.heading_offset
+    windowed = None
+    if est.observable:
+        windowed = Estimate(float(wrap_angle(est.value - offset)), est.std, True, est.how)
+    return MountingFit(
+        value, spread, int(course.size), sensors.lever, configured, correlation, windowed
+    )
 
 
 def _heading_at(t: np.ndarray, yaw: np.ndarray, at: np.ndarray, gap: float) -> np.ndarray:
@@ -250,7 +262,14 @@ def mounting_findings(
     """
     lim = limits or MountingLimits()
     out = []
-    off, n = fit.heading_offset, fit.straight
+    if fit.windowed is not None:  # calibrate's own fit: what it applied is left as 0
+        off, std = fit.windowed.value, fit.windowed.std
+        if abs(off) > max(lim.heading_offset, 3.76 * std):
+            out.append(("heading_offset", _heading_message(off, std)))
+        off = float("nan")  # the chords are not judged
+    else:  # a log too short for calibrate's windows: the straight chords, as calibrate then
+        off = fit.heading_offset
+    n = fit.straight
     std = fit.heading_spread * (fit.correlation / n) ** 0.5 if n else float("nan")
     judged = np.isfinite(off) and n >= lim.min_judged
     if judged and abs(off) > max(lim.heading_offset, 3.76 * std):
@@ -280,4 +299,14 @@ def _lever_message(name: str, value: float, std: float, configured: float) -> st
         f"(+-{std:.2f}) from the point that does not slide sideways, "
         f"{value - configured:+.2f} m from pose_sensor.antenna_{name} {configured:+.2f}: set it "
         f"to {value:+.2f}, or to auto (terrain-odom calibrate finds it)"
+    )
+
+
+def _heading_message(off: float, std: float) -> str:
+    """One line: the heading offset calibrate's fit leaves after the configured one."""
+    return (
+        f"the measured heading is {np.degrees(off):+.1f} deg (+-{np.degrees(std):.1f}) off the "
+        "robot's against the wheel path in windows of positions: a heading sensor mounted "
+        "turned, or magnetic declination; add it to pose_sensor.heading_offset (radians), or "
+        "set auto (terrain-odom calibrate finds it)"
     )
