@@ -35,7 +35,7 @@ not) and the count of runs the checks refuse.
 
 Usage::
 
-    python bench/calibrate.py [--seeds 3] [--clean] [--sim-seconds 600]
+    python bench/calibrate.py [--seeds 3] [--clean] [--gps-noise 0.8] [--sim-seconds 600]
     python bench/calibrate.py --flow [--ranges] [--seeds 3]
     python bench/calibrate.py --speed     # 1 hour at 100 Hz: calibrate <= 5 s
 """
@@ -101,9 +101,11 @@ def _fmt(value: float, std: float, scale: float = 1.0) -> str:
     return f"{value * scale:+6.2f}±{std * scale:.2f}"
 
 
-def row(name: str, clean: WheelLog, cfg: Config, seed: int, quiet: bool) -> None:
+def row(
+    name: str, clean: WheelLog, cfg: Config, seed: int, quiet: bool, gps_noise: float = 0.8
+) -> None:
     """Print one log and seed: recovered against injected."""
-    d = Degradation(seed=seed, **(QUIET if quiet else {}))
+    d = Degradation(seed=seed, **(QUIET if quiet else {"gps_noise": gps_noise}))
     out = degrade_log(clean, d)
     started = time.perf_counter()
     v, _ = _values(cfg, out.log)
@@ -223,6 +225,7 @@ def main() -> None:
     parser.add_argument("--clean", action="store_true", help="no noise, walk or wander")
     parser.add_argument("--sim-seconds", type=float, default=600.0)
     parser.add_argument("--speed", action="store_true")
+    parser.add_argument("--gps-noise", type=float, default=0.8, help="m (the table's)")
     parser.add_argument("--flow", action="store_true", help="degrade, calibrate, run's checks")
     parser.add_argument("--ranges", action="store_true", help="--flow over the issue's ranges")
     args = parser.parse_args()
@@ -242,7 +245,7 @@ def main() -> None:
         return
     for name, clean, cfg in logs:
         for seed in range(args.seeds):
-            row(name, clean, cfg, seed, args.clean)
+            row(name, clean, cfg, seed, args.clean, args.gps_noise)
 
 
 if __name__ == "__main__":
