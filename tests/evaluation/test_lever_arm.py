@@ -8,15 +8,17 @@ moves by ``-dx`` and by nothing else.
 from __future__ import annotations
 
 import dataclasses
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from terrain_odom.app.calibration import calibrate_inputs
-from terrain_odom.config import Config
+from terrain_odom.config import Config, load_config
 from terrain_odom.config.sections import RobotConfig
 from terrain_odom.evaluation import check_log
 from terrain_odom.evaluation.calibration import fit_sensors
+from terrain_odom.io import read_wheel_log
 from terrain_odom.records import WheelLog
 from terrain_odom.sim.degrade import Degradation, degrade_log
 from terrain_odom.sim.model_log import constant_model_log
@@ -95,3 +97,27 @@ def test_the_check_passes_after_calibrate_and_refuses_without(robots):
     told = float(finding.message.split("set it to ")[1].split(",")[0])
     # the same estimator; the check fits the position delay left in the delayed log again
     assert told == pytest.approx(ax, abs=0.15)
+
+
+def test_a_log_too_short_for_windows_takes_the_chords_offset_and_passes(drive_dir):
+    """85 s of real driving, an IMU 166 deg off: calibrate and the check use the same chords."""
+    warthog = load_config(Path(__file__).parents[2] / "config" / "warthog.yaml")
+    path = drive_dir / "warthog_wheels_grass_2024_7_29_14h8s51.csv"
+    clean = read_wheel_log(path, wheel_radius=0.3)
+    d = Degradation(
+        gps_rate=5.0, gps_noise=0.6, antenna=(0.0, 0.0), heading_offset=np.radians(166.0), seed=0
+    )
+    out = degrade_log(clean, d).log
+    sensor = dataclasses.replace(warthog.pose_sensor, heading_offset="auto")
+    cfg = dataclasses.replace(warthog, pose_sensor=sensor)
+    delayed, resolved, found, _ = calibrate_inputs(out, cfg)  # the checks pass
+    (offset,) = [f for f in found.found if f.key == "pose_sensor.heading_offset"]
+    assert "straight chords" in offset.how and "too few" in offset.how
+    truth = np.interp(
+        out.t[out.has_yaw], clean.t[clean.has_pose], np.unwrap(clean.pose[clean.has_pose, 2])
+    )
+    realised = np.angle(np.mean(np.exp(1j * (out.pose[out.has_yaw, 2] - truth))))
+    value = float(resolved.pose_sensor.heading_offset)
+    # a short log: within four of its standard errors of the realised offset
+    assert abs(np.angle(np.exp(1j * (value - realised)))) < 4.0 * offset.std + np.radians(2.0)
+    assert check_log(delayed, 1.08, heading_offset=value).ok
