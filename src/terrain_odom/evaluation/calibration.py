@@ -5,10 +5,13 @@ and with message covariances that understate their noise. This module
 finds them by comparing the positions with the path the wheels draw over
 short windows of time:
 
-- the *heading track* ``psi(s)`` at wheel time ``s``: the measured heading
-  (moved by its delay) where the log has headings, else the integrated
-  ideal yaw ``k * integral (v_r - v_l) / B`` with the scale ``k`` that best
-  explains the positions (a skid-steer robot turns less than the ideal model);
+- the *heading track* ``psi(s)`` at wheel time ``s``: the integrated ideal
+  yaw ``k * integral (v_r - v_l) / B``, with the scale ``k`` of the measured
+  heading's turn over 1-s intervals (moved by its delay) where the log has
+  headings, else the one that best explains the positions (a skid-steer
+  robot turns less than the ideal model). Not the measured heading itself:
+  its slow wander bends the path within a window, which no rotation
+  undoes, and biased the lever arm towards 0;
 - the *wheel path* ``q(s) = integral (v_l + v_r) / 2 * exp(i psi) ds``
   (complex numbers: ``x + i y``), one per run;
 - the positions ``m_k`` (the antenna's, stamped ``t_k``) are grouped into
@@ -27,10 +30,11 @@ What the fit gives:
 - the position delay ``d`` (s; a fix stamped ``t`` was measured at wheel
   time ``t - d``): the least squared residual over a grid of ``d``,
   refined by a parabola; its standard error from the curvature;
-- the heading offset: ``-arg c_w`` of each window is the measured heading
-  minus the robot's there; their circular median (weighted by how well
-  each window fixes its rotation) is the offset, correct near +-180 deg;
-  its standard error counts the windows as correlated as their sequence is;
+- the heading offset: per window, the circular mean of the measured
+  heading minus the robot's (``psi + arg c_w``) at its fixes; their
+  circular median (weighted by how well each window fixes its rotation)
+  is the offset, correct near +-180 deg; its standard error counts the
+  windows as correlated as their sequence is;
 - the lever arm ``a`` and its covariance. It is observable only where the
   heading turns *unevenly* within windows: on a straight stretch
   ``exp(i theta) a`` is a constant absorbed by ``T_w``, on an arc of
@@ -39,7 +43,14 @@ What the fit gives:
   part is projected out is the information, and too little of it is
   reported as not observable instead of a meaningless standard error.
   The lever arm is measured from the point of the robot that does not
-  slide sideways (its ``x_icr``, 0 on a symmetric robot);
+  slide sideways, ``(x_icr, (y_l + y_r) / 2)``: the antenna moves at
+  ``(v - omega (l_y - (y_l + y_r) / 2), omega (l_x - x_icr))`` in the robot
+  frame, so only ``l - (x_icr, (y_l + y_r) / 2)`` is identifiable from
+  wheels and positions, never the split (:class:`LeverArm`). Its standard
+  error includes the position delay's (they are fitted jointly). Up to
+  ``max_antenna_std`` it is calibrated; beyond, up to ``max_coarse_std``,
+  it is still applied (coarse) where significant (:func:`lever_significant`:
+  the rule the run's check judges a lever arm left by);
 - the position noise: a robust standard deviation (MAD) of the residual
   components, corrected for the parameters fitted;
 - the heading noise: a robust standard deviation of the heading increments
