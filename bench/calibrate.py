@@ -112,10 +112,12 @@ def _fmt(value: float, std: float, scale: float = 1.0) -> str:
 
 
 def _verdict(error: float, std: float, target: float) -> str:
-    """``met``, or ``not met`` with the data's bound (the standard error) against the target."""
+    """``met``, or not with the data's bound (the standard error) against the target."""
     if not np.isfinite(error):
         return f"n/o, bound {std:.2f}" if np.isfinite(std) else "n/o"
-    return "met" if abs(error) <= target else f"NOT met, bound {std:.2f}"
+    if abs(error) <= target:  # within, and by more than luck only where the bound allows
+        return "met" if not std > target else f"within by chance, bound {std:.2f}"
+    return f"NOT met, bound {std:.2f}"
 
 
 def row(

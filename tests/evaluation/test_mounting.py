@@ -90,6 +90,10 @@ def test_findings_need_size_and_significance():
     ((check, message),) = mounting_findings(fit(0.0, 1.0, 100, -0.4, 0.05), 0.5)
     assert check == "lever_arm" and "x = -0.40 m (+-0.05)" in message
     assert "set it to -0.40, or to auto" in message
+    # a configured antenna far off a lever arm the log cannot tell from 0: measure it
+    ((check, message),) = mounting_findings(fit(0.0, 1.0, 100, -0.4, 0.2, 5.0), 0.5)
+    assert check == "lever_arm" and "-5.40 m from pose_sensor.antenna_x +5.00" in message
+    assert "measure the antenna (the log cannot tell it from 0), or set 0" in message
 
 
 def test_real_logs_show_small_offsets_and_x_icr(drive_dir):

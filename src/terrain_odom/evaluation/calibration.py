@@ -139,7 +139,7 @@ class CalibrationLimits:
     max_antenna_std: float = 0.1
     lever_fraction: float = 0.5
     min_lever: float = 0.35
-    max_coarse_std: float = 0.5
+    max_coarse_std: float = 1.0
     min_windows: int = 8
     yaw_scales: tuple[float, float] = (0.3, 1.5)
 

@@ -288,18 +288,26 @@ def mounting_findings(
         ("y", lever.y, lever.std_y, fit.antenna[1]),
     ):
         if lever_significant(value - configured, se, track_width, lim.lever):
-            out.append(("lever_arm", _lever_message(name, value, se, configured)))
+            tells = lever_significant(value, se, track_width, lim.lever)
+            out.append(("lever_arm", _lever_message(name, value, se, configured, tells)))
     return out
 
 
-def _lever_message(name: str, value: float, std: float, configured: float) -> str:
-    """One line: where the positions put the antenna, against the configured one."""
-    return (
+def _lever_message(name: str, value: float, std: float, configured: float, tells: bool) -> str:
+    """One line: where the positions put the antenna, against the configured one.
+
+    ``tells``: whether the log's lever arm is itself significant (what
+    calibrate would apply); else it cannot be told from 0 and the way out
+    is to measure the antenna.
+    """
+    where = (
         f"in turns the positions swing as from an antenna at {name} = {value:+.2f} m "
         f"(+-{std:.2f}) from the point that does not slide sideways, "
-        f"{value - configured:+.2f} m from pose_sensor.antenna_{name} {configured:+.2f}: set it "
-        f"to {value:+.2f}, or to auto (terrain-odom calibrate finds it)"
+        f"{value - configured:+.2f} m from pose_sensor.antenna_{name} {configured:+.2f}"
     )
+    if tells:
+        return f"{where}: set it to {value:+.2f}, or to auto (terrain-odom calibrate finds it)"
+    return f"{where}: measure the antenna (the log cannot tell it from 0), or set 0"
 
 
 def _heading_message(off: float, std: float) -> str:
