@@ -272,14 +272,14 @@ def test_summary_to_dict_is_json_and_handles_no_windows() -> None:
     }
 
 
-def test_seven_thousand_rows_evaluate_in_well_under_a_second() -> None:
-    """All windows of a 7000-row log are evaluated fast (vectorised)."""
+def test_seven_thousand_rows_give_an_error_per_window() -> None:
+    """Every window of a 7000-row log is scored, with the true model's error tiny."""
     log = _icr_log(n=7000, pose_every=4, seed=5)
     windows = spatial_windows(log)
     assert len(windows) > 1000
-    t0 = time.perf_counter()
-    window_errors(log, windows, TRUE_ICR_TWIST)
-    assert time.perf_counter() - t0 < 0.5
+    errors = window_errors(log, windows, TRUE_ICR_TWIST)
+    assert len(errors.translation) == len(windows)
+    assert np.all(np.isfinite(errors.translation))
 
 
 # --- cross-check with evo's RPE -----------------------------------------------------
