@@ -176,6 +176,11 @@ def test_a_bias_needs_positive_sigma_and_time():
         build_section(PoseSensorConfig(), {"heading_bias": "yes"}, "pose_sensor")
 
 
+def test_the_slip_ekf_refuses_a_heading_bias():
+    with pytest.raises(ConfigError, match="heading_bias is a state of the ICR EKF only"):
+        OnlineOdometry(_bias_config(Config()), estimator="slip-ekf")
+
+
 def test_off_by_default_and_the_state_is_reported():
     assert OnlineOdometry(Config()).names[-1] == "alpha"
     odo = OnlineOdometry(_bias_config(Config()))

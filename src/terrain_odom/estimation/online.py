@@ -130,10 +130,13 @@ class OnlineOdometry:
         if estimator == "slip-ekf":
             from terrain_odom.estimation.slip_ekf import SlipEkf  # filterpy, SciPy: slip EKF only
 
-            if priors is not None:
+            if priors is not None or config.pose_sensor.heading_bias:
                 raise ConfigError(
                     "priors seed the ICR EKF (estimator icr-ekf); the slip EKF's parameters "
                     "l1 .. l6 are not ICRs"
+                    if priors is not None
+                    else "pose_sensor.heading_bias is a state of the ICR EKF only: use "
+                    "estimator icr-ekf, or set it false"
                 )
             ekf = SlipEkf(config.slip_ekf, config.robot.track_width, config.terrain)
             steps = _SlipSteps(ekf, mounting)
