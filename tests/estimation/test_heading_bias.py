@@ -25,20 +25,10 @@ from terrain_odom.kinematics import wrap_angle
 from terrain_odom.sim.degrade import Degradation, degrade_log
 
 from .conftest import assert_equal_runs
+from .test_icr_ekf import _fd_jacobian  # central differences, the yaw row wrapped
 
 BIAS = HeadingBias(sigma=0.2, tau=25.0)
 MOUNTING = Mounting(-1.0, 0.2, 2.7)
-
-
-def _fd_jacobian(f, x, eps=1e-6):
-    cols = []
-    for i in range(x.size):
-        dx = np.zeros_like(x)
-        dx[i] = eps
-        diff = f(x + dx) - f(x - dx)
-        diff[2] = wrap_angle(diff[2])
-        cols.append(diff / (2 * eps))
-    return np.column_stack(cols)
 
 
 @pytest.mark.parametrize("alpha", [True, False])
@@ -76,31 +66,34 @@ def test_measurement_jacobian_with_a_bias_matches_finite_differences(rows):
 
 
 def test_predict_kernel_with_a_bias_is_f_p_f_t_plus_q():
-    """One predict: ``P = F P F^T + Q dt`` with the bias's decay in ``F``."""
+    """One predict: ``P = F P F^T + Q`` with the bias's decay in ``F``, its exact noise in ``Q``."""
     x = np.array([1.0, -2.0, 3.1, 0.9, -0.8, 0.1, 0.95, -0.2])
     rng = np.random.default_rng(0)
     a = rng.normal(size=(8, 8))
     p = a @ a.T
-    q = np.arange(1.0, 9.0) * 1e-3
+    q = np.r_[np.arange(1.0, 8.0) * 1e-3, 0.0]
     for v_l, v_r, dt in [(0.4, 1.3, 0.05), (1.0, 1.0, 0.1), (-1.0, 1.0, 3.0)]:
         expected_x, jac = icr_step_with_jacobian(x, v_l, v_r, dt, tau=BIAS.tau)
-        expected_p = jac @ p @ jac.T + np.diag(q * dt)
+        noise = np.diag(q * dt)
+        noise[-1, -1] = BIAS.sigma**2 * (1.0 - math.exp(-2.0 * dt / BIAS.tau))
+        expected_p = jac @ p @ jac.T + noise
         got_x, got_p = x.copy(), p.copy()
-        _kernels._icr_predict(got_x, got_p, q, v_l, v_r, dt, np.array([BIAS.tau]))
+        bias = np.array([BIAS.tau, BIAS.sigma**2])
+        _kernels._icr_predict(got_x, got_p, q, v_l, v_r, dt, bias)
         np.testing.assert_allclose(got_x, expected_x, rtol=0, atol=1e-14)
         np.testing.assert_allclose(got_p, 0.5 * (expected_p + expected_p.T), rtol=1e-13)
 
 
-def test_the_bias_holds_its_stationary_std_where_nothing_measures_it():
-    """Gauss-Markov: from std sigma the prediction keeps std sigma (no measurement)."""
-    ekf = IcrEkf(EkfConfig(), heading_bias=BIAS)
+@pytest.mark.parametrize("tau", [BIAS.tau, 1e-3])
+def test_the_bias_holds_its_stationary_std_where_nothing_measures_it(tau):
+    """Gauss-Markov: from std sigma the prediction keeps std sigma, whatever dt / tau."""
+    ekf = IcrEkf(EkfConfig(), heading_bias=HeadingBias(BIAS.sigma, tau))
     for _ in range(2000):  # 200 s, 8 time constants
         ekf.predict(0.5, 0.7, 0.1)
-    assert ekf.std[-1] == pytest.approx(BIAS.sigma, rel=0.01)
-    walk = IcrEkf(EkfConfig(), heading_bias=HeadingBias(0.2, math.inf))
-    for _ in range(100):
-        walk.predict(0.5, 0.7, 0.1)
-    assert walk.std[-1] == pytest.approx(0.2 * math.sqrt(1.0 + 10.0), rel=1e-9)  # a random walk
+        assert ekf.std[-1] == pytest.approx(BIAS.sigma, rel=1e-9)
+    ekf._x[-1] = 0.3
+    ekf.predict(0.5, 0.7, BIAS.tau)
+    assert ekf.bias == pytest.approx(0.3 * math.exp(-BIAS.tau / tau), rel=1e-12, abs=1e-300)
 
 
 def _degraded(log, seed=0, **changes):
@@ -166,6 +159,8 @@ def test_the_yaw_anchored_at_a_heading_takes_the_bias_out():
 def test_a_bias_needs_positive_sigma_and_time():
     with pytest.raises(EstimationError, match="sigma, tau > 0"):
         IcrEkf(EkfConfig(), heading_bias=HeadingBias(0.0, 30.0))
+    with pytest.raises(EstimationError, match="sigma, tau > 0"):
+        IcrEkf(EkfConfig(), heading_bias=HeadingBias(0.1, math.inf))
     with pytest.raises(ConfigError, match="heading_wander"):
         from terrain_odom.config.fields import build_section
 

@@ -3,7 +3,8 @@
 The predict and update of :class:`~terrain_odom.estimation.icr_ekf.IcrEkf`
 work in place on its state ``x`` (n,) and covariance ``P`` (n, n): the model's
 ``m`` = 6 or 7 states (pose, ICRs, ``alpha``), then optionally the heading
-sensor's bias ``b`` (``bias`` holds its time constant; empty: no bias state).
+sensor's bias ``b`` (``bias`` holds its time constant and stationary
+variance; empty: no bias state).
 They are the filterpy formulation (``F P F^T + Q``; Joseph-form update with
 the inverse of ``S``) written out in scalar loops, so a call costs what the
 arithmetic costs instead of numpy's overhead on 7x7 arrays. The process model
@@ -160,8 +161,10 @@ def _icr_predict(
     """Predict over one wheel sample in place: the ICR step, ``P = F P F^T + Q dt``, symmetrised.
 
     A heading bias ``b`` (the last state, with ``bias``) is a first-order
-    Gauss-Markov process: ``b' = phi b``, ``phi = exp(-dt / tau)``, so its
-    row and column of ``F`` are ``phi`` on the diagonal, zero elsewhere.
+    Gauss-Markov process discretised exactly: ``b' = phi b``, ``phi =
+    exp(-dt / tau)``, so its row and column of ``F`` are ``phi`` on the
+    diagonal, zero elsewhere, and its noise variance over the step is
+    ``sigma_b**2 (1 - phi**2)`` (its entry of ``q_density`` is 0).
 
     Parameters
     ----------
@@ -175,12 +178,12 @@ def _icr_predict(
         Track speeds held over the step, m/s.
     dt : float
         Step, s.
-    bias : ndarray, shape (0,) or (1,)
-        Time constant ``tau`` of the heading bias, s (inf: a random walk);
-        empty: no bias state.
+    bias : ndarray, shape (0,) or (2,)
+        Time constant ``tau`` (s) and stationary variance ``sigma_b**2``
+        (rad^2) of the heading bias; empty: no bias state.
     """
     n = x.shape[0]
-    m = n - bias.size
+    m = n - 1 if bias.size else n  # the model's states
     jac = np.empty((n, n))
     phi = 1.0
     if m == n:
@@ -213,6 +216,8 @@ def _icr_predict(
                 acc *= phi
             p[i, j] = acc
         p[i, i] += q_density[i] * dt
+    if m < n:
+        p[m, m] += bias[1] * -math.expm1(-2.0 * dt / bias[0])
     _symmetrise(p)
 
 
@@ -317,7 +322,7 @@ def _icr_update(
         positions, headings.
     t : float
         The filter's clock, s.
-    bias : ndarray, shape (0,) or (1,)
+    bias : ndarray, shape (0,) or (2,)
         Non-empty: the last state is the heading's bias (see :func:`icr_predict`).
 
     Returns
@@ -334,6 +339,7 @@ def _icr_update(
     if not (pair or heading):
         return math.nan, True
     biased = bias.size > 0
+    model = n - 1 if biased else n
     rows = _rows(pair, heading)
     h, jac = _sensor(x, rows, mounting, biased)
     y = _innovation(z, h, rows)
@@ -349,7 +355,7 @@ def _icr_update(
         pht, s = _innovation_covariance(p, jac, rows, r)
     m = rows.size
     k_gain, si = _gain_from(pht, s)
-    if n - bias.size > 6 and not pair:  # heading only: alpha not observable, held (Schmidt)
+    if model > 6 and not pair:  # heading only: alpha not observable, held (Schmidt)
         k_gain[6, :] = 0.0
     for i in range(n):
         for j in range(m):
@@ -359,7 +365,7 @@ def _icr_update(
         for j in range(m):
             nis += y[i] * si[i, j] * y[j]
     _joseph(p, k_gain, jac, rows, r)
-    return nis, _constrain(x, p, limits, n - bias.size)
+    return nis, _constrain(x, p, limits, model)
 
 
 def _rows(pair: bool, heading: bool) -> np.ndarray:
@@ -519,7 +525,7 @@ def _constrain(x: np.ndarray, p: np.ndarray, limits: np.ndarray, model: int) -> 
     """Wrap yaw, clip the ICR state into ``limits`` (see :func:`icr_update`), symmetrise ``P``.
 
     ``model`` is the number of the model's states (6, or 7 with ``alpha``);
-    a heading bias after them is not clipped.
+    a heading bias after them is an angle, wrapped like the yaw.
 
     Returns
     -------
@@ -532,6 +538,8 @@ def _constrain(x: np.ndarray, p: np.ndarray, limits: np.ndarray, model: int) -> 
     x[5] = min(max(x[5], -limits[2]), limits[2])
     if model > 6:
         x[6] = min(max(x[6], limits[3]), limits[4])
+    if x.shape[0] > model:
+        x[model] = _wrap(x[model])
     _symmetrise(p)
     return bool(np.all(np.isfinite(x))) and bool(np.all(np.isfinite(p)))
 
@@ -576,7 +584,7 @@ def _icr_rows(
         State and covariance.
     noise : tuple of ndarray
         ``q_density`` (n,), ``r`` (3, 3), ``mounting`` (3,), ``limits`` (5,),
-        ``gate`` (4,), ``bias`` (0 or 1,) as for :func:`icr_predict` and
+        ``gate`` (4,), ``bias`` (0 or 2,) as for :func:`icr_predict` and
         :func:`icr_update`.
     rows : tuple of ndarray
         ``t`` (B,), s, increasing; ``v_l``, ``v_r`` (B,), m/s; ``z`` (B, 3),

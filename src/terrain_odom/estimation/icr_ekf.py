@@ -14,7 +14,8 @@ seconds) while its message claims a few degrees; fused as white noise, the
 wander is absorbed as ICRs (``x_icr`` at its bound). With
 :class:`HeadingBias` the heading measures ``yaw + heading_offset + b`` and
 ``b`` is a first-order Gauss-Markov process (``db = -b / tau dt + dw``,
-stationary std ``sigma_b``; process noise density ``2 sigma_b**2 / tau``):
+stationary std ``sigma_b``, discretised exactly: ``b' = exp(-dt / tau) b``
+plus noise of variance ``sigma_b**2 (1 - exp(-2 dt / tau))``; wrapped):
 slow heading disagreements with the positions' course go to ``b``, the
 heading's short-term changes still measure the turn rate.
 
@@ -113,7 +114,7 @@ class HeadingBias(NamedTuple):
     sigma : float
         Stationary standard deviation, rad (> 0).
     tau : float
-        Time constant, s (> 0; inf: a random walk of density ``sigma**2`` per s).
+        Time constant, s (finite, > 0).
     """
 
     sigma: float
@@ -123,11 +124,6 @@ class HeadingBias(NamedTuple):
     def from_config(cls, sensor: PoseSensorConfig) -> HeadingBias | None:
         """Return the bias ``pose_sensor`` asks for (``heading_bias``), or None."""
         return cls(sensor.heading_wander, sensor.wander_time) if sensor.heading_bias else None
-
-    @property
-    def density(self) -> float:
-        """Process noise density of the bias, rad^2/s: ``2 sigma**2 / tau`` (``sigma**2`` if inf)."""
-        return self.sigma**2 if math.isinf(self.tau) else 2.0 * self.sigma**2 / self.tau
 
 
 def gate_bounds(gate: PoseGate) -> tuple[float, float]:
@@ -175,7 +171,8 @@ def icr_step_with_jacobian(
         Step duration, s.
     tau : float, optional
         Given: the last state is a heading bias ``b`` with this time
-        constant, s (:class:`HeadingBias`): ``b' = exp(-dt / tau) b``.
+        constant, s (:class:`HeadingBias`): ``b' = exp(-dt / tau) b``
+        (its noise is not part of the Jacobian).
 
     Returns
     -------
@@ -324,12 +321,12 @@ class IcrEkf:
         p0, q_density = self._sigmas(config.sigma_p0) ** 2, self._sigmas(config.sigma_q) ** 2
         self._bias = np.empty(0)  # the kernels' bias argument: its time constant, if estimated
         if heading_bias is not None:
-            if not (heading_bias.sigma > 0.0 and heading_bias.tau > 0.0):
+            if not (heading_bias.sigma > 0.0 and math.inf > heading_bias.tau > 0.0):
                 raise EstimationError(f"a heading bias needs sigma, tau > 0, got {heading_bias}")
             x0 = np.append(x0, 0.0)
             p0 = np.append(p0, heading_bias.sigma**2)
-            q_density = np.append(q_density, heading_bias.density)
-            self._bias = np.array([heading_bias.tau], dtype=float)
+            q_density = np.append(q_density, 0.0)  # the kernels add the bias's own
+            self._bias = np.array([heading_bias.tau, heading_bias.sigma**2])
         self._x = x0
         self._P = np.diag(p0)
         self._q_density = q_density
@@ -533,7 +530,7 @@ class IcrEkf:
         return np.array([sensor.antenna_x, sensor.antenna_y, sensor.heading_offset])
 
     def _constrain(self) -> None:
-        """Wrap yaw, clip the ICR state into its limits, symmetrise P."""
+        """Wrap yaw (and a heading bias), clip the ICR state into its limits, symmetrise P."""
         if not _kernels.constrain(self._x, self._P, self._limits, self._model):
             raise EstimationError(_NON_FINITE)
 

@@ -84,9 +84,11 @@ class FilterpyIcrEkf(IcrEkf):
         """Propagate over one wheel sample (see :meth:`IcrEkf.predict`)."""
         if not dt > 0.0:
             raise EstimationError(f"predict needs dt > 0 s, got {dt}")
-        tau = self.heading_bias.tau if self.heading_bias is not None else None
-        ekf = _filterpy_ekf(self._x, self._P, tau)
+        bias = self.heading_bias
+        ekf = _filterpy_ekf(self._x, self._P, None if bias is None else bias.tau)
         ekf.Q = np.diag(self._q_density * dt)
+        if bias is not None:  # exact: the stationary variance times 1 - exp(-2 dt / tau)
+            ekf.Q[-1, -1] = bias.sigma**2 * -np.expm1(-2.0 * dt / bias.tau)
         ekf.predict(u=(float(v_l), float(v_r), float(dt)))
         self._x[:] = ekf.x[:, 0]
         self._P[:] = 0.5 * (ekf.P + ekf.P.T)
@@ -189,7 +191,7 @@ class FilterpyIcrEkf(IcrEkf):
         return h, H
 
     def _constrain(self) -> None:
-        """Wrap yaw, clip the ICR state into its limits (numpy), symmetrise P."""
+        """Wrap yaw (and a heading bias), clip the ICR state into its limits (numpy), symmetrise P."""
         x, lim = self._x, self.limits
         x[2] = wrap_angle(x[2])
         x[3] = np.clip(x[3], lim.half_width_min, lim.half_width_max)
@@ -197,6 +199,8 @@ class FilterpyIcrEkf(IcrEkf):
         x[5] = np.clip(x[5], -lim.x_icr_max, lim.x_icr_max)
         if self._model > 6:
             x[6] = np.clip(x[6], lim.alpha_min, lim.alpha_max)
+        if self.heading_bias is not None:
+            x[-1] = wrap_angle(x[-1])
         self._P[:] = 0.5 * (self._P + self._P.T)
         if not (np.all(np.isfinite(self._P)) and np.all(np.isfinite(x))):
             raise EstimationError("EKF state became non-finite; check the noise configuration")
