@@ -193,7 +193,8 @@ def _icr_predict(
         _step_jacobian(x[:m], v_l, v_r, dt, jac[:m, :m])
         phi = math.exp(-dt / bias[0])
         x[m] *= phi
-    # F is the identity but in its pose rows (F[0, 2], F[1, 2], F[:3, 3:]; see _step_jacobian):
+    # F is the identity but in its pose rows (F[0, 2], F[1, 2], F[:3, 3:]; see _step_jacobian)
+    # and a bias's diagonal, phi (its row of F P and column of F^T scaled below):
     # F P F^T changes only the pose rows, then the pose columns. The sums take the full
     # products' terms in their order without the exact zeros: the same bits, ~2.5x fewer terms.
     fp = p.copy()  # F P
