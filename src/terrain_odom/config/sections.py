@@ -540,10 +540,11 @@ class PoseSensorConfig:
         IMU's wander) as a state: a heading measures ``yaw +
         heading_offset + b``, ``b`` a first-order Gauss-Markov process of
         std ``heading_wander`` and time constant ``wander_time``; then
-        ``ekf.sigma_r.yaw`` is the heading's white noise only. Default
+        ``ekf.sigma_r.yaw`` is the heading's white noise only. It needs
+        positions too (only their course tells a slow heading error from
+        the yaw); without heading rows it changes no other state. Default
         ``false``: the heading is the robot's yaw plus white noise (a lidar
-        or motion-capture pose); the state, and a run without headings, are
-        as before.
+        or motion-capture pose).
     heading_wander : float
         Stationary std of the heading's bias, rad.
     wander_time : float
