@@ -104,7 +104,7 @@ def test_predict_kernel_matches_the_numpy_step_and_jacobian():
         expected_x, jac = icr_step_with_jacobian(x, v_l, v_r, dt)
         expected_p = jac @ p @ jac.T + np.diag(q * dt)
         got_x, got_p = x.copy(), p.copy()
-        icr_predict(got_x, got_p, q, v_l, v_r, dt)
+        icr_predict(got_x, got_p, q, v_l, v_r, dt, np.empty(0))
         np.testing.assert_allclose(got_x, expected_x, rtol=0, atol=1e-14)
         np.testing.assert_allclose(got_p, 0.5 * (expected_p + expected_p.T), rtol=1e-13)
 

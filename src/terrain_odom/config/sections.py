@@ -535,12 +535,29 @@ class PoseSensorConfig:
         scale of its disagreement with short stretches of wheel odometry)
         and use it for ``ekf.sigma_r`` and ``slip_ekf.sigma_r`` where they
         claim less; ``config`` (default): use them as they are.
+    heading_bias : bool
+        The ICR EKF estimates the heading sensor's slow bias (a consumer
+        IMU's wander) as a state: a heading measures ``yaw +
+        heading_offset + b``, ``b`` a first-order Gauss-Markov process of
+        std ``heading_wander`` and time constant ``wander_time``; then
+        ``ekf.sigma_r.yaw`` is the heading's white noise only. It needs
+        positions too (only their course tells a slow heading error from
+        the yaw); without heading rows it changes no other state. Default
+        ``false``: the heading is the robot's yaw plus white noise (a lidar
+        or motion-capture pose).
+    heading_wander : float
+        Stationary std of the heading's bias, rad.
+    wander_time : float
+        Time constant of the heading's bias, s.
     """
 
     antenna_x: float | Literal["auto"] = field(default=0.0, metadata=SIGNED)
     antenna_y: float | Literal["auto"] = field(default=0.0, metadata=SIGNED)
     heading_offset: float | Literal["auto"] = field(default=0.0, metadata=SIGNED)
     noise: Literal["config", "auto"] = "config"
+    heading_bias: bool = False
+    heading_wander: float = 0.17
+    wander_time: float = 30.0
 
 
 @dataclass(frozen=True)

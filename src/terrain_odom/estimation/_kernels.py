@@ -1,7 +1,10 @@
 """Steps of the ICR EKF, compiled by numba (cached on disk): one wheel sample in ~1 us.
 
 The predict and update of :class:`~terrain_odom.estimation.icr_ekf.IcrEkf`
-work in place on its state ``x`` (n,) and covariance ``P`` (n, n), n = 6 or 7.
+work in place on its state ``x`` (n,) and covariance ``P`` (n, n): the model's
+``m`` = 6 or 7 states (pose, ICRs, ``alpha``), then optionally the heading
+sensor's bias ``b`` (``bias`` holds its time constant and stationary
+variance; empty: no bias state).
 They are the filterpy formulation (``F P F^T + Q``; Joseph-form update with
 the inverse of ``S``) written out in scalar loops, so a call costs what the
 arithmetic costs instead of numpy's overhead on 7x7 arrays. The process model
@@ -147,14 +150,26 @@ def _symmetrise(p: np.ndarray) -> None:
 
 
 def _icr_predict(
-    x: np.ndarray, p: np.ndarray, q_density: np.ndarray, v_l: float, v_r: float, dt: float
+    x: np.ndarray,
+    p: np.ndarray,
+    q_density: np.ndarray,
+    v_l: float,
+    v_r: float,
+    dt: float,
+    bias: np.ndarray,
 ) -> None:
     """Predict over one wheel sample in place: the ICR step, ``P = F P F^T + Q dt``, symmetrised.
+
+    A heading bias ``b`` (the last state, with ``bias``) is a first-order
+    Gauss-Markov process discretised exactly: ``b' = phi b``, ``phi =
+    exp(-dt / tau)``, so its row and column of ``F`` are ``phi`` on the
+    diagonal, zero elsewhere, and its noise variance over the step is
+    ``sigma_b**2 (1 - phi**2)`` (its entry of ``q_density`` is 0).
 
     Parameters
     ----------
     x : ndarray, shape (n,)
-        State ``x, y, yaw, y_l, y_r, x_icr(, alpha)``; ``y_l > y_r``.
+        State ``x, y, yaw, y_l, y_r, x_icr(, alpha)(, b)``; ``y_l > y_r``.
     p : ndarray, shape (n, n)
         Covariance.
     q_density : ndarray, shape (n,)
@@ -163,11 +178,23 @@ def _icr_predict(
         Track speeds held over the step, m/s.
     dt : float
         Step, s.
+    bias : ndarray, shape (0,) or (2,)
+        Time constant ``tau`` (s) and stationary variance ``sigma_b**2``
+        (rad^2) of the heading bias; empty: no bias state.
     """
     n = x.shape[0]
+    m = n - 1 if bias.size else n  # the model's states
     jac = np.empty((n, n))
-    _step_jacobian(x, v_l, v_r, dt, jac)
-    # F is the identity but in its pose rows (F[0, 2], F[1, 2], F[:3, 3:]; see _step_jacobian):
+    phi = 1.0
+    if m == n:
+        _step_jacobian(x, v_l, v_r, dt, jac)
+    else:  # the model's block; the bias column of the pose rows is zero
+        jac[:, :] = 0.0
+        _step_jacobian(x[:m], v_l, v_r, dt, jac[:m, :m])
+        phi = math.exp(-dt / bias[0])
+        x[m] *= phi
+    # F is the identity but in its pose rows (F[0, 2], F[1, 2], F[:3, 3:]; see _step_jacobian)
+    # and a bias's diagonal, phi (its row of F P and column of F^T scaled below):
     # F P F^T changes only the pose rows, then the pose columns. The sums take the full
     # products' terms in their order without the exact zeros: the same bits, ~2.5x fewer terms.
     fp = p.copy()  # F P
@@ -177,14 +204,21 @@ def _icr_predict(
             for k in range(_FIRST_COUPLED[i], n):
                 acc += jac[i, k] * p[k, j]
             fp[i, j] = acc
+    if m < n:  # the bias row of F P
+        for j in range(n):
+            fp[m, j] *= phi
     for i in range(n):  # (F P) F^T
         for j in range(n):
             acc = fp[i, j]
             if j < 3:
                 for k in range(_FIRST_COUPLED[j], n):
                     acc += fp[i, k] * jac[j, k]
+            elif j >= m:  # the bias column of F^T
+                acc *= phi
             p[i, j] = acc
         p[i, i] += q_density[i] * dt
+    if m < n:
+        p[m, m] += bias[1] * -math.expm1(-2.0 * dt / bias[0])
     _symmetrise(p)
 
 
@@ -214,19 +248,27 @@ def _inverse(s: np.ndarray) -> np.ndarray:
     return inv
 
 
-def _sensor(x: np.ndarray, rows: np.ndarray, mounting: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Return ``h`` and ``H`` of :func:`~terrain_odom.estimation.pose_measurement.measurement`."""
+def _sensor(
+    x: np.ndarray, rows: np.ndarray, mounting: np.ndarray, biased: bool
+) -> tuple[np.ndarray, np.ndarray]:
+    """Return ``h`` and ``H`` of :func:`~terrain_odom.estimation.pose_measurement.measurement`.
+
+    With ``biased``, the heading also measures the last state, the bias ``b``:
+    ``wrap(yaw + offset + b)``, ``d h / d b = 1``.
+    """
     n, m = x.shape[0], rows.size
     arm_x, arm_y, offset = mounting[0], mounting[1], mounting[2]
     c, s = math.cos(x[2]), math.sin(x[2])
     full_h = np.array([x[0] + (c * arm_x - s * arm_y), x[1] + (s * arm_x + c * arm_y), 0.0])
-    full_h[2] = _wrap(x[2] + offset)
+    full_h[2] = _wrap(x[2] + offset + x[n - 1]) if biased else _wrap(x[2] + offset)
     h, jac = np.empty(m), np.zeros((m, n))
     for i in range(m):
         row = rows[i]
         h[i] = full_h[row]
         jac[i, row] = 1.0
-        if row == 0:
+        if row == 2 and biased:
+            jac[i, n - 1] = 1.0
+        elif row == 0:
             jac[i, 2] = -s * arm_x - c * arm_y
         elif row == 1:
             jac[i, 2] = c * arm_x - s * arm_y
@@ -243,6 +285,7 @@ def _icr_update(
     gate: np.ndarray,
     gating: np.ndarray,
     t: float,
+    bias: np.ndarray,
 ) -> tuple[float, bool]:
     """Fuse the measured components of a pose row in place; return the NIS.
 
@@ -280,6 +323,8 @@ def _icr_update(
         positions, headings.
     t : float
         The filter's clock, s.
+    bias : ndarray, shape (0,) or (2,)
+        Non-empty: the last state is the heading's bias (see :func:`icr_predict`).
 
     Returns
     -------
@@ -294,8 +339,10 @@ def _icr_update(
     heading = math.isfinite(z[2])
     if not (pair or heading):
         return math.nan, True
+    biased = bias.size > 0
+    model = n - 1 if biased else n
     rows = _rows(pair, heading)
-    h, jac = _sensor(x, rows, mounting)
+    h, jac = _sensor(x, rows, mounting, biased)
     y = _innovation(z, h, rows)
     pht, s = _innovation_covariance(p, jac, rows, r)
     fuse_pair, fuse_heading, grown = _gate(p, y, s, pair, heading, gate, gating, t)
@@ -304,12 +351,12 @@ def _icr_update(
     if grown or fuse_pair != pair or fuse_heading != heading:
         pair = fuse_pair
         rows = _rows(pair, fuse_heading)
-        h, jac = _sensor(x, rows, mounting)
+        h, jac = _sensor(x, rows, mounting, biased)
         y = _innovation(z, h, rows)
         pht, s = _innovation_covariance(p, jac, rows, r)
     m = rows.size
     k_gain, si = _gain_from(pht, s)
-    if n > 6 and not pair:  # heading only: alpha not observable, held (Schmidt update)
+    if model > 6 and not pair:  # heading only: alpha not observable, held (Schmidt)
         k_gain[6, :] = 0.0
     for i in range(n):
         for j in range(m):
@@ -319,7 +366,7 @@ def _icr_update(
         for j in range(m):
             nis += y[i] * si[i, j] * y[j]
     _joseph(p, k_gain, jac, rows, r)
-    return nis, _constrain(x, p, limits)
+    return nis, _constrain(x, p, limits, model)
 
 
 def _rows(pair: bool, heading: bool) -> np.ndarray:
@@ -475,8 +522,11 @@ def _joseph(
             p[i, j] = acc + noise
 
 
-def _constrain(x: np.ndarray, p: np.ndarray, limits: np.ndarray) -> bool:
+def _constrain(x: np.ndarray, p: np.ndarray, limits: np.ndarray, model: int) -> bool:
     """Wrap yaw, clip the ICR state into ``limits`` (see :func:`icr_update`), symmetrise ``P``.
+
+    ``model`` is the number of the model's states (6, or 7 with ``alpha``);
+    a heading bias after them is an angle, wrapped like the yaw.
 
     Returns
     -------
@@ -487,8 +537,10 @@ def _constrain(x: np.ndarray, p: np.ndarray, limits: np.ndarray) -> bool:
     x[3] = min(max(x[3], limits[0]), limits[1])
     x[4] = min(max(x[4], -limits[1]), -limits[0])
     x[5] = min(max(x[5], -limits[2]), limits[2])
-    if x.shape[0] > 6:
+    if model > 6:
         x[6] = min(max(x[6], limits[3]), limits[4])
+    if x.shape[0] > model:
+        x[model] = _wrap(x[model])
     _symmetrise(p)
     return bool(np.all(np.isfinite(x))) and bool(np.all(np.isfinite(p)))
 
@@ -509,7 +561,7 @@ def _std_into(p: np.ndarray, out: np.ndarray) -> None:
 def _icr_rows(
     x: np.ndarray,
     p: np.ndarray,
-    noise: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+    noise: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray],
     rows: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
     held: np.ndarray,
     gating: np.ndarray,
@@ -533,7 +585,8 @@ def _icr_rows(
         State and covariance.
     noise : tuple of ndarray
         ``q_density`` (n,), ``r`` (3, 3), ``mounting`` (3,), ``limits`` (5,),
-        ``gate`` (4,) as for :func:`icr_predict` and :func:`icr_update`.
+        ``gate`` (4,), ``bias`` (0 or 2,) as for :func:`icr_predict` and
+        :func:`icr_update`.
     rows : tuple of ndarray
         ``t`` (B,), s, increasing; ``v_l``, ``v_r`` (B,), m/s; ``z`` (B, 3),
         the measured pose (NaN where not measured).
@@ -555,15 +608,15 @@ def _icr_rows(
         The row after which the state was not finite (the rows after it are
         not run), or -1.
     """
-    q_density, r, mounting, limits, gate = noise
+    q_density, r, mounting, limits, gate, bias = noise
     t, v_l, v_r, z = rows
     updates, last_nis = 0, math.nan
     for i in range(t.shape[0]):
         dt = t[i] - held[0]
-        _icr_predict(x, p, q_density, held[1], held[2], dt)
+        _icr_predict(x, p, q_density, held[1], held[2], dt, bias)
         held[3] += dt
         held[0], held[1], held[2] = t[i], v_l[i], v_r[i]
-        nis, finite = _icr_update(x, p, z[i], r, mounting, limits, gate, gating, held[3])
+        nis, finite = _icr_update(x, p, z[i], r, mounting, limits, gate, gating, held[3], bias)
         if not finite:
             return updates, last_nis, i
         if not math.isnan(nis):

@@ -2,11 +2,22 @@
 
 State ``[x, y, yaw, y_l, y_r, x_icr]`` (m, m, rad, m, m, m), optionally
 followed by the longitudinal slip factor ``alpha`` (dimensionless) that
-multiplies both track surface speeds. The process model is the ICR model
+multiplies both track surface speeds, and optionally by the heading
+sensor's bias ``heading_bias`` (rad). The process model is the ICR model
 (:func:`~terrain_odom.kinematics.twist_icr`) integrated exactly over each
 wheel sample (constant twist, arc integration) with the real ``dt``; the ICR
 parameters follow a random walk. The measurement is the pose (or any subset
 of ``x, y, yaw``), with the yaw innovation wrapped.
+
+A consumer IMU's heading wanders slowly (tens of degrees over tens of
+seconds) while its message claims a few degrees; fused as white noise, the
+wander is absorbed as ICRs (``x_icr`` at its bound). With
+:class:`HeadingBias` the heading measures ``yaw + heading_offset + b`` and
+``b`` is a first-order Gauss-Markov process (``db = -b / tau dt + dw``,
+stationary std ``sigma_b``, discretised exactly: ``b' = exp(-dt / tau) b``
+plus noise of variance ``sigma_b**2 (1 - exp(-2 dt / tau))``; wrapped):
+slow heading disagreements with the positions' course go to ``b``, the
+heading's short-term changes still measure the turn rate.
 
 Differences from the printed paper, all deliberate:
 
@@ -41,6 +52,7 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from statistics import NormalDist
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -51,6 +63,7 @@ from terrain_odom.config import (
     IcrSigmas,
     IcrState,
     PoseGate,
+    PoseSensorConfig,
     RobotConfig,
     TerrainConfig,
 )
@@ -67,6 +80,8 @@ from terrain_odom.records import TerrainChange
 
 __all__ = [
     "state_names",
+    "HeadingBias",
+    "BIAS_NAME",
     "IcrEkf",
     "IcrPriors",
     "icr_step",
@@ -78,14 +93,37 @@ __all__ = [
 logger = logging.getLogger(__name__)
 
 STATE_NAMES = ("x", "y", "yaw", "y_l", "y_r", "x_icr", "alpha")
+BIAS_NAME = "heading_bias"
+"""Name of the heading sensor's bias state, rad (last when estimated)."""
 _POSE = slice(0, 3)
 _YAW = 2
 _NON_FINITE = "EKF state became non-finite; check the noise configuration"
 
 
-def state_names(estimate_alpha: bool) -> tuple[str, ...]:
-    """Names of the filter's states, in order; ``alpha`` last when estimated."""
-    return STATE_NAMES if estimate_alpha else STATE_NAMES[:6]
+def state_names(estimate_alpha: bool, heading_bias: bool = False) -> tuple[str, ...]:
+    """Names of the filter's states, in order; ``alpha`` then ``heading_bias`` when estimated."""
+    names = STATE_NAMES if estimate_alpha else STATE_NAMES[:6]
+    return (*names, BIAS_NAME) if heading_bias else names
+
+
+class HeadingBias(NamedTuple):
+    """The heading sensor's slow bias as a first-order Gauss-Markov state.
+
+    Attributes
+    ----------
+    sigma : float
+        Stationary standard deviation, rad (> 0).
+    tau : float
+        Time constant, s (finite, > 0).
+    """
+
+    sigma: float
+    tau: float
+
+    @classmethod
+    def from_config(cls, sensor: PoseSensorConfig) -> HeadingBias | None:
+        """Return the bias ``pose_sensor`` asks for (``heading_bias``), or None."""
+        return cls(sensor.heading_wander, sensor.wander_time) if sensor.heading_bias else None
 
 
 def gate_bounds(gate: PoseGate) -> tuple[float, float]:
@@ -113,7 +151,7 @@ def _params(state: np.ndarray) -> tuple[float, float, float, float]:
 
 
 def icr_step_with_jacobian(
-    state: ArrayLike, v_l: float, v_r: float, dt: float
+    state: ArrayLike, v_l: float, v_r: float, dt: float, tau: float | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
     """Discrete process model over one wheel sample, and its Jacobian.
 
@@ -125,12 +163,16 @@ def icr_step_with_jacobian(
 
     Parameters
     ----------
-    state : array_like, shape (6,) or (7,)
-        ``[x, y, yaw, y_l, y_r, x_icr(, alpha)]``.
+    state : array_like, shape (6,) to (8,)
+        ``[x, y, yaw, y_l, y_r, x_icr(, alpha)(, b)]``.
     v_l, v_r : float
         Track surface speeds held over the step, m/s.
     dt : float
         Step duration, s.
+    tau : float, optional
+        Given: the last state is a heading bias ``b`` with this time
+        constant, s (:class:`HeadingBias`): ``b' = exp(-dt / tau) b``
+        (its noise is not part of the Jacobian).
 
     Returns
     -------
@@ -140,6 +182,12 @@ def icr_step_with_jacobian(
         ``d state' / d state``.
     """
     s = np.asarray(state, dtype=float)
+    if tau is not None:
+        model, jac_model = icr_step_with_jacobian(s[:-1], v_l, v_r, dt)
+        phi = math.exp(-dt / tau)
+        jac = np.zeros((s.size, s.size))
+        jac[:-1, :-1], jac[-1, -1] = jac_model, phi
+        return np.append(model, phi * s[-1]), jac
     n = s.shape[0]
     params = _params(s)
     twist = twist_icr(v_l, v_r, *params)
@@ -220,6 +268,10 @@ class IcrEkf:
         their limits where ``config`` leaves them ``None``
         (:meth:`~terrain_odom.config.InitialIcrs.resolve`,
         :meth:`~terrain_odom.config.EkfLimits.resolve`); the defaults if omitted.
+    heading_bias : HeadingBias, optional
+        Estimate the heading sensor's slow bias as the last state (starting
+        at 0 with std ``sigma``); none by default (the state ends with the
+        ICRs, as without heading measurements).
 
     Attributes
     ----------
@@ -249,14 +301,16 @@ class IcrEkf:
         priors: IcrPriors | None = None,
         mounting: Mounting | None = None,
         robot: RobotConfig | None = None,
+        heading_bias: HeadingBias | None = None,
     ) -> None:
         robot = robot if robot is not None else RobotConfig()
         self.config = config
         self.mounting = mounting if mounting is not None else Mounting()
         self.terrain_config = terrain if terrain is not None else TerrainConfig()
         self.priors = priors if priors is not None else IcrPriors()
-        self.names = state_names(config.estimate_alpha)
-        n = len(self.names)
+        self.heading_bias = heading_bias
+        self.names = state_names(config.estimate_alpha, heading_bias is not None)
+        n = self._model = len(state_names(config.estimate_alpha))  # pose, ICRs(, alpha)
         ini = config.initial.resolve(robot)
         if not ini.y_l > ini.y_r:
             raise EstimationError(f"initial ICRs need y_l > y_r, got y_l={ini.y_l}, y_r={ini.y_r}")
@@ -264,9 +318,18 @@ class IcrEkf:
         if pose is not None:
             x0[_POSE] = np.asarray(pose, dtype=float)
             x0[_YAW] = wrap_angle(x0[_YAW])
+        p0, q_density = self._sigmas(config.sigma_p0) ** 2, self._sigmas(config.sigma_q) ** 2
+        self._bias = np.empty(0)  # the kernels' bias argument: its time constant, if estimated
+        if heading_bias is not None:
+            if not (heading_bias.sigma > 0.0 and math.inf > heading_bias.tau > 0.0):
+                raise EstimationError(f"a heading bias needs sigma, tau > 0, got {heading_bias}")
+            x0 = np.append(x0, 0.0)
+            p0 = np.append(p0, heading_bias.sigma**2)
+            q_density = np.append(q_density, 0.0)  # the kernels add the bias's own
+            self._bias = np.array([heading_bias.tau, heading_bias.sigma**2])
         self._x = x0
-        self._P = np.diag(self._sigmas(config.sigma_p0) ** 2)
-        self._q_density = self._sigmas(config.sigma_q) ** 2
+        self._P = np.diag(p0)
+        self._q_density = q_density
         self._r_diag = np.array([config.sigma_r.x, config.sigma_r.y, config.sigma_r.yaw]) ** 2
         self._r = np.diag(self._r_diag)
         self.limits: IcrLimits = config.limits.resolve(robot)
@@ -287,7 +350,8 @@ class IcrEkf:
 
     # ----------------------------------------------------------------- state
     def _sigmas(self, sig: object, names: tuple[str, ...] | None = None) -> np.ndarray:
-        return np.array([getattr(sig, n) for n in names or self.names], dtype=float)
+        """``sig``'s values of ``names`` (default: the model's states, without a bias)."""
+        return np.array([getattr(sig, n) for n in names or self.names[: self._model]], dtype=float)
 
     @property
     def x(self) -> np.ndarray:
@@ -307,7 +371,12 @@ class IcrEkf:
     @property
     def params(self) -> np.ndarray:
         """ICR parameters ``y_l, y_r, x_icr(, alpha)``."""
-        return self._x[3:].copy()
+        return self._x[3 : self._model].copy()
+
+    @property
+    def bias(self) -> float:
+        """Estimated heading bias, rad (0 when not estimated)."""
+        return float(self._x[-1]) if self._bias.size else 0.0
 
     @property
     def std(self) -> np.ndarray:
@@ -327,7 +396,9 @@ class IcrEkf:
         """
         if not dt > 0.0:
             raise EstimationError(f"predict needs dt > 0 s, got {dt}")
-        _kernels.icr_predict(self._x, self._P, self._q_density, float(v_l), float(v_r), float(dt))
+        _kernels.icr_predict(
+            self._x, self._P, self._q_density, float(v_l), float(v_r), float(dt), self._bias
+        )
         self.t += dt
 
     def update(self, z: ArrayLike, *, R: ArrayLike | None = None) -> float:  # noqa: N803
@@ -385,6 +456,7 @@ class IcrEkf:
             self._gate,
             self.gating,
             self.t,
+            self._bias,
         )
         if not finite:
             raise EstimationError(_NON_FINITE)
@@ -433,7 +505,14 @@ class IcrEkf:
             raise EstimationError(f"predict needs dt > 0 s, got {steps.min()}")
         held = np.array([*since, self.t])
         states, stds = np.empty((t.size, self._x.size)), np.empty((t.size, self._x.size))
-        noise = (self._q_density, self._r, self._mounting_array(), self._limits, self._gate)
+        noise = (
+            self._q_density,
+            self._r,
+            self._mounting_array(),
+            self._limits,
+            self._gate,
+            self._bias,
+        )
         rows = (t, *speeds, np.ascontiguousarray(z, dtype=float))
         updates, nis, bad = _kernels.icr_rows(
             self._x, self._P, noise, rows, held, self.gating, states, stds
@@ -451,8 +530,8 @@ class IcrEkf:
         return np.array([sensor.antenna_x, sensor.antenna_y, sensor.heading_offset])
 
     def _constrain(self) -> None:
-        """Wrap yaw, clip the ICR state into its limits, symmetrise P."""
-        if not _kernels.constrain(self._x, self._P, self._limits):
+        """Wrap yaw (and a heading bias), clip the ICR state into its limits, symmetrise P."""
+        if not _kernels.constrain(self._x, self._P, self._limits, self._model):
             raise EstimationError(_NON_FINITE)
 
     def reset_pose(self, pose: ArrayLike, sigma: ArrayLike | None = None) -> None:
@@ -473,6 +552,25 @@ class IcrEkf:
         P[_POSE, _POSE] = np.diag(var)
         self.gating[:4] = [math.nan, math.nan, 0.0, 0.0]
 
+    def anchor_heading(self, heading: float, sigma: float) -> None:
+        """Re-anchor the yaw at a measured heading: ``heading - heading_offset - b``.
+
+        As :meth:`reset_pose` with the position kept and the yaw's std
+        ``sigma`` (rad). With a bias state the yaw's error is minus the bias
+        estimate's plus the heading's noise: its covariance with every
+        state is minus ``b``'s, its variance ``sigma**2 + var(b)``.
+        """
+        pose, std = self.pose, self.std[:3]
+        pose[_YAW] = wrap_angle(heading - self.mounting.heading_offset - self.bias)
+        std[_YAW] = sigma
+        self.reset_pose(pose, std)
+        if self._bias.size:
+            P = self._P  # noqa: N806
+            row = -P[-1]
+            row[_YAW] = sigma**2 + P[-1, -1]
+            P[_YAW, :] = row
+            P[:, _YAW] = row
+
     # ---------------------------------------------------- terrain adaptation
     def set_terrain(self, label: str) -> None:
         """Name the terrain the filter is on, without a ``P_B`` reset.
@@ -489,20 +587,20 @@ class IcrEkf:
         self._terrain_since = self.t
 
     def _set_icr_block(self, cov: np.ndarray, estimate: np.ndarray | None = None) -> None:
-        """Set the ICR covariance (and estimate), uncorrelated with the pose."""
-        P = self._P  # noqa: N806
-        P[3:, :] = 0.0
-        P[:, 3:] = 0.0
-        P[3:, 3:] = cov
+        """Set the ICR covariance (and estimate), uncorrelated with the rest."""
+        P, icr = self._P, slice(3, self._model)  # noqa: N806
+        P[icr, :] = 0.0
+        P[:, icr] = 0.0
+        P[icr, icr] = cov
         if estimate is not None:
-            self._x[3:] = estimate
+            self._x[icr] = estimate
             self._constrain()
 
     def _seed(self, prior: IcrState) -> None:
         """Set the ICR estimate to ``prior`` with covariance ``sigma_prior**2``."""
-        n_icr = len(self.names) - 3
-        estimate = np.array([prior.y_l, prior.y_r, prior.x_icr, prior.alpha])[:n_icr]
-        cov = np.diag(self._sigmas(self.config.sigma_prior, self.names[3:]) ** 2)
+        icr = self.names[3 : self._model]
+        estimate = np.array([prior.y_l, prior.y_r, prior.x_icr, prior.alpha])[: len(icr)]
+        cov = np.diag(self._sigmas(self.config.sigma_prior, icr) ** 2)
         self._set_icr_block(cov, estimate)
 
     def _inflate_pose(self) -> None:
@@ -512,7 +610,7 @@ class IcrEkf:
 
     def _pb_variances(self, label: str) -> np.ndarray:
         sig: IcrSigmas = self.config.sigma_pb_per_terrain.get(label, self.config.sigma_pb)
-        return self._sigmas(sig, self.names[3:]) ** 2
+        return self._sigmas(sig, self.names[3 : self._model]) ** 2
 
     def reset_on_terrain_change(self, label: str) -> TerrainChange:
         """Apply a confirmed change to terrain ``label``.
@@ -549,7 +647,7 @@ class IcrEkf:
             and previous is not None
             and self.t - self._terrain_since >= tc.memory_min_dwell
         ):
-            self._memory[previous] = (self.params, self._P[3:, 3:].copy())
+            self._memory[previous] = (self.params, self._P[3 : self._model, 3 : self._model].copy())
         restored = tc.memory and label in self._memory
         prior = None if restored else self.priors.terrains.get(label)
         if restored:

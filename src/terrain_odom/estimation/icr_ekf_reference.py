@@ -6,7 +6,8 @@ with predict and update done as before the kernels of
 whose prediction is :func:`~terrain_odom.estimation.icr_ekf.icr_step_with_jacobian`,
 filterpy's Joseph-form update with SciPy's inverse and the pose sensors'
 :func:`~terrain_odom.estimation.pose_measurement.measurement` after a chi-square
-gate in numpy, numpy clipping. Everything
+gate in numpy, numpy clipping; a heading bias state (``heading_bias``) enters
+the step's Jacobian as its decay and the heading's ``H`` as a 1. Everything
 else (terrain resets, memory, priors) is inherited, so both run the same logs
 through the same streaming path (a stretch of rows through the reference's
 own predict and update, row by row). The tests hold the kernels to it within
@@ -31,8 +32,11 @@ from terrain_odom.kinematics import wrap_angle
 __all__ = ["FilterpyIcrEkf"]
 
 
-def _filterpy_ekf(x: np.ndarray, p: np.ndarray) -> Any:
-    """Return a filterpy EKF at state ``x`` and covariance ``p`` predicting with the ICR step."""
+def _filterpy_ekf(x: np.ndarray, p: np.ndarray, tau: float | None = None) -> Any:
+    """Return a filterpy EKF at state ``x`` and covariance ``p`` predicting with the ICR step.
+
+    ``tau``: the last state is a heading bias with this time constant, s.
+    """
     from filterpy.kalman import ExtendedKalmanFilter
 
     class _Filter(ExtendedKalmanFilter):
@@ -40,7 +44,7 @@ def _filterpy_ekf(x: np.ndarray, p: np.ndarray) -> Any:
         F: np.ndarray  # noqa: N815 - filterpy's name of the process Jacobian
 
         def predict_x(self, u: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> None:
-            state, self.F = icr_step_with_jacobian(self.x[:, 0], *u)
+            state, self.F = icr_step_with_jacobian(self.x[:, 0], *u, tau=tau)
             self.x = state[:, None]
 
     ekf = _Filter(dim_x=x.size, dim_z=3)
@@ -80,8 +84,11 @@ class FilterpyIcrEkf(IcrEkf):
         """Propagate over one wheel sample (see :meth:`IcrEkf.predict`)."""
         if not dt > 0.0:
             raise EstimationError(f"predict needs dt > 0 s, got {dt}")
-        ekf = _filterpy_ekf(self._x, self._P)
+        bias = self.heading_bias
+        ekf = _filterpy_ekf(self._x, self._P, None if bias is None else bias.tau)
         ekf.Q = np.diag(self._q_density * dt)
+        if bias is not None:  # exact: the stationary variance times 1 - exp(-2 dt / tau)
+            ekf.Q[-1, -1] = bias.sigma**2 * -np.expm1(-2.0 * dt / bias.tau)
         ekf.predict(u=(float(v_l), float(v_r), float(dt)))
         self._x[:] = ekf.x[:, 0]
         self._P[:] = 0.5 * (ekf.P + ekf.P.T)
@@ -102,7 +109,7 @@ class FilterpyIcrEkf(IcrEkf):
             res[yaw_row] = wrap_angle(res[yaw_row])
             return res
 
-        h, H = measurement(self._x, rows, self.mounting)  # noqa: N806
+        h, H = self._measurement(rows)  # noqa: N806
         r = r_full[np.ix_(rows, rows)]
         ekf = _filterpy_ekf(self._x, self._P)
         ekf.update(  # filterpy evaluates both at the prior state
@@ -112,7 +119,7 @@ class FilterpyIcrEkf(IcrEkf):
             R=r,
             residual=residual,
         )
-        if self._x.size > 6 and rows[0] == 2:  # heading only: alpha not observable, held
+        if self._model > 6 and rows[0] == 2:  # heading only: alpha not observable, held
             _hold_alpha(ekf, self._x, self._P, H, r)
         self.last_nis = float((ekf.y.T @ ekf.SI @ ekf.y).item())
         self._x[:], self._P[:] = ekf.x[:, 0], ekf.P
@@ -148,7 +155,7 @@ class FilterpyIcrEkf(IcrEkf):
         """
         if rows.size == 0:
             return rows
-        h, H = measurement(self._x, rows, self.mounting)  # noqa: N806
+        h, H = self._measurement(rows)  # noqa: N806
         y = z[rows] - h
         y[rows == 2] = wrap_angle(y[rows == 2])
         s = H @ self._P @ H.T + r_full[np.ix_(rows, rows)]
@@ -174,15 +181,26 @@ class FilterpyIcrEkf(IcrEkf):
             keep.extend(rows[part])
         return np.array(keep, dtype=int)
 
+    def _measurement(self, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Return the pose sensors' ``h`` and ``H``; a heading bias state adds to the heading."""
+        h, H = measurement(self._x, rows, self.mounting)  # noqa: N806
+        if self.heading_bias is not None:
+            yaw = rows == 2
+            h[yaw] = wrap_angle(h[yaw] + self._x[-1])
+            H[yaw, -1] = 1.0
+        return h, H
+
     def _constrain(self) -> None:
-        """Wrap yaw, clip the ICR state into its limits (numpy), symmetrise P."""
+        """Wrap yaw (and a heading bias), clip the ICR state into its limits (numpy), symmetrise P."""
         x, lim = self._x, self.limits
         x[2] = wrap_angle(x[2])
         x[3] = np.clip(x[3], lim.half_width_min, lim.half_width_max)
         x[4] = np.clip(x[4], -lim.half_width_max, -lim.half_width_min)
         x[5] = np.clip(x[5], -lim.x_icr_max, lim.x_icr_max)
-        if x.shape[0] > 6:
+        if self._model > 6:
             x[6] = np.clip(x[6], lim.alpha_min, lim.alpha_max)
+        if self.heading_bias is not None:
+            x[-1] = wrap_angle(x[-1])
         self._P[:] = 0.5 * (self._P + self._P.T)
         if not (np.all(np.isfinite(self._P)) and np.all(np.isfinite(x))):
             raise EstimationError("EKF state became non-finite; check the noise configuration")

@@ -41,7 +41,7 @@ import numpy as np
 
 from terrain_odom.config import Config, load_config
 from terrain_odom.errors import ConfigError, EstimationError
-from terrain_odom.estimation.icr_ekf import IcrEkf, IcrPriors
+from terrain_odom.estimation.icr_ekf import HeadingBias, IcrEkf, IcrPriors
 from terrain_odom.estimation.pose_measurement import (
     Mounting,
     PoseUse,
@@ -130,16 +130,24 @@ class OnlineOdometry:
         if estimator == "slip-ekf":
             from terrain_odom.estimation.slip_ekf import SlipEkf  # filterpy, SciPy: slip EKF only
 
-            if priors is not None:
+            if priors is not None or config.pose_sensor.heading_bias:
                 raise ConfigError(
                     "priors seed the ICR EKF (estimator icr-ekf); the slip EKF's parameters "
                     "l1 .. l6 are not ICRs"
+                    if priors is not None
+                    else "pose_sensor.heading_bias is a state of the ICR EKF only: use "
+                    "estimator icr-ekf, or set it false"
                 )
             ekf = SlipEkf(config.slip_ekf, config.robot.track_width, config.terrain)
             steps = _SlipSteps(ekf, mounting)
         else:
             icr_ekf = IcrEkf(
-                config.ekf, config.terrain, priors=priors, mounting=mounting, robot=config.robot
+                config.ekf,
+                config.terrain,
+                priors=priors,
+                mounting=mounting,
+                robot=config.robot,
+                heading_bias=HeadingBias.from_config(config.pose_sensor),
             )
             steps = _IcrSteps(icr_ekf)
         self.config = config
@@ -606,16 +614,15 @@ class _IcrSteps:
     def _anchor(self, z: np.ndarray, *, heading: bool) -> None:
         """Reset the heading (``heading``) or the position to the measured one."""
         ekf = self.filter
-        pose, sigma = ekf.pose, ekf.std[:3]
         if heading:
-            pose[_YAW] = wrap_angle(z[_YAW] - ekf.mounting.heading_offset)
-            sigma[_YAW] = self._r[_YAW]
+            ekf.anchor_heading(z[_YAW], self._r[_YAW])
             self._heading = True
             self._course = None  # a provisional frame of the course is no longer needed
-        else:
-            pose[:2] = robot_pose(z, ekf.mounting, yaw=pose[_YAW])[:2]
-            sigma[:2] = self._r[:2]
-            self._position = True
+            return
+        pose, sigma = ekf.pose, ekf.std[:3]
+        pose[:2] = robot_pose(z, ekf.mounting, yaw=pose[_YAW])[:2]
+        sigma[:2] = self._r[:2]
+        self._position = True
         ekf.reset_pose(pose, sigma)
 
     def _course_heading(self, z: np.ndarray) -> None:
