@@ -50,6 +50,7 @@ __all__ = [
     "holder",
     "replacing",
     "writing",
+    "writing_if",
 ]
 
 MANIFEST = ".terrain-odom.json"
@@ -491,3 +492,10 @@ def replacing(
     with writing(path, command) as folder:
         folder.prepare(names, overwrite=overwrite, all_previous=all_previous)
         yield folder.path
+
+
+def writing_if(
+    path: str | Path | None, command: str
+) -> contextlib.AbstractContextManager[OutputFolder | None]:
+    """:func:`writing` the folder ``path`` for ``command``, or nothing (None) if ``path`` is None."""
+    return contextlib.nullcontext() if path is None else writing(path, command)
