@@ -21,6 +21,7 @@ from collections.abc import Iterator, Sequence
 
 from terrain_odom import __version__
 from terrain_odom.cli import (
+    adopt,
     bag_import,
     calibrate,
     compare,
@@ -51,6 +52,7 @@ SUBCOMMANDS = (
     inspect,
     bag_import,
     patches,
+    adopt,
 )
 
 EXIT_USAGE = 2
