@@ -260,3 +260,12 @@ def test_image_sizes_are_read_from_regular_bounded_files_only(tmp_path: Path) ->
     os.truncate(huge, MAX_IMAGE_BYTES + 1)  # sparse: a valid header, too large a file
     assert median_short_side([fifo, small, huge, tmp_path]) == 30.0
     assert median_short_side([fifo]) is None
+
+
+def test_a_refused_command_leaves_no_folder_it_made(
+    sim: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """patches locks its --out first; refused (a label no folder can have), it removes it again."""
+    out = tmp_path / "new" / "train"
+    err = _refused(_patches(sim, out, "--label", "a/../b"), capsys, sim)
+    assert "a/../b" in err and not out.exists()

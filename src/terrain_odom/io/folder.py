@@ -481,6 +481,9 @@ def _already(folder: OutputFolder, previous: list[str]) -> str:
 def writing(path: str | Path, command: str) -> Iterator[OutputFolder]:
     """Create and lock the folder ``path`` for ``command``; record its files on leaving.
 
+    A command that writes nothing (refused) leaves the folder as it was: a
+    folder it created is removed again if still empty.
+
     Raises
     ------
     FolderInUseError
@@ -488,6 +491,7 @@ def writing(path: str | Path, command: str) -> Iterator[OutputFolder]:
     InputFileError, OutputFileError
         As :func:`create_folder`.
     """
+    created = not os.path.lexists(path)
     folder = create_folder(path)
     fd = os.open(folder, os.O_RDONLY | os.O_DIRECTORY)
     try:
@@ -520,8 +524,10 @@ def writing(path: str | Path, command: str) -> Iterator[OutputFolder]:
                 if opened._claimed:
                     opened.record()
                     opened._save()
-                else:  # refused, or only checked: the manifest as it was
+                else:  # refused, or only checked: the folder as it was
                     _restore(folder / MANIFEST, original)
+                    if created:
+                        folder.rmdir()  # made for this command: gone again (if still empty)
     finally:
         os.close(fd)  # releases the lock
 
