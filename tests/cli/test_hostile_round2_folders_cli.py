@@ -17,25 +17,7 @@ import pytest
 from terrain_odom.cli.main import main
 from terrain_odom.io.folder import MANIFEST, writing
 from terrain_odom.io.images import MAX_IMAGE_BYTES, median_short_side
-
-
-def _snapshot(folder: Path) -> dict[str, bytes]:
-    return {
-        str(p.relative_to(folder)): p.read_bytes()
-        for p in sorted(folder.rglob("*"))
-        if p.is_file() and p.name != MANIFEST
-    }
-
-
-def _refused(argv: list[str], capsys: pytest.CaptureFixture[str], *folders: Path) -> str:
-    """Run ``argv``: exit 2, one stderr line, every file of ``folders`` byte-identical."""
-    before = [_snapshot(f) for f in folders]
-    capsys.readouterr()
-    assert main(argv) == 2
-    err = capsys.readouterr().err
-    assert err.count("\n") == 1 and err.startswith("terrain-odom: error: "), err
-    assert [_snapshot(f) for f in folders] == before
-    return err
+from tests.cli.refusal import refused
 
 
 @pytest.fixture(scope="module")
@@ -63,12 +45,12 @@ def test_compare_replaces_its_own_files_never_fits_or_yours(
     manifest = json.loads((out / MANIFEST).read_text())["files"]
     assert {e["command"] for e in manifest.values()} == {"compare"} and len(manifest) == 5
     (out / "compare.md").write_text("my notes\n")  # edited since
-    err = _refused(_compare(short_log, config, out), capsys, out)
+    err = refused(_compare(short_log, config, out), capsys, out)
     assert "compare.md: edited since terrain-odom compare wrote it" in err
     fits = tmp_path / "fits"
     fit = ["fit", "--model", "icr", "--wheels", str(short_log), "--config", str(config)]
     assert main([*fit, "--maxiter", "5", "--out", str(fits)]) == 0
-    err = _refused(_compare(short_log, config, fits), capsys, fits)
+    err = refused(_compare(short_log, config, fits), capsys, fits)
     assert "params_icr.yaml: written by terrain-odom fit, and compare would replace it" in err
 
 
@@ -94,7 +76,7 @@ def test_report_accuracy_refuses_a_file_it_did_not_write_before_computing(
     out.mkdir()
     (out / "accuracy.csv").write_text("my table\n")
     argv = ["report", "accuracy", "--images", str(classes), "--folds", "2", "--out", str(out)]
-    err = _refused(argv, capsys, out, classes)
+    err = refused(argv, capsys, out, classes)
     assert "accuracy.csv: not written by terrain-odom report accuracy in this folder" in err
     assert f"terrain-odom adopt {out} --by report" in err
     assert not (out / MANIFEST).exists()  # refused: the folder as it was
@@ -109,7 +91,7 @@ def test_calibrate_refuses_an_edited_config_of_degrade(
     with (out / "config.yaml").open("a") as handle:
         handle.write("# antenna measured by hand\n")
     argv = ["calibrate", "--wheels", str(out / "log.csv"), "--config", config, "--out", str(out)]
-    err = _refused(argv, capsys, out)
+    err = refused(argv, capsys, out)
     assert "config.yaml: edited since terrain-odom degrade wrote it, and calibrate" in err
 
 
@@ -145,7 +127,7 @@ def test_patches_through_the_manifest_and_adopt_for_an_old_folder(
     }
     # a folder from before manifests: refused, with the way out; adopted, it appends
     (out / MANIFEST).unlink()
-    err = _refused(_patches(sim, out, "--append"), capsys, out)
+    err = refused(_patches(sim, out, "--append"), capsys, out)
     assert "patches.json: not written by terrain-odom patches in this folder" in err
     assert f"terrain-odom adopt {out} --by patches" in err
     capsys.readouterr()
@@ -167,7 +149,7 @@ def test_an_old_run_folder_is_adopted_explicitly_and_edits_after_stay_noticed(
     run = ["run", "--wheels", str(short_log), "--out", str(out), "--no-plots"]
     assert main(run) == 0
     (out / MANIFEST).unlink()  # as a folder written by terrain-odom before 0.1's manifest
-    err = _refused([*run, "--overwrite"], capsys, out)
+    err = refused([*run, "--overwrite"], capsys, out)
     hint = f"or if run wrote it before folders had a manifest: terrain-odom adopt {out} --by run"
     assert hint in err and err.count("terrain-odom adopt") == 1
     capsys.readouterr()
@@ -180,7 +162,7 @@ def test_an_old_run_folder_is_adopted_explicitly_and_edits_after_stay_noticed(
     assert capsys.readouterr().out.endswith("already recorded, left as they were: 5 files\n")
     with (out / "report.md").open("a") as handle:
         handle.write("my conclusion\n")
-    err = _refused([*run, "--overwrite"], capsys, out)
+    err = refused([*run, "--overwrite"], capsys, out)
     assert "report.md: edited since terrain-odom run wrote it" in err
     (out / "report.md").unlink()
     assert main([*run, "--overwrite"]) == 0
@@ -202,17 +184,17 @@ def test_adopt_refuses_what_is_not_a_file_of_the_folder(
     folder.mkdir()
     (folder / "a.csv").write_text("1\n")
     (folder / MANIFEST).write_text('{"format": 1, "files": {}}\n')
-    err = _refused(["adopt", str(folder), *argv], capsys, folder)
+    err = refused(["adopt", str(folder), *argv], capsys, folder)
     assert expected in err
 
 
 def test_adopt_needs_an_existing_folder_nobody_holds(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    err = _refused(["adopt", str(tmp_path / "none"), "--by", "run"], capsys, tmp_path)
+    err = refused(["adopt", str(tmp_path / "none"), "--by", "run"], capsys, tmp_path)
     assert "none: no such folder" in err and not (tmp_path / "none").exists()
     with writing(tmp_path, "run"):
-        err = _refused(["adopt", str(tmp_path), "--by", "fit"], capsys)
+        err = refused(["adopt", str(tmp_path), "--by", "fit"], capsys)
     assert f"in use by terrain-odom run (process {os.getpid()}" in err
 
 
@@ -265,7 +247,7 @@ def test_image_sizes_are_read_from_regular_bounded_files_only(tmp_path: Path) ->
 def test_a_refused_command_leaves_no_folder_it_made(
     sim: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    """patches locks its --out first; refused (a label no folder can have), it removes it again."""
+    """``patches`` locks its --out first; refused (a label no folder can have), removes it."""
     out = tmp_path / "new" / "train"
-    err = _refused(_patches(sim, out, "--label", "a/../b"), capsys, sim)
+    err = refused(_patches(sim, out, "--label", "a/../b"), capsys, sim)
     assert "a/../b" in err and not out.exists()
