@@ -7,6 +7,7 @@ skipped, with the reason, where it is absent.
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -64,3 +65,19 @@ def scheduler() -> Iterator[str]:
         n_workers=2, threads_per_worker=1, processes=False, dashboard_address=":0"
     ) as local:
         yield local.scheduler_address
+
+
+@pytest.fixture(scope="session", autouse=True)
+def _no_worker_processes_left() -> Iterator[None]:
+    """Stop joblib's worker processes when the tests end, and wait for them.
+
+    Left alone, they exit on their own after 300 s idle, and whoever waits for
+    any child of this process then gets them: mutmut, which runs the tests in
+    its own process and then waits for its forked mutant runs, stopped on an
+    unknown pid (docs/testing.md).
+    """
+    yield
+    if "joblib.externals.loky.reusable_executor" in sys.modules:
+        executor = sys.modules["joblib.externals.loky.reusable_executor"]._executor
+        if executor is not None:
+            executor.shutdown(wait=True)
