@@ -54,6 +54,28 @@ def indoor_dir() -> Path:
     return _shared("indoor_surface")
 
 
+@pytest.fixture(scope="session")
+def sample_camera_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, str]:
+    """Run the camera quick start once (``run --images sample_images/chen2023 ...``).
+
+    Return its output folder and what it printed. Tests only read them.
+    """
+    import contextlib
+    import io
+
+    from terrain_odom.cli.main import main
+
+    sample = REPO / "sample_images" / "chen2023"
+    out = tmp_path_factory.mktemp("sample_run") / "out"
+    printed = io.StringIO()
+    with contextlib.redirect_stdout(printed):
+        code = main(
+            ["run", "--images", str(sample), "--wheels", str(sample / "log.csv"), "--out", str(out)]
+        )
+    assert code == 0, printed.getvalue()
+    return out, printed.getvalue()
+
+
 @pytest.fixture(scope="module")
 def scheduler() -> Iterator[str]:
     """Return the address of a Dask scheduler with 2 single-thread workers (threads of this process).
