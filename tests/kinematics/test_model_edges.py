@@ -7,6 +7,7 @@ the ICR model's default slip factor (1 = none) in the Jacobian.
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from terrain_odom.kinematics.models import twist_icr, twist_icr_jacobian, twist_roc
 
@@ -38,3 +39,12 @@ def test_icr_jacobian_default_alpha_is_no_slip():
     jac = twist_icr_jacobian(*args)
     np.testing.assert_allclose(jac[..., 0, 3], v_x, rtol=1e-12)
     np.testing.assert_allclose(jac[..., 2, 3], omega, rtol=1e-12)
+
+
+def test_icr_spacing_error_names_the_first_three_of_each_coordinate():
+    y_l = np.array([0.1, 0.2, 0.3, 0.4, -1.0])  # the last pair is the wrong way round
+    y_r = np.array([-0.1, -0.2, -0.3, -0.4, 0.0])
+    with pytest.raises(ValueError, match="y_l > y_r") as error:
+        twist_icr(1.0, 1.0, y_l, y_r, 0.0)
+    message = str(error.value)
+    assert "y_l=[0.1 0.2 0.3], y_r=[-0.1 -0.2 -0.3]" in message and "0.4" not in message
