@@ -48,3 +48,12 @@ def test_a_change_needs_exactly_confirm_observations_after_an_interruption(confi
 def test_confirm_below_one_is_refused():
     with pytest.raises(ValueError, match="confirm must be >= 1, got 0"):
         TerrainTracker(confirm=0)
+
+
+def test_by_default_a_change_is_confirmed_on_its_second_observation():
+    tracker = TerrainTracker()
+    assert tracker.changed_at is None  # no change yet, not even after the first label
+    tracker.observe("grass", at=0.0)
+    assert tracker.changed_at is None and tracker.current == "grass"
+    assert [tracker.observe("sand", at=t) for t in (1.0, 2.0)] == [None, "sand"]
+    assert tracker.changed_at == 1.0
