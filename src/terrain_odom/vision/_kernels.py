@@ -26,7 +26,14 @@ import math
 import numba
 import numpy as np
 
-__all__ = ["grey_levels", "byte_histogram", "box_counts", "lbp_uniform"]
+__all__ = [
+    "grey_levels",
+    "byte_histogram",
+    "box_counts",
+    "lbp_uniform",
+    "lbp_tile_counts",
+    "otsu_dp",
+]
 
 
 @numba.njit(cache=True, nogil=True)
@@ -177,7 +184,7 @@ _TOLERANCE32 = np.float32(LBP_TOLERANCE)
 
 
 @numba.njit(cache=True, nogil=True)
-def _ring(points: int, radius: float, height: int, width: int):  # type: ignore[no-untyped-def]
+def _ring(points: int, radius: float, height: int, width: int):
     """Geometry of an LBP ring as skimage computes it, for a ``height x width`` image.
 
     Returns the whole-pixel steps of the lower interpolation corner (rows,
@@ -209,9 +216,7 @@ def _ring(points: int, radius: float, height: int, width: int):  # type: ignore[
 
 
 @numba.njit(cache=True, nogil=True)
-def _ring_patterns(  # type: ignore[no-untyped-def]
-    padded, pad, r, c0, c1, ring, pattern, unsure
-) -> None:
+def _ring_patterns(padded, pad, r, c0, c1, ring, pattern, unsure) -> None:
     """LBP bit patterns of pixels ``c0 .. c1 - 1`` of row ``r`` (skimage's bits exactly).
 
     ``padded`` is the grey image with ``pad`` zero pixels around it (skimage's
@@ -348,3 +353,88 @@ def lbp_tile_counts(
             for c in range(x1 - x0):
                 counts[i, table[pattern[c]]] += 1
     return counts
+
+
+@numba.njit(cache=True, nogil=True)
+def _best_after(value: np.ndarray, best: np.ndarray, out: np.ndarray) -> None:
+    """``out[a] = max over b > a of value[b - 1, a] + best[b]`` (b < m; -inf if there is none)."""
+    m = best.size
+    out[:] = -np.inf
+    for b in range(1, m):
+        after = best[b]
+        row = value[b - 1]
+        for a in range(b):  # vectorised: a max per lane
+            out[a] = max(out[a], row[a] + after)
+
+
+@numba.njit(cache=True, nogil=True)
+def _top_two(candidates: np.ndarray) -> tuple[int, float, float]:
+    """Index of the first largest value, the largest and the second largest (may equal it)."""
+    first = 0
+    for i in range(1, candidates.size):
+        if candidates[i] > candidates[first]:
+            first = i
+    runner_up = -np.inf
+    for i in range(candidates.size):
+        if i != first and candidates[i] > runner_up:
+            runner_up = candidates[i]
+    return first, candidates[first], runner_up
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")  # no zero-division branch: vectorised
+def otsu_dp(counts: np.ndarray, sums: np.ndarray, n_t: int, bound: float):
+    """Optimal Otsu cuts over ``m`` non-empty grey levels, in the precision of the inputs.
+
+    The dynamic programme of :func:`terrain_odom.vision.sfta._otsu_dp`, in
+    the arithmetic of ``counts``' dtype (float32 or float64) and the same
+    operations: ``value[b - 1, a] = (S_b - S_a)**2 / (P_b - P_a)`` (one
+    rounding each for the difference, the square and the quotient),
+    ``best[j][a]`` the best sum of ``j + 1`` classes from level ``a``, the
+    cuts chosen left to right as the first best.
+
+    Parameters
+    ----------
+    counts, sums : ndarray, shape (m + 1,)
+        Cumulative pixel count ``P`` and grey sum ``S`` from 0, both float32
+        or both float64 (integers, exact in that type when the caller relies
+        on ``certain``).
+    n_t : int
+        Number of cuts, < m.
+    bound : float
+        ``(n_t + 3) * eps`` of the dtype, cast to it.
+
+    Returns
+    -------
+    cuts : ndarray of intp, shape (n_t,)
+    certain : bool
+        Whether every choice beat its runner-up by more than ``bound`` times
+        the optimum (then exact arithmetic chooses the same).
+    """
+    m = counts.size - 1
+    value = np.empty((m, m), dtype=counts.dtype)  # row b - 1: classes a .. b - 1, a < b
+    for b in range(1, m + 1):
+        row = value[b - 1]
+        count, total = counts[b], sums[b]
+        for a in range(b):  # vectorised
+            difference = total - sums[a]
+            row[a] = difference * difference / (count - counts[a])
+    best = np.empty((n_t, m), dtype=counts.dtype)
+    best[0] = value[m - 1]  # one class: levels a .. m - 1
+    for j in range(1, n_t):
+        _best_after(value, best[j - 1], best[j])
+    cuts = np.empty(n_t, dtype=np.intp)
+    candidates = np.empty(m - 1, dtype=counts.dtype)
+    margin = np.inf
+    optimum = candidates[0]
+    for k in range(n_t):
+        start = 0 if k == 0 else cuts[k - 1]
+        after = best[n_t - 1 - k]
+        candidates[:start] = -np.inf  # no class from level start ends before it
+        for b in range(start + 1, m):
+            candidates[b - 1] = value[b - 1, start] + after[b]
+        first, top, runner_up = _top_two(candidates)
+        cuts[k] = first + 1
+        if k == 0:
+            optimum = top
+        margin = min(margin, top - runner_up)
+    return cuts, m == 2 or margin > bound * optimum

@@ -436,8 +436,8 @@ class TerrainClassifier:
             weight = np.where(exact.any(axis=1, keepdims=True), exact.astype(float), weight)
         n_rows, n_classes = distance.shape[0], len(knn.classes_)
         cells = self._encoded[index] + n_classes * np.arange(n_rows)[:, None]
-        shares = np.bincount(cells.ravel(), weight.ravel(), n_rows * n_classes)  # in order
-        shares = shares.reshape(n_rows, n_classes)
+        summed = np.bincount(cells.ravel(), weight.ravel(), n_rows * n_classes)  # in order
+        shares = np.asarray(summed, dtype=np.float64).reshape(n_rows, n_classes)  # (no copy)
         shares /= shares.sum(axis=1, keepdims=True)
         if self.novelty_distance is not None:
             shares[distance[:, 0] > self.novelty_distance] = 0.0
