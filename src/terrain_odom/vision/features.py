@@ -29,6 +29,7 @@ that recipe or adds to it:
 from __future__ import annotations
 
 import dataclasses
+import itertools
 from typing import Literal
 
 import cv2
@@ -334,9 +335,13 @@ def _tile_edges(height: int, width: int, tiles: int, columns: int) -> tuple[NDAr
     """Row and column edges of a ``tiles x columns`` grid: ``round(i * H / tiles)``, ..."""
     if tiles > height or columns > width:
         raise ValueError(f"cannot cut a {height}x{width} image into {tiles}x{columns} tiles")
-    rows = np.rint(np.linspace(0, height, tiles + 1)).astype(int)
-    cols = np.rint(np.linspace(0, width, columns + 1)).astype(int)
-    return rows, cols
+    return _edges(height, tiles), _edges(width, columns)
+
+
+def _edges(size: int, parts: int) -> NDArray:
+    """``rint(linspace(0, size, parts + 1))`` as integers: ``round(i * (size / parts))``, halves to even."""
+    step = size / parts
+    return np.array([round(i * step) for i in range(parts)] + [size])
 
 
 def tile_boxes(height: int, width: int, cfg: ClassifierConfig) -> NDArray:
@@ -351,9 +356,13 @@ def tile_boxes(height: int, width: int, cfg: ClassifierConfig) -> NDArray:
     [[0, 0, 30, 40], [30, 0, 60, 40], [60, 0, 90, 40]]
     """
     rows, cols = _tile_edges(height, width, *tile_grid(height, width, cfg))
-    y0, x0 = np.meshgrid(rows[:-1], cols[:-1], indexing="ij")
-    y1, x1 = np.meshgrid(rows[1:], cols[1:], indexing="ij")
-    return np.column_stack([x0.ravel(), y0.ravel(), x1.ravel(), y1.ravel()])
+    return np.array(
+        [
+            (x0, y0, x1, y1)
+            for y0, y1 in itertools.pairwise(rows.tolist())
+            for x0, x1 in itertools.pairwise(cols.tolist())
+        ]
+    )
 
 
 def split_tiles(image: NDArray, tiles: int, columns: int | None = None) -> list[NDArray]:
@@ -402,10 +411,8 @@ def tiles_within(height: int, width: int, cfg: ClassifierConfig, polygon: ArrayL
     """
     grid = tile_grid(height, width, cfg)
     rows, cols = _tile_edges(height, width, *grid)
-    v, u = np.meshgrid(
-        (rows[:-1] + rows[1:] - 1) / 2.0, (cols[:-1] + cols[1:] - 1) / 2.0, indexing="ij"
-    )
-    centres = np.column_stack((u.ravel(), v.ravel()))
+    v, u = (rows[:-1] + rows[1:] - 1) / 2.0, (cols[:-1] + cols[1:] - 1) / 2.0
+    centres = np.column_stack((np.tile(u, v.size), np.repeat(v, u.size)))  # row by row
     vertices = np.asarray(polygon, dtype=float).reshape(-1, 2)
     inside = points_in_poly(centres, vertices)
     if inside.any():
