@@ -237,10 +237,12 @@ def _ring_patterns(padded, pad, r, c0, c1, ring, pattern, unsure) -> None:
         top = padded[pad + r + row_step[p], pad + c0 + col_step[p] :]
         bottom = padded[pad + r + row_step[p] + 1, pad + c0 + col_step[p] :]
         if on_grid[p]:  # (1 - 0) * x + 0 * y is x: skimage's interpolation gives the pixel
+            bit = np.uint16(1 << p)
             for c in range(n):
-                pattern[c] |= np.int32(top[c] >= centre[c]) << p
+                pattern[c] |= bit if top[c] >= centre[c] else np.uint16(0)
             continue
         w00, w01, w10, w11 = weights[p, 0], weights[p, 1], weights[p, 2], weights[p, 3]
+        bit = np.uint16(1 << p)
         for c in range(n):
             value = (
                 w00 * np.float32(top[c])
@@ -249,8 +251,8 @@ def _ring_patterns(padded, pad, r, c0, c1, ring, pattern, unsure) -> None:
                 + w11 * np.float32(bottom[c + 1])
             )
             difference = value - np.float32(centre[c])
-            pattern[c] |= np.int32(difference >= 0) << p
-            unsure[c] |= np.int32(abs(difference) < _TOLERANCE32) << p
+            pattern[c] |= bit if difference >= 0 else np.uint16(0)
+            unsure[c] |= bit if abs(difference) < _TOLERANCE32 else np.uint16(0)
     for c in range(n):
         if unsure[c] == 0:
             continue
@@ -263,8 +265,10 @@ def _ring_patterns(padded, pad, r, c0, c1, ring, pattern, unsure) -> None:
             upper = (1 - fc) * np.float64(top[c]) + fc * np.float64(top[c + 1])
             lower = (1 - fc) * np.float64(bottom[c]) + fc * np.float64(bottom[c + 1])
             value = (1 - fr) * upper + fr * lower
-            bit = np.int32(value - np.float64(centre[c]) >= 0) << p
-            pattern[c] = (pattern[c] & ~(np.int32(1) << p)) | bit
+            mask = np.uint16(1 << p)
+            pattern[c] = (
+                (pattern[c] | mask) if value - np.float64(centre[c]) >= 0 else (pattern[c] & ~mask)
+            )
 
 
 def lbp_pad(radius: float) -> int:
@@ -278,8 +282,8 @@ def lbp_uniform_padded(padded: np.ndarray, pad: int, points: int, radius: float)
     height, width = padded.shape[0] - 2 * pad, padded.shape[1] - 2 * pad
     ring = _ring(points, radius, height, width)
     table = uniform_table(points)
-    pattern = np.empty(width, dtype=np.int32)
-    unsure = np.empty(width, dtype=np.int32)
+    pattern = np.empty(width, dtype=np.uint16)  # P <= 16 bits
+    unsure = np.empty(width, dtype=np.uint16)
     out = np.empty((height, width), dtype=np.uint8)
     for r in range(height):
         _ring_patterns(padded, pad, r, 0, width, ring, pattern, unsure)
@@ -343,8 +347,8 @@ def lbp_tile_counts(
     height, width = padded.shape[0] - 2 * pad, padded.shape[1] - 2 * pad
     ring = _ring(points, radius, height, width)
     table = uniform_table(points)
-    pattern = np.empty(width, dtype=np.int32)
-    unsure = np.empty(width, dtype=np.int32)
+    pattern = np.empty(width, dtype=np.uint16)  # P <= 16 bits
+    unsure = np.empty(width, dtype=np.uint16)
     counts = np.zeros((boxes.shape[0], points + 2), dtype=np.int64)
     for i in range(boxes.shape[0]):
         x0, y0, x1, y1 = boxes[i, 0], boxes[i, 1], boxes[i, 2], boxes[i, 3]
