@@ -168,10 +168,16 @@ class _NeighbourIndex:
         np.maximum(squared, 0.0, out=squared)
         k = self.k
         kth = np.partition(squared, k - 1, axis=1)[:, k - 1 : k]
-        index = np.empty((n, k), dtype=np.intp)
-        for row, (values, within) in enumerate(zip(squared, squared <= kth, strict=True)):
-            candidates = np.flatnonzero(within)  # the k nearest and any tied with the k-th
-            index[row] = candidates[np.argsort(values[candidates], kind="stable")[:k]]
+        within = squared <= kth  # the k nearest and any tied with the k-th
+        if np.count_nonzero(within) == n * k:  # no ties at the k-th: k a row, by index
+            candidates = np.nonzero(within)[1].reshape(n, k)
+            order = np.argsort(np.take_along_axis(squared, candidates, 1), axis=1, kind="stable")
+            index: NDArray[np.intp] = np.take_along_axis(candidates, order, axis=1)
+        else:
+            index = np.empty((n, k), dtype=np.intp)
+            for row, (values, near) in enumerate(zip(squared, within, strict=True)):
+                tied = np.flatnonzero(near)
+                index[row] = tied[np.argsort(values[tied], kind="stable")[:k]]
         return np.sqrt(np.take_along_axis(squared, index, axis=1)), index
 
 
@@ -273,6 +279,7 @@ class TerrainClassifier:
         self.min_confidence = 0.0
         self._index: _NeighbourIndex | None = None  # built at the first small query
         self._encoded_labels: NDArray[np.intp] | None = None
+        self._n_classes = 0  # set with _encoded_labels
 
     def calibrate_novelty(
         self, quantile: float = NOVELTY_QUANTILE, *, max_queries: int = 4000, seed: int = 0
@@ -332,9 +339,8 @@ class TerrainClassifier:
         Up to :data:`SMALL_QUERY` rows by :class:`_NeighbourIndex`, more by
         scikit-learn's ``kneighbors``: the same values either way.
         """
-        knn = self.pipeline["knn"]
         if queries.shape[0] > SMALL_QUERY:
-            return knn.kneighbors(queries)
+            return self.pipeline["knn"].kneighbors(queries)
         if self._index is None:
             self._index = _NeighbourIndex(self._transformed(self.training_features), self.cfg.k)
         return self._index.kneighbors(np.ascontiguousarray(queries))
@@ -403,6 +409,7 @@ class TerrainClassifier:
         if self._encoded_labels is None:
             classes = self.pipeline["knn"].classes_
             self._encoded_labels = np.searchsorted(classes, self.training_labels)
+            self._n_classes = len(classes)
         return self._encoded_labels
 
     def predict_proba(self, features: NDArray) -> NDArray:
@@ -425,7 +432,6 @@ class TerrainClassifier:
 
     def _votes(self, features: NDArray) -> NDArray:
         """:meth:`predict_proba` from one neighbour search (the shares and the nearest distance)."""
-        knn = self.pipeline["knn"]
         distance, index = self._neighbours(self._transformed(features))
         if self.cfg.weights == "uniform":
             weight = np.ones_like(distance)
@@ -434,8 +440,9 @@ class TerrainClassifier:
                 weight = 1.0 / distance
             exact = ~np.isfinite(weight)
             weight = np.where(exact.any(axis=1, keepdims=True), exact.astype(float), weight)
-        n_rows, n_classes = distance.shape[0], len(knn.classes_)
-        cells = self._encoded[index] + n_classes * np.arange(n_rows)[:, None]
+        encoded = self._encoded
+        n_rows, n_classes = distance.shape[0], self._n_classes
+        cells = encoded[index] + n_classes * np.arange(n_rows)[:, None]
         summed = np.bincount(cells.ravel(), weight.ravel(), n_rows * n_classes)  # in order
         shares = np.asarray(summed, dtype=np.float64).reshape(n_rows, n_classes)  # (no copy)
         shares /= shares.sum(axis=1, keepdims=True)
