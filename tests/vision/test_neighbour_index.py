@@ -9,6 +9,7 @@ import pytest
 from threadpoolctl import threadpool_limits
 
 from terrain_odom.config.classifier import ClassifierConfig
+from terrain_odom.errors import ConfigError
 from terrain_odom.io.images import read_image_rgb
 from terrain_odom.vision.classifier import SMALL_QUERY, TerrainClassifier, _NeighbourIndex
 from terrain_odom.vision.features import image_features
@@ -87,6 +88,10 @@ def test_ties_go_to_the_lower_training_index_and_bad_queries_are_refused():
     np.testing.assert_array_equal(distance, [[0.0, 1.0], [0.0, 0.0]])
     with pytest.raises(ValueError, match="NaN or infinity"):
         index.kneighbors(np.array([[np.nan, 0.0]]))
+    with pytest.raises(ValueError, match="the model has 2 columns"):
+        index.kneighbors(np.zeros((1, 3)))
+    with pytest.raises(ConfigError, match="k: 6 neighbours but 5 training samples"):
+        _NeighbourIndex(samples, k=6)
     model = TerrainClassifier(ClassifierConfig(k=1)).fit(samples, np.array(list("abcab")))
     with pytest.raises(ValueError, match="one row of features per tile"):
         model.vote(np.empty((0, 2)))

@@ -129,6 +129,8 @@ class _NeighbourIndex:
 
         self._ddot = ddot
         self.samples = np.ascontiguousarray(samples, dtype=np.float64)
+        if not 1 <= k <= self.samples.shape[0]:
+            raise ConfigError(f"k: {k} neighbours but {self.samples.shape[0]} training samples")
         self.norms = self._row_norms(self.samples)
         self.k = k
 
@@ -151,8 +153,13 @@ class _NeighbourIndex:
         Raises
         ------
         ValueError
-            A query holds NaN or infinity (as scikit-learn's check raises).
+            A query holds NaN or infinity (as scikit-learn's check raises),
+            or has another number of columns than the training rows.
         """
+        if queries.ndim != 2 or queries.shape[1] != self.samples.shape[1]:
+            raise ValueError(
+                f"features of shape {queries.shape}, the model has {self.samples.shape[1]} columns"
+            )
         if not np.isfinite(queries).all():
             raise ValueError("Input X contains NaN or infinity: the features are not finite")
         n = queries.shape[0]
