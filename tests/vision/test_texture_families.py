@@ -17,7 +17,6 @@ from terrain_odom.vision.features import (
     LBP_POINTS,
     glcm_statistics,
     image_features,
-    lbp_codes,
     lbp_histograms,
     region_features,
     resolve_scale,
@@ -53,19 +52,19 @@ def test_uniform_table_counts_ones_of_patterns_changing_at_most_twice():
     assert table[0b01010000] == 9  # four changes: not uniform, P + 1
 
 
-def test_lbp_histograms_are_shares_of_each_code():
-    grey = IMAGES["grass"]
-    codes = lbp_codes(grey)
-    hist = lbp_histograms(codes)
-    assert hist.size == sum(p + 2 for p, _ in LBP_POINTS)
+def test_lbp_histograms_are_shares_of_each_code_of_the_whole_image_in_each_tile():
+    grey = IMAGES["grass"]  # 72 x 96
+    boxes = np.array([(0, 0, 96, 72), (0, 0, 40, 30), (40, 30, 96, 72), (95, 71, 96, 72)])
+    hist = lbp_histograms(grey, boxes)
+    assert hist.shape == (len(boxes), sum(p + 2 for p, _ in LBP_POINTS))
+    np.testing.assert_array_equal(lbp_histograms(grey), hist[:1])  # default: the whole image
     start = 0
     for points, radius in LBP_POINTS:
-        part = hist[start : start + points + 2]
-        expected = np.bincount(
-            local_binary_pattern(grey, points, radius, "uniform").astype(int).ravel(),
-            minlength=points + 2,
-        )
-        np.testing.assert_allclose(part, expected / grey.size)
+        codes = local_binary_pattern(grey, points, radius, "uniform").astype(int)
+        for row, (x0, y0, x1, y1) in zip(hist, boxes, strict=True):
+            tile = codes[y0:y1, x0:x1]  # the whole image's codes: edges see the next tile
+            expected = np.bincount(tile.ravel(), minlength=points + 2) / tile.size
+            np.testing.assert_array_equal(row[start : start + points + 2], expected)
         start += points + 2
 
 

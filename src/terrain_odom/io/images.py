@@ -186,10 +186,8 @@ def decode_image_rgb(data: bytes) -> NDArray[np.uint8] | None:
     import cv2  # ~0.1 s: loaded when an image is read, not by a wheel-only run
 
     buffer = np.frombuffer(data, dtype=np.uint8)
-    bgr = cv2.imdecode(buffer, cv2.IMREAD_COLOR) if buffer.size else None
-    if bgr is None:
-        return None
-    return np.asarray(cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB), dtype=np.uint8)
+    rgb = cv2.imdecode(buffer, cv2.IMREAD_COLOR_RGB) if buffer.size else None  # no BGR pass
+    return None if rgb is None else np.asarray(rgb, dtype=np.uint8)
 
 
 def read_image_rgb(path: str | Path) -> NDArray[np.uint8] | None:

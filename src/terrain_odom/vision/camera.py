@@ -43,7 +43,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from terrain_odom.config import CameraConfig, RoiConfig
-from terrain_odom.kinematics import integrate, twist_icr
+from terrain_odom.kinematics import arc_increment, twist_icr, wrap_angle
 
 __all__ = [
     "CameraConfig",
@@ -162,6 +162,17 @@ class GroundCamera:
         self._h = _ground_homography(config)
         self._h_inv = np.linalg.inv(self._h)
         self._h.flags.writeable = False
+        h0, h1, h2 = self._h
+        self._constraints = np.stack(
+            [
+                h2,
+                h0 + 0.5 * h2,
+                (self.width - 0.5) * h2 - h0,
+                h1 + 0.5 * h2,
+                (self.height - 0.5) * h2 - h1,
+            ]
+        )
+        self._constraints.flags.writeable = False
 
     @property
     def width(self) -> int:
@@ -226,17 +237,9 @@ class GroundCamera:
             ``v <= height - 0.5`` multiplied by the depth, so linear in
             ``(x, y, 1)``. A ground point with positive depth projects inside
             the image (pixel edges included) if and only if every row is >= 0.
+            Read-only (computed once).
         """
-        h0, h1, h2 = self._h
-        return np.stack(
-            [
-                h2,
-                h0 + 0.5 * h2,
-                (self.width - 0.5) * h2 - h0,
-                h1 + 0.5 * h2,
-                (self.height - 0.5) * h2 - h1,
-            ]
-        )
+        return self._constraints
 
 
 def footprint_extent(length: ArrayLike, width: ArrayLike, yaw: ArrayLike) -> np.ndarray:
@@ -294,8 +297,10 @@ def predict_pose(v_l: float, v_r: float, icr_params: ArrayLike, horizon: float) 
     """Pose after ``horizon`` seconds at constant track speeds (ICR model).
 
     The body twist of the ICR model is constant for constant track speeds,
-    so one exact arc step (:func:`terrain_odom.kinematics.integrate`) gives
-    the pose without discretisation error.
+    so one exact arc step from the origin
+    (:func:`terrain_odom.kinematics.arc_increment`, what
+    :func:`~terrain_odom.kinematics.integrate` adds for one step) gives the
+    pose without discretisation error.
 
     Parameters
     ----------
@@ -321,7 +326,8 @@ def predict_pose(v_l: float, v_r: float, icr_params: ArrayLike, horizon: float) 
     if params.shape not in ((3,), (4,)):
         raise ValueError(f"icr_params must be (y_l, y_r, x_icr[, alpha]), got shape {params.shape}")
     v_x, v_y, omega = twist_icr(v_l, v_r, *params)
-    return integrate(v_x[None], v_y[None], omega[None], [horizon])[-1]
+    x, y, yaw = arc_increment(v_x, v_y, omega, horizon)  # one step from the origin
+    return np.array([x, y, wrap_angle(yaw)])
 
 
 class RoiStatus(enum.Enum):
@@ -376,14 +382,18 @@ class RoiResult:
 
 def _clip_half_plane(polygon: np.ndarray, coeffs: np.ndarray) -> np.ndarray:
     """Part of a convex polygon (K, 2) where ``coeffs @ (x, y, 1) >= 0`` (Sutherland-Hodgman)."""
-    side = polygon @ coeffs[:2] + coeffs[2]
+    side = (polygon @ coeffs[:2] + coeffs[2]).tolist()
+    if min(side, default=0.0) >= 0.0:  # wholly inside: the polygon itself
+        return polygon
+    points = polygon.tolist()  # Python floats: the same arithmetic per coordinate, less overhead
     out = []
-    for i in range(len(polygon)):
-        j = (i + 1) % len(polygon)
-        if side[i] >= 0.0:
-            out.append(polygon[i])
-        if (side[i] >= 0.0) != (side[j] >= 0.0):
-            out.append(polygon[i] + (polygon[j] - polygon[i]) * (side[i] / (side[i] - side[j])))
+    for i, ((x, y), s_i) in enumerate(zip(points, side, strict=True)):
+        j = (i + 1) % len(points)
+        if s_i >= 0.0:
+            out.append((x, y))
+        if (s_i >= 0.0) != (side[j] >= 0.0):
+            t = s_i / (s_i - side[j])
+            out.append((x + (points[j][0] - x) * t, y + (points[j][1] - y) * t))
     return np.array(out, dtype=float).reshape(-1, 2)
 
 

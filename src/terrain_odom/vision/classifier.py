@@ -60,6 +60,7 @@ __all__ = [
     "NOVELTY_QUANTILE",
     "NOVELTY_MARGIN",
     "MAJORITY",
+    "SMALL_QUERY",
     "make_pipeline",
     "check_regions",
     "TerrainClassifier",
@@ -86,6 +87,105 @@ simulated 640x480 run (``bench/run.py``), of the trained classes, lie at up
 to 1.3 times the 99 % quantile of the training patches' (median 0.93 times);
 twice it keeps them all.
 """
+
+
+SMALL_QUERY = 32
+"""Most query rows searched by the classifier's own neighbour search (a frame's tiles).
+
+Larger batches (cross-validation) go to scikit-learn's ``kneighbors``; both
+give the same neighbours and distances to the last bit
+(:class:`_NeighbourIndex`).
+"""
+
+_CHUNK = 256  # training rows per matrix product: scikit-learn's pairwise_dist_chunk_size
+
+
+class _NeighbourIndex:
+    """Brute-force k nearest training rows of a few queries, as scikit-learn finds them.
+
+    ``KNeighborsClassifier.kneighbors`` on dense data (brute force,
+    Euclidean) validates its input, then computes squared distances as
+    ``|x|**2 + (-2 x . y) + |y|**2``: the norms by BLAS ``ddot``, the middle
+    term by a matrix product over blocks of :data:`_CHUNK` training rows,
+    then keeps the ``k`` smallest and takes their square roots. Its checks
+    cost ~0.5 ms a call, more than the search of a frame's few tiles; this
+    is the same arithmetic in the same order without them (numpy's matrix
+    product, a single query padded to two rows as scikit-learn's product
+    takes it), so that distances and indices are bit for bit scikit-learn's
+    (tested on real tiles for 1 to :data:`SMALL_QUERY` queries). Ties in
+    distance go to the lower training index, as scikit-learn's heap keeps
+    the first of equal candidates.
+
+    Parameters
+    ----------
+    samples : ndarray of float64, shape (n_samples, n_features)
+        Training rows as the search sees them (standardised when the model scales).
+    k : int
+        Neighbours per query, <= n_samples.
+    """
+
+    def __init__(self, samples: NDArray[np.float64], k: int) -> None:
+        from scipy.linalg.blas import ddot  # the BLAS scikit-learn's norms call
+
+        self._ddot = ddot
+        self.samples = np.ascontiguousarray(samples, dtype=np.float64)
+        if not 1 <= k <= self.samples.shape[0]:
+            raise ConfigError(f"k: {k} neighbours but {self.samples.shape[0]} training samples")
+        self.norms = self._row_norms(self.samples)
+        self.k = k
+
+    def _row_norms(self, rows: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Squared norm of each row by BLAS ``ddot``, as scikit-learn's ``_sqeuclidean_row_norms``."""
+        return np.array([self._ddot(row, row) for row in rows], dtype=np.float64)
+
+    def kneighbors(self, queries: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
+        """Distances (ascending) and indices of the ``k`` nearest training rows of each query.
+
+        Parameters
+        ----------
+        queries : ndarray of float64, shape (n_queries, n_features), C-contiguous
+
+        Returns
+        -------
+        distance : ndarray of float64, shape (n_queries, k)
+        index : ndarray of intp, shape (n_queries, k)
+
+        Raises
+        ------
+        ValueError
+            A query holds NaN or infinity (as scikit-learn's check raises),
+            or has another number of columns than the training rows.
+        """
+        if queries.ndim != 2 or queries.shape[1] != self.samples.shape[1]:
+            raise ValueError(
+                f"features of shape {queries.shape}, the model has {self.samples.shape[1]} columns"
+            )
+        if not np.isfinite(queries).all():
+            raise ValueError("Input X contains NaN or infinity: the features are not finite")
+        n = queries.shape[0]
+        padded = queries if n > 1 else np.vstack((queries, np.zeros_like(queries)))
+        middle = np.concatenate(
+            [
+                -2.0 * (padded @ self.samples[start : start + _CHUNK].T)
+                for start in range(0, self.samples.shape[0], _CHUNK)
+            ],
+            axis=1,
+        )[:n]
+        squared = self._row_norms(queries)[:, None] + middle + self.norms
+        np.maximum(squared, 0.0, out=squared)
+        k = self.k
+        kth = np.partition(squared, k - 1, axis=1)[:, k - 1 : k]
+        within = squared <= kth  # the k nearest and any tied with the k-th
+        if np.count_nonzero(within) == n * k:  # no ties at the k-th: k a row, by index
+            candidates = np.nonzero(within)[1].reshape(n, k)
+            order = np.argsort(np.take_along_axis(squared, candidates, 1), axis=1, kind="stable")
+            index: NDArray[np.intp] = np.take_along_axis(candidates, order, axis=1)
+        else:
+            index = np.empty((n, k), dtype=np.intp)
+            for row, (values, near) in enumerate(zip(squared, within, strict=True)):
+                tied = np.flatnonzero(near)
+                index[row] = tied[np.argsort(values[tied], kind="stable")[:k]]
+        return np.sqrt(np.take_along_axis(squared, index, axis=1)), index
 
 
 def make_pipeline(cfg: ClassifierConfig) -> Pipeline:
@@ -184,6 +284,9 @@ class TerrainClassifier:
         self.training_region = np.empty(0, dtype=np.intp)
         self.novelty_distance: float | None = None
         self.min_confidence = 0.0
+        self._index: _NeighbourIndex | None = None  # built at the first small query
+        self._encoded_labels: NDArray[np.intp] | None = None
+        self._n_classes = 0  # set with _encoded_labels
 
     def calibrate_novelty(
         self, quantile: float = NOVELTY_QUANTILE, *, max_queries: int = 4000, seed: int = 0
@@ -222,9 +325,32 @@ class TerrainClassifier:
         return self.novelty_distance
 
     def _transformed(self, features: NDArray) -> NDArray:
-        """Features as the neighbour search sees them (standardised when ``cfg.scale``)."""
+        """Features as the neighbour search sees them (standardised when ``cfg.scale``).
+
+        ``(x - mean) / scale`` with the fitted scaler's arrays: what its
+        ``transform`` computes (subtract, then divide), without its checks.
+        """
         features = np.asarray(features, dtype=np.float64)
-        return self.pipeline["scaler"].transform(features) if self.cfg.scale else features
+        if not self.cfg.scale:
+            return features
+        scaler = self.pipeline["scaler"]
+        if features.shape[-1:] != scaler.mean_.shape:
+            raise ValueError(
+                f"features have {features.shape[-1]} columns, the model {scaler.mean_.size}"
+            )
+        return (features - scaler.mean_) / scaler.scale_
+
+    def _neighbours(self, queries: NDArray) -> tuple[NDArray, NDArray]:
+        """Distances and indices of the ``k`` nearest training tiles of each query row.
+
+        Up to :data:`SMALL_QUERY` rows by :class:`_NeighbourIndex`, more by
+        scikit-learn's ``kneighbors``: the same values either way.
+        """
+        if queries.shape[0] > SMALL_QUERY:
+            return self.pipeline["knn"].kneighbors(queries)
+        if self._index is None:
+            self._index = _NeighbourIndex(self._transformed(self.training_features), self.cfg.k)
+        return self._index.kneighbors(np.ascontiguousarray(queries))
 
     @property
     def classes(self) -> list[str]:
@@ -276,6 +402,7 @@ class TerrainClassifier:
         self.training_region = region
         self.pipeline.fit(self.training_features, self.training_labels)
         self.novelty_distance = None
+        self._index = self._encoded_labels = None
         return self
 
     @property
@@ -285,8 +412,12 @@ class TerrainClassifier:
 
     @property
     def _encoded(self) -> NDArray[np.intp]:
-        """Column of :attr:`classes` of each training tile."""
-        return np.searchsorted(self.pipeline["knn"].classes_, self.training_labels)
+        """Column of :attr:`classes` of each training tile (computed once per fit)."""
+        if self._encoded_labels is None:
+            classes = self.pipeline["knn"].classes_
+            self._encoded_labels = np.searchsorted(classes, self.training_labels)
+            self._n_classes = len(classes)
+        return self._encoded_labels
 
     def predict_proba(self, features: NDArray) -> NDArray:
         """Neighbour vote shares of every tile.
@@ -308,8 +439,7 @@ class TerrainClassifier:
 
     def _votes(self, features: NDArray) -> NDArray:
         """:meth:`predict_proba` from one neighbour search (the shares and the nearest distance)."""
-        knn = self.pipeline["knn"]
-        distance, index = knn.kneighbors(self._transformed(features))
+        distance, index = self._neighbours(self._transformed(features))
         if self.cfg.weights == "uniform":
             weight = np.ones_like(distance)
         else:  # scikit-learn's rule: a neighbour at distance 0 takes the whole vote
@@ -317,9 +447,11 @@ class TerrainClassifier:
                 weight = 1.0 / distance
             exact = ~np.isfinite(weight)
             weight = np.where(exact.any(axis=1, keepdims=True), exact.astype(float), weight)
-        shares = np.zeros((distance.shape[0], len(knn.classes_)))
-        rows = np.repeat(np.arange(distance.shape[0]), distance.shape[1])
-        np.add.at(shares, (rows, self._encoded[index].ravel()), weight.ravel())
+        encoded = self._encoded
+        n_rows, n_classes = distance.shape[0], self._n_classes
+        cells = encoded[index] + n_classes * np.arange(n_rows)[:, None]
+        summed = np.bincount(cells.ravel(), weight.ravel(), n_rows * n_classes)  # in order
+        shares = np.asarray(summed, dtype=np.float64).reshape(n_rows, n_classes)  # (no copy)
         shares /= shares.sum(axis=1, keepdims=True)
         if self.novelty_distance is not None:
             shares[distance[:, 0] > self.novelty_distance] = 0.0
@@ -401,10 +533,18 @@ class TerrainClassifier:
         confidence : float
             As :meth:`classify` (the region is all the rows).
         """
-        labels, confidence = self.predict_with_confidence(
-            features, np.zeros(features.shape[0], dtype=np.intp)
-        )
-        return str(labels[0]), float(confidence[0])
+        features = np.asarray(features, dtype=np.float64)
+        if features.ndim != 2 or not features.shape[0]:
+            raise ValueError(f"expected one row of features per tile, got shape {features.shape}")
+        proba = self.predict_proba(features)
+        n_tiles = proba.shape[0]
+        # predict_with_confidence for one region: votes of the known tiles, ties to the shares
+        known = proba.max(axis=1) > 0
+        votes = np.bincount(proba.argmax(axis=1), weights=known, minlength=proba.shape[1])
+        shares = np.add.reduce(proba, axis=0)
+        best = int((votes + shares / (n_tiles + 1)).argmax())
+        confidence = shares[best] if n_tiles == 1 else votes[best] / n_tiles
+        return str(self.pipeline.classes_[best]), float(confidence)
 
     def to_arrays(self) -> tuple[dict[str, NDArray], dict[str, Any]]:
         """Return the fitted model as plain arrays and metadata.

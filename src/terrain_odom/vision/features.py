@@ -29,6 +29,7 @@ that recipe or adds to it:
 from __future__ import annotations
 
 import dataclasses
+import itertools
 from typing import Literal
 
 import cv2
@@ -47,7 +48,6 @@ __all__ = [
     "GLCM_DISTANCES",
     "GLCM_PROPERTIES",
     "colour_statistics",
-    "lbp_codes",
     "lbp_histograms",
     "glcm_statistics",
     "region_features",
@@ -124,27 +124,42 @@ def _channel_statistics(converted: NDArray[np.uint8], space: Literal["lab", "hsv
     return out
 
 
-def lbp_codes(grey: NDArray[np.uint8]) -> list[NDArray]:
-    """Uniform local binary pattern codes of a grey image, one map per :data:`LBP_POINTS` ring.
+def lbp_histograms(grey: NDArray[np.uint8], boxes: ArrayLike | None = None) -> NDArray:
+    """Uniform local binary pattern histograms of tiles of a grey image.
 
-    The codes of ``skimage.feature.local_binary_pattern(grey, P, R,
-    method="uniform")``: rotation-invariant uniform codes ``0 .. P + 1``
-    (``P + 1``: not uniform), from a compiled loop
-    (:func:`~terrain_odom.vision._kernels.lbp_uniform`, ~3x faster; the
-    tests hold the two equal). Computed on a whole region, so that the
-    rings of a tile's edge pixels see the neighbouring tiles rather than a cut.
+    For each :data:`LBP_POINTS` ring, the codes of
+    ``skimage.feature.local_binary_pattern(grey, P, R, method="uniform")``
+    (rotation-invariant uniform codes ``0 .. P + 1``; ``P + 1``: not
+    uniform) of the *whole* image, so that a tile's edge pixels see their
+    true neighbours in the next tile, counted in each tile and divided by its
+    area. Only the tiles' pixels are coded, by a compiled loop
+    (:func:`~terrain_odom.vision._kernels.lbp_tile_counts`; the tests hold
+    its codes equal to skimage's, pixel for pixel).
+
+    Parameters
+    ----------
+    grey : ndarray of uint8, shape (H, W)
+    boxes : array_like of int, shape (n_tiles, 4), optional
+        ``(x0, y0, x1, y1)`` of each tile, half-open (:func:`tile_boxes`);
+        default: the whole image.
+
+    Returns
+    -------
+    ndarray of float64, shape (n_tiles, sum(P + 2))
+        Ring by ring, the share of the tile's pixels with each code.
     """
-    from terrain_odom.vision._kernels import lbp_uniform
+    from terrain_odom.vision._kernels import lbp_pad, lbp_tile_counts
 
-    return [lbp_uniform(grey, points, radius) for points, radius in LBP_POINTS]
-
-
-def lbp_histograms(codes: list[NDArray]) -> NDArray:
-    """Normalised histograms of :func:`lbp_codes` maps (of one tile): ``sum(P + 2)`` values."""
-    return np.concatenate(
+    grey = np.ascontiguousarray(grey, dtype=np.uint8)
+    height, width = grey.shape
+    boxes = np.asarray([(0, 0, width, height)] if boxes is None else boxes, dtype=np.int64)
+    area = (boxes[:, 2] - boxes[:, 0]) * (boxes[:, 3] - boxes[:, 1])
+    pad = max(lbp_pad(radius) for _, radius in LBP_POINTS)
+    padded = cv2.copyMakeBorder(grey, pad, pad, pad, pad, cv2.BORDER_CONSTANT, value=0)
+    return np.hstack(
         [
-            np.bincount(code.ravel(), minlength=points + 2) / code.size
-            for code, (points, _) in zip(codes, LBP_POINTS, strict=True)
+            lbp_tile_counts(padded, pad, points, radius, boxes) / area[:, None]
+            for points, radius in LBP_POINTS
         ]
     )
 
@@ -191,35 +206,34 @@ def _sfta(image: NDArray[np.uint8], grey: NDArray[np.uint8], cfg: ClassifierConf
     return np.concatenate(parts)
 
 
-def _tile_maps(image_rgb: NDArray[np.uint8], cfg: ClassifierConfig, grid: tuple[int, int]) -> dict:
-    """Per-pixel maps of a region cut into the tiles of ``grid``: name -> list of tiles."""
+def _tile_features(image_rgb: NDArray[np.uint8], cfg: ClassifierConfig, boxes: NDArray) -> NDArray:
+    """Feature vectors of the tiles ``boxes`` (``(x0, y0, x1, y1)``, half-open) of a region.
+
+    Only the tiles' pixels are described (a region of interest's tiles
+    outside its footprint are not); the grey image is the region's, so that
+    the LBP codes at a tile's edge see the next tile.
+    """
     families, colour = feature_parts(cfg.features)
     grey = to_grey(image_rgb)
-    maps: dict[str, list] = {"grey": split_tiles(grey, *grid)}
-    if "sfta" in families and cfg.pyramid_levels > 1:
-        maps["rgb"] = split_tiles(image_rgb, *grid)
-    if "lbp" in families:
-        tiles_of_codes = [split_tiles(code, *grid) for code in lbp_codes(grey)]
-        maps["lbp"] = [list(codes) for codes in zip(*tiles_of_codes, strict=True)]
-    if colour is not None:
-        maps["colour"] = split_tiles(_convert(image_rgb, colour), *grid)  # type: ignore[arg-type]
-    return maps
-
-
-def _tile_vector(maps: dict, i: int, cfg: ClassifierConfig) -> NDArray:
-    """Feature vector of tile ``i`` from its :func:`_tile_maps`."""
-    families, colour = feature_parts(cfg.features)
-    grey = maps["grey"][i]
+    tiles = [(slice(y0, y1), slice(x0, x1)) for x0, y0, x1, y1 in boxes.tolist()]
     parts = []
     if "sfta" in families:
-        parts.append(_sfta(maps["rgb"][i] if "rgb" in maps else grey, grey, cfg))
+        coloured = cfg.pyramid_levels > 1  # halved levels are cut from the RGB tile
+        parts.append(
+            np.stack(
+                [
+                    _sfta(image_rgb[tile] if coloured else grey[tile], grey[tile], cfg)
+                    for tile in tiles
+                ]
+            )
+        )
     if "lbp" in families:
-        parts.append(lbp_histograms(maps["lbp"][i]))
+        parts.append(lbp_histograms(grey, boxes))
     if "glcm" in families:
-        parts.append(glcm_statistics(grey))
+        parts.append(np.stack([glcm_statistics(grey[tile]) for tile in tiles]))
     if colour is not None:
-        parts.append(_channel_statistics(maps["colour"][i], colour))  # type: ignore[arg-type]
-    return np.concatenate(parts)
+        parts.append(np.stack([colour_statistics(image_rgb[tile], colour) for tile in tiles]))  # type: ignore[arg-type]
+    return np.hstack(parts)
 
 
 def region_features(image_rgb: NDArray[np.uint8], cfg: ClassifierConfig) -> NDArray:
@@ -241,7 +255,9 @@ def region_features(image_rgb: NDArray[np.uint8], cfg: ClassifierConfig) -> NDAr
         the GLCM statistics (:func:`glcm_statistics`), then the 6 colour
         statistics if any.
     """
-    return _tile_vector(_tile_maps(np.asarray(image_rgb), cfg, (1, 1)), 0, cfg)
+    image_rgb = np.asarray(image_rgb)
+    height, width = image_rgb.shape[:2]
+    return _tile_features(image_rgb, cfg, np.array([(0, 0, width, height)]))[0]
 
 
 def auto_min_tile_size(short_side: float, tiles: int) -> int:
@@ -319,9 +335,13 @@ def _tile_edges(height: int, width: int, tiles: int, columns: int) -> tuple[NDAr
     """Row and column edges of a ``tiles x columns`` grid: ``round(i * H / tiles)``, ..."""
     if tiles > height or columns > width:
         raise ValueError(f"cannot cut a {height}x{width} image into {tiles}x{columns} tiles")
-    rows = np.rint(np.linspace(0, height, tiles + 1)).astype(int)
-    cols = np.rint(np.linspace(0, width, columns + 1)).astype(int)
-    return rows, cols
+    return _edges(height, tiles), _edges(width, columns)
+
+
+def _edges(size: int, parts: int) -> NDArray:
+    """``rint(linspace(0, size, parts + 1))`` as integers: ``round(i * (size / parts))``, halves to even."""
+    step = size / parts
+    return np.array([round(i * step) for i in range(parts)] + [size])
 
 
 def tile_boxes(height: int, width: int, cfg: ClassifierConfig) -> NDArray:
@@ -336,9 +356,13 @@ def tile_boxes(height: int, width: int, cfg: ClassifierConfig) -> NDArray:
     [[0, 0, 30, 40], [30, 0, 60, 40], [60, 0, 90, 40]]
     """
     rows, cols = _tile_edges(height, width, *tile_grid(height, width, cfg))
-    y0, x0 = np.meshgrid(rows[:-1], cols[:-1], indexing="ij")
-    y1, x1 = np.meshgrid(rows[1:], cols[1:], indexing="ij")
-    return np.column_stack([x0.ravel(), y0.ravel(), x1.ravel(), y1.ravel()])
+    return np.array(
+        [
+            (x0, y0, x1, y1)
+            for y0, y1 in itertools.pairwise(rows.tolist())
+            for x0, x1 in itertools.pairwise(cols.tolist())
+        ]
+    )
 
 
 def split_tiles(image: NDArray, tiles: int, columns: int | None = None) -> list[NDArray]:
@@ -387,10 +411,8 @@ def tiles_within(height: int, width: int, cfg: ClassifierConfig, polygon: ArrayL
     """
     grid = tile_grid(height, width, cfg)
     rows, cols = _tile_edges(height, width, *grid)
-    v, u = np.meshgrid(
-        (rows[:-1] + rows[1:] - 1) / 2.0, (cols[:-1] + cols[1:] - 1) / 2.0, indexing="ij"
-    )
-    centres = np.column_stack((u.ravel(), v.ravel()))
+    v, u = (rows[:-1] + rows[1:] - 1) / 2.0, (cols[:-1] + cols[1:] - 1) / 2.0
+    centres = np.column_stack((np.tile(u, v.size), np.repeat(v, u.size)))  # row by row
     vertices = np.asarray(polygon, dtype=float).reshape(-1, 2)
     inside = points_in_poly(centres, vertices)
     if inside.any():
@@ -428,7 +450,7 @@ def image_features(
             f"expected an RGB uint8 image (H, W, 3), got {image_rgb.dtype} {image_rgb.shape}"
         )
     height, width = image_rgb.shape[:2]
-    grid = tile_grid(height, width, cfg)
-    keep = range(grid[0] * grid[1]) if within is None else tiles_within(height, width, cfg, within)
-    maps = _tile_maps(image_rgb, cfg, grid)  # grey, LBP codes and colour: one pass each
-    return np.stack([_tile_vector(maps, i, cfg) for i in keep])
+    boxes = tile_boxes(height, width, cfg)
+    if within is not None:
+        boxes = boxes[tiles_within(height, width, cfg, within)]
+    return _tile_features(image_rgb, cfg, boxes)

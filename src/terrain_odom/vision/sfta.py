@@ -85,7 +85,8 @@ with another job running, medians of about 1.4 ms for a 640x480 RGB frame
 (0.3 times its PNG decoding) and 0.3 ms for a 160x120 crop.
 
 - Thresholds: an exact dynamic programme over the histogram
-  (:func:`multiotsu_thresholds`), as a few whole-matrix float32 operations.
+  (:func:`multiotsu_thresholds`), a compiled loop in float32
+  (:func:`~terrain_odom.vision._kernels.otsu_dp`).
 - All ``2 n_t`` binary images are bit planes of one uint8 image (bit
   ``i - 1`` is image ``i``; ``n_t > 4`` uses one uint8 image per 8 images),
   made by one look-up-table pass over the grey image.
@@ -141,11 +142,6 @@ _COLOUR_ORDERS = ("rgb", "bgr")
 _BITS = np.unpackbits(
     np.arange(_N_LEVELS, dtype=np.uint8)[:, None], axis=1, bitorder="little"
 ).astype(np.float64)
-# +inf where the class matrix of _otsu_dp is defined (a < b), -inf elsewhere.
-_VALID: dict[type[np.floating[Any]], NDArray[np.floating[Any]]] = {
-    dtype: np.where(np.tri(_N_LEVELS, dtype=bool), np.inf, -np.inf).astype(dtype)
-    for dtype in (np.float32, np.float64)
-}
 _FLOAT32_EXACT = 2**24  # integers below this are exact in float32
 _EPS: dict[type[np.floating[Any]], float] = {
     dtype: float(np.finfo(dtype).eps) for dtype in (np.float32, np.float64)
@@ -462,42 +458,17 @@ def _otsu_dp(
         Whether every choice beat its runner-up by more than twice the bound
         on the rounding error, so that exact arithmetic chooses the same.
     """
-    m = cumulative.shape[1] - 1
-    # Outer differences X[b] - X[a] (b = 1..m, a = 0..m-1) as rank-2 matrix
-    # products [X_b, 1] @ [1, -X_a]: one rounding of an exact integer.
-    left = np.ones((2, m, 2), dtype=dtype)
-    left[:, :, 0] = cumulative[:, 1:]
-    right = np.ones((2, 2, m), dtype=dtype)
-    np.negative(cumulative[:, :-1], out=right[:, 1], casting="same_kind")
-    d_count, value = left @ right  # value: d_sum until squared and divided
-    cv2.multiply(value, value, dst=value)
-    cv2.divide(value, d_count, dst=value)
-    cv2.patchNaNs(value, -np.inf)  # 0 / 0 where a == b
-    cv2.min(value, _VALID[dtype][:m, :m], dst=value)  # -inf where a >= b
-    # layers[j - 1][b - 1, a]: classes a .. b - 1, then the best j classes from b.
-    best = value[-1]  # one class: levels a .. m-1
-    layers = []
-    for _ in range(n_t - 1):
-        layers.append(value[:-1] + best[1:, None])
-        best = cv2.reduce(layers[-1], 0, cv2.REDUCE_MAX)[0]
-    # Cuts left to right, each the first best: candidates[b - 1] is the
-    # value of the next class ending at level b - 1 plus the best after it.
-    cuts = np.empty(n_t, dtype=np.intp)
-    candidates = [value[:-1, 0] + best[1:]]
-    for k in range(n_t):
-        if k:
-            candidates.append(layers[n_t - 1 - k][:, cuts[k - 1]])
-        cuts[k] = candidates[-1].argmax() + 1
-    if m == 2:  # a single partition
-        return cuts, True
-    runner_up, best_value = np.partition(np.array(candidates), -2, axis=1)[:, -2:].T
+    from terrain_odom.vision._kernels import otsu_dp
+
     # A candidate sums <= n_t + 1 class values (2 roundings each) with <= n_t
     # additions of non-negative terms, and is <= the optimum F: its error is
     # <= (n_t + 2) u F, u = eps / 2 (to first order). A margin over twice that
     # (with (n_t + 3) for the higher orders) at every choice makes exact
     # arithmetic choose the same.
-    margin = (best_value - runner_up).min()
-    return cuts, bool(margin > (n_t + 3) * _EPS[dtype] * best_value[0])
+    bound = dtype((n_t + 3) * _EPS[dtype])
+    counts, sums = cumulative.astype(dtype)
+    cuts, certain = otsu_dp(counts, sums, n_t, bound)
+    return cuts, bool(certain)
 
 
 @functools.lru_cache(maxsize=16)
