@@ -1,9 +1,12 @@
 """Entry point of the ``terrain-odom`` command.
 
-Argument parsing only: each subcommand (one module each) unpacks its
-arguments, calls a function of :mod:`terrain_odom.app` and prints the typed
-result; the options several subcommands share live in
-:mod:`terrain_odom.cli.options`. Errors raised on purpose by the
+Each subcommand (one module each) parses and converts its arguments, calls
+a function of :mod:`terrain_odom.app` and prints the typed result; the
+options several subcommands share live in :mod:`terrain_odom.cli.options`.
+Not parsing only yet: ``run`` and ``patches`` also find the images folder's
+config, ``run`` the default classifier, and ``run``, ``calibrate``, ``fit``
+and ``evaluate`` import a bag given as ``--wheels`` before the command runs
+(:mod:`terrain_odom.cli.bag_import`). Errors raised on purpose by the
 package (bad input files, invalid configuration) and files the operating
 system refuses (read-only, a name too long, a full disk) are printed as one
 line, control characters escaped, and exit with code 2; ``SIGTERM`` and
