@@ -2,15 +2,22 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from terrain_odom.config.classifier import ClassifierConfig, paper_config
+from terrain_odom.errors import InputFileError
 from terrain_odom.io.images import read_image_rgb, scan_image_folder
 from terrain_odom.vision import cross_validation
 from terrain_odom.vision.classifier import TerrainClassifier
-from terrain_odom.vision.cross_validation import cross_validate_images
+from terrain_odom.vision.cross_validation import (
+    check_folds,
+    cross_validate_images,
+    stratified_folds,
+)
 from terrain_odom.vision.dataset import LabelledFeatures, extract_feature_sets
 
 
@@ -70,3 +77,30 @@ def test_indoor_surface_accuracy_acceptance(indoor_dir):
     assert result.mean_accuracy >= 90.0
     assert min(result.per_class_accuracy.values()) >= 85.0
     assert cross_validate_images(paper).mean_accuracy < result.mean_accuracy - 10.0
+
+
+@pytest.mark.parametrize(
+    ("counts", "folds", "message"),
+    [
+        ({"a": 5, "b": 3, "c": 3}, 4, "cannot tune with 4 folds: class 'b' has 3 usable image(s)"),
+        ({"a": 5, "b": 6}, 1, "cannot tune with 1 folds: class 'a' has 5 usable image(s)"),
+    ],
+)
+def test_too_few_images_for_the_folds_name_the_smallest_class(counts, folds, message):
+    with pytest.raises(InputFileError, match=re.escape(message)):
+        check_folds(counts, folds, "tune")
+    check_folds(counts, min(counts.values()), "tune")  # one image of each class per fold: fine
+
+
+def test_every_cross_validation_shuffles_the_same_folds():
+    labels = np.array(["a", "b"] * 10)
+    splits = [list(stratified_folds(5).split(np.zeros((20, 1)), labels)) for _ in range(2)]
+    for (_, test_1), (_, test_2) in zip(*splits, strict=True):
+        np.testing.assert_array_equal(test_1, test_2)
+    tests = np.concatenate([test for _, test in splits[0]])
+    assert sorted(tests.tolist()) == list(range(20))  # each image held out once
+    assert not np.array_equal(tests, np.arange(20))  # shuffled (seed CV_SEED)
+    other = np.concatenate(
+        [t for _, t in stratified_folds(5, seed=1).split(np.zeros((20, 1)), labels)]
+    )
+    assert not np.array_equal(other, tests)
