@@ -48,8 +48,9 @@ def register(
         The module's ``globals()``, whose names :func:`compile_kernels`
         points at the compiled functions.
     pure : dict
-        The module's kernels as Python by name (``_name``), with the kernels
-        of other modules it calls (one compiled function each).
+        The module's kernels as Python by the names its code calls them
+        (``_name`` behind a public ``name``), with the kernels of other
+        modules it calls (one compiled function each).
     public : tuple of str
         Names of the kernels callers use: ``name`` runs ``_name``.
     calls : mapping of str to callable, optional
