@@ -43,7 +43,7 @@ from terrain_odom.cli import (
     simulate,
     train,
 )
-from terrain_odom.cli.options import warn_deprecated_spellings
+from terrain_odom.cli.options import printable, warn_deprecated_spellings
 from terrain_odom.errors import Interrupted, TerrainOdomError
 
 # One module per subcommand, each with ``add_parser(subparsers)``.
@@ -116,28 +116,6 @@ def _error(message: str) -> int:
     """Print ``message`` as one line (control characters escaped); return :data:`EXIT_USAGE`."""
     print(f"terrain-odom: error: {printable(message)}", file=sys.stderr)
     return EXIT_USAGE
-
-
-def printable(text: str) -> str:
-    r"""Return ``text`` with control characters and undecodable bytes escaped: one safe line.
-
-    A file name may hold a newline, an ESC (a terminal's escape sequences)
-    or bytes that are not UTF-8; they are shown as Python escapes.
-
-    Examples
-    --------
-    >>> printable("a\nb\x1b[31m")
-    'a\\nb\\x1b[31m'
-    """
-    return "".join(_escape(char) for char in text)
-
-
-def _escape(char: str) -> str:
-    if char.isprintable() or char == " ":
-        return char
-    if "\udc80" <= char <= "\udcff":  # a byte that was not UTF-8 (surrogateescape)
-        return f"\\x{ord(char) - 0xDC00:02x}"
-    return repr(char)[1:-1]
 
 
 class _Caught:
