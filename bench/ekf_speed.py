@@ -59,7 +59,7 @@ import numpy as np
 import terrain_odom
 from terrain_odom.config import Config, load_config
 from terrain_odom.estimation import IcrEkf, icr_step_with_jacobian
-from terrain_odom.estimation._kernels import compile_kernels
+from terrain_odom.estimation._kernel_switch import compile_kernels
 from terrain_odom.estimation.icr_ekf_reference import FilterpyIcrEkf
 from terrain_odom.io import read_wheel_log, write_wheel_log
 from terrain_odom.records import WheelLog

@@ -40,9 +40,9 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from small_patches import INDOOR, build_patches  # noqa: E402
 
-from terrain_odom.app.train import cross_validate  # noqa: E402
 from terrain_odom.config.classifier import ClassifierConfig, paper_config  # noqa: E402
 from terrain_odom.io.images import median_short_side, read_image_rgb, scan_image_folder  # noqa: E402
+from terrain_odom.vision.cross_validation import cross_validate_images  # noqa: E402
 from terrain_odom.vision.dataset import LabelledImages, extract_feature_sets  # noqa: E402
 from terrain_odom.vision.features import image_features, resolve_scale  # noqa: E402
 
@@ -112,7 +112,7 @@ def score(folder: Path, features: list[str], photos: int, jobs: int) -> tuple[di
     sets = extract_feature_sets(images, configs, read=read_image_rgb, jobs=jobs, progress=False)
     out = {}
     for name, data in zip([*features, PAPER], sets, strict=True):
-        cv = cross_validate(data, folds=5)
+        cv = cross_validate_images(data, folds=5)
         out[name] = (cv.mean_accuracy, cv.worst_class())
     return out, len(images.paths), short
 

@@ -52,7 +52,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from terrain_odom.config import Config, EkfConfig, IcrState, RobotConfig, load_config
-from terrain_odom.estimation import _kernels, slip_ekf
+from terrain_odom.estimation import _kernel_switch, slip_ekf
 from terrain_odom.estimation.odometry import run_icr_ekf, run_slip_ekf
 from terrain_odom.estimation.slip_ekf_reference import FilterpySlipEkf
 from terrain_odom.estimation.time_offset import calibrate_pose_delay
@@ -469,9 +469,9 @@ def speed(data: Path, repeats: int = 3):
     log = read_wheel_log(data / "warthog_wheels_grass.csv", wheel_radius=cfg.robot.wheel_radius)
     reference = mock.patch.object(slip_ekf, "SlipEkf", FilterpySlipEkf)
     print(f"4. run_slip_ekf, grass log ({log.t.size} rows), best of {repeats}, us per row:")
-    with mock.patch.object(_kernels, "PURE_CALLS", 10**12):  # not compiled yet: Python
+    with mock.patch.object(_kernel_switch, "PURE_CALLS", 10**12):  # not compiled yet: Python
         speed_against_reference(log, cfg, reference, "kernels as Python", repeats)
-    _kernels.compile_kernels()
+    _kernel_switch.compile_kernels()
     run_slip_ekf(log, cfg)  # numba's cache loaded (or compiled) outside the timing
     speed_against_reference(log, cfg, reference, "compiled kernels", repeats)
 

@@ -31,17 +31,16 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
-from sklearn.model_selection import StratifiedKFold
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from families import subset  # noqa: E402
 from small_patches import INDOOR, build_patches  # noqa: E402
 
-from terrain_odom.app.train import CV_SEED, cross_validate  # noqa: E402
 from terrain_odom.config.classifier import ClassifierConfig  # noqa: E402
 from terrain_odom.estimation.terrain import TerrainTracker  # noqa: E402
 from terrain_odom.io.images import median_short_side, read_image_rgb, scan_image_folder  # noqa: E402
 from terrain_odom.vision.classifier import TerrainClassifier  # noqa: E402
+from terrain_odom.vision.cross_validation import cross_validate_images, stratified_folds  # noqa: E402
 from terrain_odom.vision.dataset import LabelledFeatures, extract_features  # noqa: E402
 from terrain_odom.vision.features import resolve_scale  # noqa: E402
 
@@ -53,7 +52,7 @@ def trained(data: LabelledFeatures, calibrated: bool) -> TerrainClassifier:
     model = TerrainClassifier(data.cfg).fit(data.features, data.labels, data.region)
     if calibrated:
         model.calibrate_novelty()
-        threshold = cross_validate(data, folds=min(5, *data.counts().values())).threshold()
+        threshold = cross_validate_images(data, folds=min(5, *data.counts().values())).threshold()
         model.min_confidence = 0.0 if threshold is None else threshold
     return model
 
@@ -75,8 +74,9 @@ def flips(labels: np.ndarray, seen: np.ndarray, start: str, seed: int) -> int:
 def known_frames(data: LabelledFeatures) -> tuple[float, float]:
     """Held-out frames of the trained classes (5-fold): share still sightings, share of those right."""
     kept = right = 0
-    splitter = StratifiedKFold(n_splits=5, shuffle=True, random_state=CV_SEED)
-    for train_idx, test_idx in splitter.split(np.zeros((data.labels.size, 1)), data.labels):
+    for train_idx, test_idx in stratified_folds(5).split(
+        np.zeros((data.labels.size, 1)), data.labels
+    ):
         test = data.select(test_idx)
         labels, seen = sightings(trained(data.select(train_idx), True), test)
         kept += int(seen.sum())

@@ -3,7 +3,7 @@
 A short wheel-only ``terrain-odom run --no-plots`` (a fresh process) must
 not import scikit-learn, ``scipy.stats``, filterpy (the reference EKF),
 OpenCV, ``rosbags`` or matplotlib, and under
-:data:`~terrain_odom.estimation._kernels.PURE_CALLS` kernel calls not numba
+:data:`~terrain_odom.estimation._kernel_switch.PURE_CALLS` kernel calls not numba
 either: each costs start-up time (issue 15). With its plots, the run loads
 matplotlib's figure and Agg canvas, never ``pyplot``.
 """

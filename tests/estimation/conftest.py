@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from terrain_odom.estimation import _kernels, _slip_kernels
+from terrain_odom.estimation import _kalman_kernels, _kernel_switch, _kernels, _slip_kernels
 
 TOLERANCE = 1e-12
 """How far the compiled filters may be from their references."""
@@ -13,10 +13,12 @@ TOLERANCE = 1e-12
 
 def python_kernels(monkeypatch: pytest.MonkeyPatch) -> None:
     """Put the kernels of both filters back as a fresh process has them: Python, counting calls."""
-    monkeypatch.setattr(_kernels, "_compiled", False)
-    monkeypatch.setattr(_kernels, "_calls", 0)
+    monkeypatch.setattr(_kernel_switch, "_compiled", False)
+    monkeypatch.setattr(_kernel_switch, "_calls", 0)
+    for name, function in _kalman_kernels.KERNELS.items():
+        monkeypatch.setattr(_kalman_kernels, name, function)
     for module in (_kernels, _slip_kernels):
-        for name, function in {**module._PURE, **module._WRAPPERS}.items():
+        for name, function in {**module.KERNELS, **module._WRAPPERS}.items():
             monkeypatch.setattr(module, name, function)
 
 
@@ -27,10 +29,10 @@ def kernels(request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch) -> 
     Parametrise indirectly with ``"python"`` or ``"compiled"``.
     """
     if request.param == "compiled":
-        _kernels.compile_kernels()
+        _kernel_switch.compile_kernels()
     else:
         python_kernels(monkeypatch)
-        monkeypatch.setattr(_kernels, "PURE_CALLS", 10**12)
+        monkeypatch.setattr(_kernel_switch, "PURE_CALLS", 10**12)
     return str(request.param)
 
 

@@ -14,7 +14,14 @@ import pytest
 
 from terrain_odom.config import Config, EkfConfig, PoseSigmas, load_config
 from terrain_odom.errors import EstimationError
-from terrain_odom.estimation import IcrEkf, _kernels, icr_step_with_jacobian, odometry, online
+from terrain_odom.estimation import (
+    IcrEkf,
+    _kernel_switch,
+    _kernels,
+    icr_step_with_jacobian,
+    odometry,
+    online,
+)
 from terrain_odom.estimation._kernels import icr_predict
 from terrain_odom.estimation.icr_ekf_reference import FilterpyIcrEkf
 from terrain_odom.estimation.pose_measurement import Mounting
@@ -47,7 +54,7 @@ def test_kernels_equal_filterpy_on_the_simulated_run(sample_dir, monkeypatch, al
 
 def test_kernels_equal_filterpy_on_a_real_log(drive_dir, warthog_yaml, monkeypatch):
     """Real Warthog log, grass then asphalt (ICP poses, a terrain change); compiled kernels."""
-    _kernels.compile_kernels()
+    _kernel_switch.compile_kernels()
     cfg = load_config(warthog_yaml)
     log = read_wheel_log(drive_dir / "stitched_grass_to_asphalt.csv", wheel_radius=0.30)
     fast, slow = _both(log, cfg, monkeypatch, labels=log.terrain)
@@ -59,13 +66,13 @@ def test_switch_to_compiled_kernels_mid_run_changes_no_bit(drive_dir, warthog_ya
     """A run whose kernels are compiled after 300 Python calls equals a wholly compiled one."""
     cfg = load_config(warthog_yaml)
     log = read_wheel_log(drive_dir / "stitched_grass_to_asphalt.csv", wheel_radius=0.30)
-    _kernels.compile_kernels()
+    _kernel_switch.compile_kernels()
     compiled = odometry.run_icr_ekf(log, cfg, labels=log.terrain)
     python_kernels(monkeypatch)
-    monkeypatch.setattr(_kernels, "PURE_CALLS", 300)
+    monkeypatch.setattr(_kernel_switch, "PURE_CALLS", 300)
     assert _kernels.icr_predict is _kernels._WRAPPERS["icr_predict"]
     switched = odometry.run_icr_ekf(log, cfg, labels=log.terrain)
-    assert _kernels._compiled and _kernels.icr_predict is _kernels._icr_predict  # switched
+    assert _kernel_switch._compiled and _kernels.icr_predict is _kernels._icr_predict  # switched
     np.testing.assert_array_equal(switched.states, compiled.states)
     np.testing.assert_array_equal(switched.stds, compiled.stds)
 
@@ -133,16 +140,16 @@ def test_kernels_equal_filterpy_with_heading_only_rows_holding_alpha(sample_dir,
 def test_a_stretch_of_rows_counts_two_calls_a_row_towards_compiling(monkeypatch):
     """A long stretch compiles first (no 4096 rows in Python); a short run never compiles."""
     python_kernels(monkeypatch)
-    monkeypatch.setattr(_kernels, "PURE_CALLS", 100)
+    monkeypatch.setattr(_kernel_switch, "PURE_CALLS", 100)
     ekf, one_by_one = IcrEkf(EkfConfig()), IcrEkf(EkfConfig())
     t = 0.1 * np.arange(1, 52)
     v_l, v_r = 0.5 + 0.1 * np.sin(t), 0.6 + 0.1 * np.cos(t)
     z = np.full((51, 3), np.nan)
     z[::7] = [[0.1, 0.0, 0.05]]
     states, _, updates = ekf.run_rows((0.0, 0.5, 0.6), t[:40], (v_l[:40], v_r[:40]), z[:40])
-    assert _kernels._calls == 80 and not _kernels._compiled and updates == 6
+    assert _kernel_switch._calls == 80 and not _kernel_switch._compiled and updates == 6
     rest = ekf.run_rows((4.0, v_l[39], v_r[39]), t[40:], (v_l[40:], v_r[40:]), z[40:])[0]
-    assert _kernels._compiled  # 80 + 22 > 100: compiled before the stretch ran
+    assert _kernel_switch._compiled  # 80 + 22 > 100: compiled before the stretch ran
     held = (0.5, 0.6)
     for k, row in enumerate(np.vstack([states, rest])):
         one_by_one.predict(*held, t[k] - (t[k - 1] if k else 0.0))

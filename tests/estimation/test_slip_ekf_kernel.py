@@ -24,7 +24,7 @@ from terrain_odom.config import (
     load_config,
 )
 from terrain_odom.errors import EstimationError
-from terrain_odom.estimation import _kernels, _slip_kernels, odometry, slip_ekf
+from terrain_odom.estimation import _kernel_switch, _slip_kernels, odometry, slip_ekf
 from terrain_odom.estimation.pose_measurement import chord_turn
 from terrain_odom.estimation.slip_ekf import SlipEkf, model_constants
 from terrain_odom.estimation.slip_ekf_reference import FilterpySlipEkf
@@ -60,7 +60,7 @@ def test_kernels_equal_the_reference_on_the_sec41_run(monkeypatch, kernels):
 
 def test_kernels_equal_the_reference_on_a_real_log(drive_dir, warthog_yaml, monkeypatch):
     """Real Warthog log, grass then asphalt (ICP poses, a reset with memory); compiled."""
-    _kernels.compile_kernels()
+    _kernel_switch.compile_kernels()
     cfg = load_config(warthog_yaml)
     log = read_wheel_log(drive_dir / "stitched_grass_to_asphalt.csv", wheel_radius=0.30)
     fast, slow = _both(log, cfg, monkeypatch, labels=log.terrain)
@@ -76,7 +76,7 @@ def test_gps_alone_and_heading_only_runs_equal_the_reference(monkeypatch, blank)
     pose[:, slice(2, 3) if blank == "yaw" else slice(0, 2)] = np.nan
     log = dataclasses.replace(scenario.log, pose=pose)
     cfg = Config(robot=RobotConfig(track_width=TRACK_WIDTH), slip_ekf=SlipEkfConfig(robust=True))
-    _kernels.compile_kernels()
+    _kernel_switch.compile_kernels()
     fast, slow = _both(log, cfg, monkeypatch)
     assert_equal_runs(fast, slow)
     if blank == "position":
@@ -87,12 +87,12 @@ def test_switch_to_compiled_kernels_mid_run_changes_no_bit(monkeypatch):
     """A run whose kernels are compiled after 300 Python calls equals a wholly compiled one."""
     scenario = icr_switch_scenario(seed=1)
     cfg = sec41_config(True)
-    _kernels.compile_kernels()
+    _kernel_switch.compile_kernels()
     compiled = odometry.run_slip_ekf(scenario.log, cfg, labels=scenario.log.terrain)
     python_kernels(monkeypatch)
-    monkeypatch.setattr(_kernels, "PURE_CALLS", 300)
+    monkeypatch.setattr(_kernel_switch, "PURE_CALLS", 300)
     switched = odometry.run_slip_ekf(scenario.log, cfg, labels=scenario.log.terrain)
-    assert _kernels._compiled and _slip_kernels.slip_update is _slip_kernels._slip_update
+    assert _kernel_switch._compiled and _slip_kernels.slip_update is _slip_kernels._slip_update
     np.testing.assert_array_equal(switched.states, compiled.states)
     np.testing.assert_array_equal(switched.stds, compiled.stds)
 
@@ -202,20 +202,3 @@ def test_non_finite_update_raises():
     ekf._P[:] = 0.0  # no uncertainty and no noise: S is singular
     with pytest.raises(EstimationError, match="non-finite"):
         ekf.update([1.0, 1.0, 0.5], *_samples(5, 0))
-
-
-def _twice(value: float) -> float:
-    """Return ``2 value`` (a kernel registered late)."""
-    return 2.0 * value
-
-
-def test_a_module_registered_after_the_switch_is_compiled_at_once(monkeypatch):
-    """A kernel module imported after the switch runs compiled, without the Python wrapper."""
-    _kernels.compile_kernels()
-    monkeypatch.setattr(_kernels, "_MODULES", list(_kernels._MODULES))
-    namespace = {"_twice": _twice}
-    wrappers = _kernels.register(namespace, {"_twice": _twice}, ("twice",))
-    assert namespace["_twice"].py_func is _twice  # a numba dispatcher
-    namespace["twice"] = wrappers["twice"]  # as a module binds its public names
-    assert wrappers["twice"](1.5) == 3.0
-    assert namespace["twice"] is namespace["_twice"]  # the wrapper took itself out

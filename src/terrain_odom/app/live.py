@@ -57,7 +57,7 @@ import numpy as np
 from terrain_odom.app.frames import one_thread
 from terrain_odom.config import load_config
 from terrain_odom.errors import ConfigError, InputFileError
-from terrain_odom.estimation._kernels import compile_kernels
+from terrain_odom.estimation._kernel_switch import compile_kernels
 from terrain_odom.estimation.online import OnlineOdometry
 from terrain_odom.io.bag_frames import frame_rgb
 from terrain_odom.io.bag_log import time_origin_ns

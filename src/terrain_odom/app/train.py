@@ -2,7 +2,8 @@
 
 Both read a labelled image folder (:mod:`terrain_odom.io.images`),
 extract features in parallel and score the classifier by stratified k-fold
-cross-validation over images (all tiles of an image stay in the same fold).
+cross-validation over images (all tiles of an image stay in the same fold;
+:mod:`~terrain_odom.vision.cross_validation`).
 The accuracy report always scores Chen et al.'s own recipe
 (:func:`~terrain_odom.config.classifier.paper_config`) on the same folds
 beside the chosen configuration.
@@ -16,16 +17,20 @@ import datetime
 import io
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, BinaryIO
-
-import numpy as np
-from numpy.typing import NDArray
-from sklearn.model_selection import StratifiedKFold
+from typing import Any, BinaryIO
 
 from terrain_odom.app.cluster import dask_cluster
 from terrain_odom.app.locate import check_out, create_folder, output_file, writing_into
+from terrain_odom.app.tune import (
+    NestedTuning,
+    Tuning,
+    feature_cache,
+    load_grid,
+    nested_tuning,
+    tune_settings,
+)
 from terrain_odom.config.classifier import ClassifierConfig, paper_config
-from terrain_odom.errors import ConfigError, InputFileError
+from terrain_odom.errors import ConfigError
 from terrain_odom.io.atomic import write_atomic, write_text_atomic
 from terrain_odom.io.classifier_file import save_classifier
 from terrain_odom.io.folder import writing_if
@@ -34,30 +39,25 @@ from terrain_odom.io.paths import check_outputs
 from terrain_odom.io.report import report_header, write_json
 from terrain_odom.reporting.confusion import confusion_figure
 from terrain_odom.reporting.figure import save_png
-from terrain_odom.vision.calibration import Reliability, choose_threshold, reliability
 from terrain_odom.vision.classifier import TerrainClassifier
-from terrain_odom.vision.dataset import LabelledFeatures, LabelledImages, SkippedImage
+from terrain_odom.vision.cross_validation import (
+    CV_SEED,
+    CrossValidation,
+    cross_validate_images,
+    feature_times_ms,
+)
+from terrain_odom.vision.dataset import LabelledImages, SkippedImage
 from terrain_odom.vision.features import resolve_scale
 from terrain_odom.vision.tuning import Grid, grid_configs
 
-if TYPE_CHECKING:
-    from terrain_odom.app.tune import NestedTuning, Tuning
-
 __all__ = [
-    "CV_SEED",
     "MODEL_FILE",
     "MODEL_SUFFIXES",
-    "CrossValidation",
     "TrainSummary",
     "AccuracyReport",
-    "cross_validate",
-    "feature_times_ms",
     "train",
     "report_accuracy",
 ]
-
-CV_SEED = 0
-"""Seed of the fold shuffling: every report uses the same folds."""
 
 MODEL_FILE = "classifier.npz"
 """The model file :func:`train` writes into its ``out`` folder."""
@@ -66,147 +66,6 @@ MODEL_SUFFIXES = (".npz",)
 
 ACCURACY_FILES = ("accuracy.json", "accuracy.csv", "confusion.png")
 """Files :func:`report_accuracy` writes into its ``out_dir``."""
-
-
-@dataclass(frozen=True)
-class CrossValidation:
-    """Result of a stratified k-fold cross-validation.
-
-    Attributes
-    ----------
-    cfg : ClassifierConfig
-    classes : tuple of str
-    folds : int
-    confusion : ndarray of int, shape (n_classes, n_classes)
-        Image counts; row = true class, column = predicted class.
-    confidence, correct : ndarray, shape (n_images,), optional
-        Each held-out image's confidence and whether its label was right
-        (in image order; for :meth:`reliability`).
-    """
-
-    cfg: ClassifierConfig
-    classes: tuple[str, ...]
-    folds: int
-    confusion: NDArray[np.int64]
-    confidence: NDArray[np.float64] | None = None
-    correct: NDArray[np.bool_] | None = None
-
-    def reliability(self) -> Reliability | None:
-        """Observed accuracy against confidence of the held-out images (None without them)."""
-        if self.confidence is None or self.correct is None:
-            return None
-        return reliability(self.confidence, self.correct)
-
-    def threshold(self) -> float | None:
-        """Return the tracker's confidence threshold chosen from the held-out images (:func:`choose_threshold`)."""
-        if self.confidence is None or self.correct is None:
-            return None
-        return choose_threshold(self.confidence, self.correct)
-
-    @property
-    def percent(self) -> NDArray[np.float64]:
-        """Row-normalised confusion matrix, % (each row sums to 100)."""
-        return 100.0 * self.confusion / self.confusion.sum(axis=1, keepdims=True)
-
-    @property
-    def per_class_accuracy(self) -> dict[str, float]:
-        """Share of each class's images classified correctly, %."""
-        return dict(zip(self.classes, np.diag(self.percent).tolist(), strict=True))
-
-    @property
-    def mean_accuracy(self) -> float:
-        """Mean of the per-class accuracies, % (balanced accuracy)."""
-        return float(np.mean(np.diag(self.percent)))
-
-    @property
-    def overall_accuracy(self) -> float:
-        """Share of all images classified correctly, %."""
-        return float(100.0 * np.trace(self.confusion) / self.confusion.sum())
-
-    def worst_class(self) -> tuple[str, float]:
-        """Return the class with the lowest accuracy and that accuracy, %."""
-        name = min(self.per_class_accuracy, key=self.per_class_accuracy.__getitem__)
-        return name, self.per_class_accuracy[name]
-
-    def to_dict(self) -> dict[str, Any]:
-        """Plain data for reports (with the reliability and threshold when known)."""
-        table = self.reliability()
-        return {
-            "config": dataclasses.asdict(self.cfg),
-            "confusion_counts": self.confusion,
-            "confusion_percent": self.percent,
-            "per_class_accuracy_percent": self.per_class_accuracy,
-            "mean_accuracy_percent": self.mean_accuracy,
-            "overall_accuracy_percent": self.overall_accuracy,
-            **(
-                {}
-                if table is None
-                else {"reliability": table.to_dict(), "min_confidence": self.threshold()}
-            ),
-        }
-
-
-def cross_validate(
-    data: LabelledFeatures,
-    cfg: ClassifierConfig | None = None,
-    *,
-    folds: int = 5,
-    seed: int = CV_SEED,
-) -> CrossValidation:
-    """Stratified k-fold cross-validation of the classifier over images.
-
-    Parameters
-    ----------
-    data : LabelledFeatures
-        Features of every image; all tiles of an image go to the same fold.
-    cfg : ClassifierConfig, optional
-        Classifier settings (default ``data.cfg``); its feature settings must
-        be those ``data`` was computed with, while ``scale``, ``k`` and
-        ``weights`` may differ.
-    folds : int
-        Number of folds (scikit-learn ``StratifiedKFold``, shuffled with ``seed``).
-    seed : int
-
-    Returns
-    -------
-    CrossValidation
-
-    Raises
-    ------
-    InputFileError
-        A class has fewer images than ``folds``.
-    """
-    cfg = data.cfg if cfg is None else cfg
-    if cfg.feature_key() != data.cfg.feature_key():
-        raise ValueError("cfg's feature settings differ from those the features were computed with")
-    smallest = min(data.counts().items(), key=lambda item: item[1])
-    if folds < 2 or smallest[1] < folds:
-        raise InputFileError(
-            f"cannot cross-validate with {folds} folds: class '{smallest[0]}' has "
-            f"{smallest[1]} usable image(s), and every fold needs one of each class"
-        )
-    splitter = StratifiedKFold(n_splits=folds, shuffle=True, random_state=seed)
-    confusion = np.zeros((len(data.classes), len(data.classes)), dtype=np.int64)
-    index = {name: i for i, name in enumerate(data.classes)}
-    confidence = np.zeros(data.labels.size)
-    correct = np.zeros(data.labels.size, dtype=bool)
-    for train_idx, test_idx in splitter.split(np.zeros((data.labels.size, 1)), data.labels):
-        train, test = data.select(train_idx), data.select(test_idx)  # all tiles of an image
-        model = TerrainClassifier(cfg).fit(train.features, train.labels, train.region)
-        predicted, confidence[test_idx] = model.predict_with_confidence(test.features, test.region)
-        correct[test_idx] = predicted == test.labels
-        for true, pred in zip(test.labels, predicted, strict=True):
-            confusion[index[true], index[pred]] += 1
-    return CrossValidation(cfg, data.classes, folds, confusion, confidence, correct)
-
-
-def feature_times_ms(data: LabelledFeatures) -> dict[str, dict[str, float]]:
-    """Feature-extraction time per image of each class, ms: ``{"mean": ..., "max": ...}``."""
-    out = {}
-    for name in data.classes:
-        ms = 1e3 * data.seconds[data.labels == name]
-        out[name] = {"mean": float(ms.mean()), "max": float(ms.max())}
-    return out
 
 
 @dataclass(frozen=True)
@@ -296,11 +155,6 @@ def train(
     ConfigError
         ``k`` larger than the number of training samples; an invalid grid.
     """
-    from terrain_odom.app.tune import (  # here: app.tune builds on this module's CrossValidation
-        feature_cache,
-        tune_settings,
-    )
-
     cfg = ClassifierConfig() if cfg is None else cfg
     target = output_file(out, MODEL_FILE, MODEL_SUFFIXES)
     check_out(out, MODEL_SUFFIXES)
@@ -316,7 +170,7 @@ def train(
         data = cache.features(cfg)
     model = TerrainClassifier(cfg).fit(data.features, data.labels, data.region)
     folds = min(folds, *data.counts().values())
-    validation = cross_validate(data, folds=folds) if folds >= 2 else None
+    validation = cross_validate_images(data, folds=folds) if folds >= 2 else None
     model.calibrate_novelty()
     threshold = None if validation is None else validation.threshold()
     model.min_confidence = 0.0 if threshold is None else threshold
@@ -334,8 +188,6 @@ def _scaled(
     The size is the images' median shorter side (:func:`~terrain_odom.io.images.median_short_side`);
     the default grid is built around it (:func:`~terrain_odom.app.tune.load_grid`).
     """
-    from terrain_odom.app.tune import load_grid
-
     short_side = median_short_side(scan.paths)
     if short_side is not None:
         cfg = resolve_scale(cfg, short_side)
@@ -411,7 +263,7 @@ def report_accuracy(
 ) -> AccuracyReport:
     """Cross-validated confusion matrices of ``cfg`` and of Chen's recipe.
 
-    Both are scored on the same stratified folds (seed :data:`CV_SEED`).
+    Both are scored on the same stratified folds (seed :data:`~terrain_odom.vision.cross_validation.CV_SEED`).
 
     Parameters
     ----------
@@ -475,8 +327,6 @@ def _accuracy(
     progress: bool | None,
 ) -> AccuracyReport:
     """Cross-validate ``cfg`` and Chen et al.'s recipe (and tune, with a grid) on ``images``."""
-    from terrain_odom.app.tune import feature_cache, nested_tuning  # as in train
-
     paper = paper_config()
     with dask_cluster(dask) as cluster:
         jobs = jobs if cluster is None else cluster.jobs
@@ -486,8 +336,8 @@ def _accuracy(
     chosen_data, paper_data = cache.features(cfg), cache.features(paper)
     report = AccuracyReport(
         images=images,
-        chosen=cross_validate(chosen_data, folds=folds),
-        paper=cross_validate(paper_data, folds=folds),
+        chosen=cross_validate_images(chosen_data, folds=folds),
+        paper=cross_validate_images(paper_data, folds=folds),
         feature_ms={"chosen": feature_times_ms(chosen_data), "paper": feature_times_ms(paper_data)},
         counts=chosen_data.counts(),
         skipped=chosen_data.skipped,

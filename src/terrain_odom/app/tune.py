@@ -18,11 +18,11 @@ from typing import Any
 
 import numpy as np
 
-from terrain_odom.app.train import CV_SEED, CrossValidation
 from terrain_odom.config.classifier import ClassifierConfig
 from terrain_odom.config.loader import read_yaml
 from terrain_odom.errors import ConfigError, InputFileError
 from terrain_odom.io.images import read_image_rgb
+from terrain_odom.vision.cross_validation import CV_SEED, CrossValidation, check_folds
 from terrain_odom.vision.dataset import LabelledImages, extract_feature_sets
 from terrain_odom.vision.tuning import (
     FeatureCache,
@@ -135,7 +135,7 @@ def tune_settings(
         Values of the fields the grid leaves out.
     grid : Grid
     folds : int
-        Stratified folds (seed :data:`~terrain_odom.app.train.CV_SEED`),
+        Stratified folds (seed :data:`~terrain_odom.vision.cross_validation.CV_SEED`),
         reduced to the smallest class's image count.
     jobs : int, optional
         joblib workers (default: all cores).
@@ -149,24 +149,12 @@ def tune_settings(
     """
     cache.prepare(grid_configs(grid, base))
     data = cache.features(base)
-    labels = data.labels
     folds = min(folds, *data.counts().values())
-    _check_folds(labels, folds, "tune")
+    check_folds(data.counts(), folds, "tune")
     search, chosen = search_settings(
-        cache, base, grid, labels, folds=folds, seed=CV_SEED, jobs=_search_jobs(jobs)
+        cache, base, grid, data.labels, folds=folds, seed=CV_SEED, jobs=_search_jobs(jobs)
     )
     return Tuning(search, chosen)
-
-
-def _check_folds(labels: np.ndarray, folds: int, what: str) -> None:
-    """Raise unless every class has ``folds >= 2`` images (one per fold)."""
-    names, counts = np.unique(labels, return_counts=True)
-    smallest = int(np.argmin(counts))
-    if folds < 2 or counts[smallest] < folds:
-        raise InputFileError(
-            f"cannot {what} with {folds} folds: class '{names[smallest]}' has "
-            f"{counts[smallest]} usable image(s), and every fold needs one of each class"
-        )
 
 
 @dataclass(frozen=True)
@@ -224,8 +212,8 @@ def nested_tuning(
 ) -> NestedTuning:
     """Score the tuned classifier by nested stratified cross-validation.
 
-    The outer folds are those of :func:`~terrain_odom.app.train.cross_validate`
-    (seed :data:`~terrain_odom.app.train.CV_SEED`); each outer training fold
+    The outer folds are those of :func:`~terrain_odom.vision.cross_validation.cross_validate_images`
+    (seed :data:`~terrain_odom.vision.cross_validation.CV_SEED`); each outer training fold
     is searched with ``inner_folds`` folds, and its test fold is classified
     with that choice only. Parameters as :func:`tune_settings`.
 
@@ -237,7 +225,7 @@ def nested_tuning(
     """
     cache.prepare(grid_configs(grid, base))
     data = cache.features(base)
-    _check_folds(data.labels, folds, "cross-validate")
+    check_folds(data.counts(), folds, "cross-validate")
     name, count = min(data.counts().items(), key=lambda item: item[1])
     if count - -(-count // folds) < inner_folds:  # the fewest a class has in an outer training fold
         raise InputFileError(

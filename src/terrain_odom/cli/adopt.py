@@ -35,7 +35,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 def _cmd_adopt(args: argparse.Namespace) -> int:
     from terrain_odom.app.adopt import adopt
-    from terrain_odom.cli.main import printable  # file names as found: escaped
+    from terrain_odom.cli.options import printable  # file names as found: escaped
 
     done = adopt(args.folder, BY.get(args.by, args.by), args.only)
     names = ", ".join(printable(name) for name in done.adopted[:5])

@@ -1,9 +1,12 @@
 """Entry point of the ``terrain-odom`` command.
 
-Argument parsing only: each subcommand (one module each) unpacks its
-arguments, calls a function of :mod:`terrain_odom.app` and prints the typed
-result; the options several subcommands share live in
-:mod:`terrain_odom.cli.options`. Errors raised on purpose by the
+Each subcommand (one module each) parses and converts its arguments, calls
+a function of :mod:`terrain_odom.app` and prints the typed result; the
+options several subcommands share live in :mod:`terrain_odom.cli.options`.
+Not parsing only yet: ``run`` and ``patches`` also find the images folder's
+config, ``run`` the default classifier, and ``run``, ``calibrate``, ``fit``
+and ``evaluate`` import a bag given as ``--wheels`` before the command runs
+(:mod:`terrain_odom.cli.bag_import`). Errors raised on purpose by the
 package (bad input files, invalid configuration) and files the operating
 system refuses (read-only, a name too long, a full disk) are printed as one
 line, control characters escaped, and exit with code 2; ``SIGTERM`` and
@@ -40,7 +43,7 @@ from terrain_odom.cli import (
     simulate,
     train,
 )
-from terrain_odom.cli.options import warn_deprecated_spellings
+from terrain_odom.cli.options import printable, warn_deprecated_spellings
 from terrain_odom.errors import Interrupted, TerrainOdomError
 
 # One module per subcommand, each with ``add_parser(subparsers)``.
@@ -113,28 +116,6 @@ def _error(message: str) -> int:
     """Print ``message`` as one line (control characters escaped); return :data:`EXIT_USAGE`."""
     print(f"terrain-odom: error: {printable(message)}", file=sys.stderr)
     return EXIT_USAGE
-
-
-def printable(text: str) -> str:
-    r"""Return ``text`` with control characters and undecodable bytes escaped: one safe line.
-
-    A file name may hold a newline, an ESC (a terminal's escape sequences)
-    or bytes that are not UTF-8; they are shown as Python escapes.
-
-    Examples
-    --------
-    >>> printable("a\nb\x1b[31m")
-    'a\\nb\\x1b[31m'
-    """
-    return "".join(_escape(char) for char in text)
-
-
-def _escape(char: str) -> str:
-    if char.isprintable() or char == " ":
-        return char
-    if "\udc80" <= char <= "\udcff":  # a byte that was not UTF-8 (surrogateescape)
-        return f"\\x{ord(char) - 0xDC00:02x}"
-    return repr(char)[1:-1]
 
 
 class _Caught:

@@ -164,6 +164,28 @@ def find_input(path: str | None, pattern: str, kind: str) -> str | None:
     return None if path is None else str(find(path, pattern, kind))
 
 
+def printable(text: str) -> str:
+    r"""Return ``text`` with control characters and undecodable bytes escaped: one safe line.
+
+    A file name may hold a newline, an ESC (a terminal's escape sequences)
+    or bytes that are not UTF-8; they are shown as Python escapes.
+
+    Examples
+    --------
+    >>> printable("a\nb\x1b[31m")
+    'a\\nb\\x1b[31m'
+    """
+    return "".join(_escape(char) for char in text)
+
+
+def _escape(char: str) -> str:
+    if char.isprintable() or char == " ":
+        return char
+    if "\udc80" <= char <= "\udcff":  # a byte that was not UTF-8 (surrogateescape)
+        return f"\\x{ord(char) - 0xDC00:02x}"
+    return repr(char)[1:-1]
+
+
 def print_written(label: str, paths: Sequence[Path | None]) -> None:
     """Print the files written under ``label`` (``"frames:"``), one a line, aligned.
 

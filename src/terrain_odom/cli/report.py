@@ -9,8 +9,8 @@ from terrain_odom.cli.options import add_classifier_options, add_out_option, cla
 from terrain_odom.cli.train import describe, describe_threshold, describe_values, print_skipped
 
 if TYPE_CHECKING:
-    from terrain_odom.app.train import CrossValidation
     from terrain_odom.app.tune import NestedTuning
+    from terrain_odom.vision.cross_validation import CrossValidation
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:

@@ -13,8 +13,8 @@ from terrain_odom.cli.options import (
 )
 
 if TYPE_CHECKING:
-    from terrain_odom.app.train import CrossValidation
     from terrain_odom.config.classifier import ClassifierConfig
+    from terrain_odom.vision.cross_validation import CrossValidation
     from terrain_odom.vision.dataset import SkippedImage
     from terrain_odom.vision.tuning import Search
 

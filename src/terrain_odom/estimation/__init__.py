@@ -1,4 +1,11 @@
-"""Online estimators: the ICR EKF and the terrain change tracker."""
+"""Online estimation: ICR EKF, slip-parameter EKF, terrain tracker, OnlineOdometry.
+
+Imported here: the ICR EKF, its process step and the terrain tracker; the
+rest from their own modules (:mod:`~terrain_odom.estimation.slip_ekf`,
+:mod:`~terrain_odom.estimation.online`, the row loop over a log in
+:mod:`~terrain_odom.estimation.odometry`, pose-delay estimation in
+:mod:`~terrain_odom.estimation.time_offset`).
+"""
 
 from terrain_odom.estimation.icr_ekf import (
     STATE_NAMES,

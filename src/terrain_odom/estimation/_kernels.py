@@ -11,52 +11,48 @@ arithmetic costs instead of numpy's overhead on 7x7 arrays. The process model
 repeats :func:`~terrain_odom.estimation.icr_ekf.icr_step_with_jacobian` term
 by term; the tests compare both (and a filterpy filter) to 1e-12.
 
-``cache=True`` keeps the machine code in ``__pycache__``, so only the first
-process after an install (or a change of this file) compiles (~2-4 s); later
-ones load it. Importing numba and loading the kernels still costs a process
-~0.5-0.9 s, more than a short log takes in plain Python: the first
-:data:`PURE_CALLS` calls run these same functions as Python (~0.1-0.3 ms a
-call, numpy's errors off like numba's ``error_model="numpy"``), and only then
-are they compiled (:func:`compile_kernels`), so a short run never imports
-numba. The tests hold both modes to the filterpy reference. Other modules'
-kernels (the slip EKF's, :mod:`~terrain_odom.estimation._slip_kernels`) join
-this switch with :func:`register`: one count of calls, one compilation.
+They run as Python for a process's first calls, then compiled (cached on
+disk), under the switch of :mod:`~terrain_odom.estimation._kernel_switch`;
+the Kalman arithmetic they share with the slip EKF's kernels
+(:mod:`~terrain_odom.estimation._slip_kernels`) is in
+:mod:`~terrain_odom.estimation._kalman_kernels`. The tests hold both modes
+to the filterpy reference.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 
+from terrain_odom.estimation import _kalman_kernels as kalman
+from terrain_odom.estimation._kalman_kernels import (
+    gain_from,
+    innovation_covariance,
+    joseph,
+    std_into,
+    symmetrise,
+    wrap,
+)
+from terrain_odom.estimation._kernel_switch import register
+
 __all__ = [
-    "PURE_CALLS",
-    "compile_kernels",
+    "KERNELS",
+    "REACQUIRED_NIS",
     "constrain",
     "icr_predict",
     "icr_rows",
     "icr_update",
-    "register",
     "std",
+    "step_jacobian",
 ]
-
-PURE_CALLS = 2000
-"""Kernel calls run as Python before the kernels are compiled (about 700-1000 log rows)."""
 
 _SERIES_LIMIT = 1e-2  # as terrain_odom.kinematics.integration._SERIES_LIMIT
 _FIRST_COUPLED = (2, 2, 3)  # pose row i of F: zero left of column _FIRST_COUPLED[i] but F[i, i] = 1
-_TWO_PI = 2.0 * math.pi
-_REACQUIRED_NIS = 10.0
+REACQUIRED_NIS = 10.0
 """A re-acquired component's NIS, in gate bounds, beyond which the pose variances grow."""
-
-
-def _wrap(angle: float) -> float:
-    """:func:`~terrain_odom.kinematics.wrap_angle` of one angle."""
-    if -math.pi < angle <= math.pi:
-        return angle
-    return math.pi - np.mod(math.pi - angle, _TWO_PI)
 
 
 def _arc(phi: float) -> tuple[float, float, float, float]:
@@ -75,7 +71,7 @@ def _arc(phi: float) -> tuple[float, float, float, float]:
     )
 
 
-def _step_jacobian(x: np.ndarray, v_l: float, v_r: float, dt: float, jac: np.ndarray) -> None:
+def step_jacobian(x: np.ndarray, v_l: float, v_r: float, dt: float, jac: np.ndarray) -> None:
     """Advance ``x`` in place over one wheel sample; write ``F`` into ``jac`` (n, n)."""
     n = x.shape[0]
     y_l, y_r, x_icr = x[3], x[4], x[5]
@@ -119,34 +115,7 @@ def _step_jacobian(x: np.ndarray, v_l: float, v_r: float, dt: float, jac: np.nda
         jac[2, 3 + k] = ja[2, 2] * jt[2, k]
     x[0] += world_x
     x[1] += world_y
-    x[2] = _wrap(x[2] + phi)
-
-
-def _matmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Return ``a @ b`` of small square matrices, in loops (numba's ``@`` loads SciPy's BLAS).
-
-    Zeros of ``a`` are skipped: the sums are those of the full product, bit for bit
-    (a finite ``b``), at the cost of the nonzero terms (``I - K H`` is mostly the identity).
-    """
-    n = a.shape[0]
-    out = np.zeros((n, n))
-    for i in range(n):
-        for k in range(n):
-            aik = a[i, k]
-            if aik != 0.0:
-                for j in range(n):
-                    out[i, j] += aik * b[k, j]
-    return out
-
-
-def _symmetrise(p: np.ndarray) -> None:
-    """``P = (P + P^T) / 2`` in place."""
-    n = p.shape[0]
-    for i in range(n):
-        for j in range(i + 1, n):
-            m = 0.5 * (p[i, j] + p[j, i])
-            p[i, j] = m
-            p[j, i] = m
+    x[2] = wrap(x[2] + phi)
 
 
 def _icr_predict(
@@ -187,13 +156,13 @@ def _icr_predict(
     jac = np.empty((n, n))
     phi = 1.0
     if m == n:
-        _step_jacobian(x, v_l, v_r, dt, jac)
+        step_jacobian(x, v_l, v_r, dt, jac)
     else:  # the model's block; the bias column of the pose rows is zero
         jac[:, :] = 0.0
-        _step_jacobian(x[:m], v_l, v_r, dt, jac[:m, :m])
+        step_jacobian(x[:m], v_l, v_r, dt, jac[:m, :m])
         phi = math.exp(-dt / bias[0])
         x[m] *= phi
-    # F is the identity but in its pose rows (F[0, 2], F[1, 2], F[:3, 3:]; see _step_jacobian)
+    # F is the identity but in its pose rows (F[0, 2], F[1, 2], F[:3, 3:]; see step_jacobian)
     # and a bias's diagonal, phi (its row of F P and column of F^T scaled below):
     # F P F^T changes only the pose rows, then the pose columns. The sums take the full
     # products' terms in their order without the exact zeros: the same bits, ~2.5x fewer terms.
@@ -219,33 +188,7 @@ def _icr_predict(
         p[i, i] += q_density[i] * dt
     if m < n:
         p[m, m] += bias[1] * -math.expm1(-2.0 * dt / bias[0])
-    _symmetrise(p)
-
-
-def _inverse(s: np.ndarray) -> np.ndarray:
-    """Inverse of a small non-singular matrix (Gauss-Jordan, partial pivoting)."""
-    m = s.shape[0]
-    a = s.copy()
-    inv = np.eye(m)
-    for col in range(m):
-        pivot = col
-        for row in range(col + 1, m):
-            if abs(a[row, col]) > abs(a[pivot, col]):
-                pivot = row
-        for k in range(m):
-            a[col, k], a[pivot, k] = a[pivot, k], a[col, k]
-            inv[col, k], inv[pivot, k] = inv[pivot, k], inv[col, k]
-        scale = 1.0 / a[col, col]
-        for k in range(m):
-            a[col, k] *= scale
-            inv[col, k] *= scale
-        for row in range(m):
-            if row != col:
-                f = a[row, col]
-                for k in range(m):
-                    a[row, k] -= f * a[col, k]
-                    inv[row, k] -= f * inv[col, k]
-    return inv
+    symmetrise(p)
 
 
 def _sensor(
@@ -260,7 +203,7 @@ def _sensor(
     arm_x, arm_y, offset = mounting[0], mounting[1], mounting[2]
     c, s = math.cos(x[2]), math.sin(x[2])
     full_h = np.array([x[0] + (c * arm_x - s * arm_y), x[1] + (s * arm_x + c * arm_y), 0.0])
-    full_h[2] = _wrap(x[2] + offset + x[n - 1]) if biased else _wrap(x[2] + offset)
+    full_h[2] = wrap(x[2] + offset + x[n - 1]) if biased else wrap(x[2] + offset)
     h, jac = np.empty(m), np.zeros((m, n))
     for i in range(m):
         row = rows[i]
@@ -344,7 +287,7 @@ def _icr_update(
     rows = _rows(pair, heading)
     h, jac = _sensor(x, rows, mounting, biased)
     y = _innovation(z, h, rows)
-    pht, s = _innovation_covariance(p, jac, rows, r)
+    pht, s = innovation_covariance(p, jac, rows, r)
     fuse_pair, fuse_heading, grown = _gate(p, y, s, pair, heading, gate, gating, t)
     if not (fuse_pair or fuse_heading):
         return math.nan, True
@@ -353,9 +296,9 @@ def _icr_update(
         rows = _rows(pair, fuse_heading)
         h, jac = _sensor(x, rows, mounting, biased)
         y = _innovation(z, h, rows)
-        pht, s = _innovation_covariance(p, jac, rows, r)
+        pht, s = innovation_covariance(p, jac, rows, r)
     m = rows.size
-    k_gain, si = _gain_from(pht, s)
+    k_gain, si = gain_from(pht, s)
     if model > 6 and not pair:  # heading only: alpha not observable, held (Schmidt)
         k_gain[6, :] = 0.0
     for i in range(n):
@@ -365,7 +308,7 @@ def _icr_update(
     for i in range(m):
         for j in range(m):
             nis += y[i] * si[i, j] * y[j]
-    _joseph(p, k_gain, jac, rows, r)
+    joseph(p, k_gain, jac, rows, r)
     return nis, _constrain(x, p, limits, model)
 
 
@@ -381,7 +324,7 @@ def _innovation(z: np.ndarray, h: np.ndarray, rows: np.ndarray) -> np.ndarray:
     for j in range(m):
         y[j] = z[rows[j]] - h[j]
         if rows[j] == 2:
-            y[j] = _wrap(y[j])
+            y[j] = wrap(y[j])
     return y
 
 
@@ -403,7 +346,7 @@ def _gate(
     ``gate[2]`` components of its kind in a row, or all for ``gate[3]``
     seconds, were rejected before it: then it is fused, the pose variances
     it measures first grown (``P`` in place) in proportion to its NIS beyond
-    :data:`_REACQUIRED_NIS` times the bound, so a filter that is truly off
+    :data:`REACQUIRED_NIS` times the bound, so a filter that is truly off
     (after an outage, a reset) snaps back to the measurement without its
     ICRs taking the blame, while an innovation a few times the bound (a
     sudden change of terrain) teaches the ICRs as usual. A lone jump is
@@ -443,83 +386,13 @@ def _gate(
         gating[g], gating[2 + g] = math.nan, 0.0  # re-acquired: the pose variances absorb it
         gating[6 + g] += 1.0
         grown = True
-        grow = max(nis / (_REACQUIRED_NIS * gate[g]) - 1.0, 0.0)
+        grow = max(nis / (REACQUIRED_NIS * gate[g]) - 1.0, 0.0)
         if g == 0:
             p[0, 0] += grow * s[0, 0]
             p[1, 1] += grow * s[1, 1]
         else:
             p[2, 2] += grow * s[last, last]
     return fuse[0], fuse[1], grown
-
-
-def _innovation_covariance(
-    p: np.ndarray, jac: np.ndarray, rows: np.ndarray, r: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """Return ``P H^T`` and ``S = H P H^T + R`` (``R`` of ``rows``)."""
-    n, m = p.shape[0], rows.size
-    pht = np.zeros((n, m))
-    for i in range(n):
-        for j in range(m):
-            for k in range(n):
-                pht[i, j] += p[i, k] * jac[j, k]
-    s = np.empty((m, m))
-    for i in range(m):
-        for j in range(m):
-            acc = r[rows[i], rows[j]]
-            for k in range(n):
-                acc += jac[i, k] * pht[k, j]
-            s[i, j] = acc
-    return pht, s
-
-
-def _gain(
-    p: np.ndarray, jac: np.ndarray, rows: np.ndarray, r: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """Return the Kalman gain ``K = P H^T S^-1`` and ``S^-1``, ``S = H P H^T + R`` (``R`` of ``rows``)."""
-    return _gain_from(*_innovation_covariance(p, jac, rows, r))
-
-
-def _gain_from(pht: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Return the Kalman gain ``K = P H^T S^-1`` and ``S^-1`` from ``P H^T`` and ``S``."""
-    n, m = pht.shape
-    si = _inverse(s)
-    k_gain = np.zeros((n, m))
-    for i in range(n):
-        for j in range(m):
-            for k in range(m):
-                k_gain[i, j] += pht[i, k] * si[k, j]
-    return k_gain, si
-
-
-def _joseph(
-    p: np.ndarray, k_gain: np.ndarray, jac: np.ndarray, rows: np.ndarray, r: np.ndarray
-) -> None:
-    """Set ``P = (I - K H) P (I - K H)^T + K R K^T`` in place (``R`` of ``rows``)."""
-    n, m = k_gain.shape
-    i_kh = np.eye(n)
-    for k in range(m):  # H is sparse (ICR EKF): its zeros skipped, the same sums
-        for j in range(n):
-            h_kj = jac[k, j]
-            if h_kj != 0.0:
-                for i in range(n):
-                    i_kh[i, j] -= k_gain[i, k] * h_kj
-    left = _matmul(i_kh, p)
-    kr = np.zeros((n, m))
-    for i in range(n):
-        for j in range(m):
-            for k in range(m):
-                kr[i, j] += k_gain[i, k] * r[rows[k], rows[j]]
-    for i in range(n):
-        for j in range(n):
-            acc = 0.0
-            for k in range(n):
-                c = i_kh[j, k]
-                if c != 0.0:
-                    acc += left[i, k] * c
-            noise = 0.0
-            for k in range(m):
-                noise += kr[i, k] * k_gain[j, k]
-            p[i, j] = acc + noise
 
 
 def _constrain(x: np.ndarray, p: np.ndarray, limits: np.ndarray, model: int) -> bool:
@@ -533,29 +406,23 @@ def _constrain(x: np.ndarray, p: np.ndarray, limits: np.ndarray, model: int) -> 
     bool
         Whether ``x`` and ``P`` are all finite.
     """
-    x[2] = _wrap(x[2])
+    x[2] = wrap(x[2])
     x[3] = min(max(x[3], limits[0]), limits[1])
     x[4] = min(max(x[4], -limits[1]), -limits[0])
     x[5] = min(max(x[5], -limits[2]), limits[2])
     if model > 6:
         x[6] = min(max(x[6], limits[3]), limits[4])
     if x.shape[0] > model:
-        x[model] = _wrap(x[model])
-    _symmetrise(p)
+        x[model] = wrap(x[model])
+    symmetrise(p)
     return bool(np.all(np.isfinite(x))) and bool(np.all(np.isfinite(p)))
 
 
 def _std(p: np.ndarray) -> np.ndarray:
     """Return the standard deviations ``sqrt(max(diag(P), 0))``, shape (n,)."""
     out = np.empty(p.shape[0])
-    _std_into(p, out)
+    std_into(p, out)
     return out
-
-
-def _std_into(p: np.ndarray, out: np.ndarray) -> None:
-    """Write the standard deviations ``sqrt(max(diag(P), 0))`` into ``out`` (n,)."""
-    for i in range(p.shape[0]):
-        out[i] = math.sqrt(max(p[i, i], 0.0))
 
 
 def _icr_rows(
@@ -623,68 +490,8 @@ def _icr_rows(
             updates += 1
             last_nis = nis
         states[i, :] = x
-        _std_into(p, stds[i])
+        std_into(p, stds[i])
     return updates, last_nis, -1
-
-
-_PURE: dict[str, Callable[..., Any]] = {
-    name: globals()[name]
-    for name in ("_wrap", "_arc", "_step_jacobian", "_matmul", "_symmetrise", "_inverse")
-    + ("_sensor", "_rows", "_innovation", "_gate", "_innovation_covariance", "_gain_from")
-    + ("_gain",)
-    + ("_joseph", "_icr_predict", "_icr_update", "_constrain", "_std")
-    + ("_std_into", "_icr_rows")
-}
-_PUBLIC = ("icr_predict", "icr_update", "constrain", "std", "icr_rows")
-_MODULES: list[tuple[dict[str, Any], dict[str, Callable[..., Any]], tuple[str, ...]]] = []
-"""Every module's kernels: its namespace, its kernels as Python by name, its public names."""
-_DISPATCHERS: dict[Callable[..., Any], Callable[..., Any]] = {}  # Python function -> numba's
-_calls = 0  # kernel calls run as Python so far (all modules)
-_compiled = False
-
-
-def register(
-    namespace: dict[str, Any],
-    pure: dict[str, Callable[..., Any]],
-    public: tuple[str, ...],
-    calls: Mapping[str, Callable[..., int]] | None = None,
-) -> dict[str, Callable[..., Any]]:
-    """Put a module's kernels under the switch of this one; return its public kernels.
-
-    Parameters
-    ----------
-    namespace : dict
-        The module's ``globals()``, whose names :func:`compile_kernels`
-        points at the compiled functions.
-    pure : dict
-        The module's kernels as Python by name (``_name``), with the kernels
-        of other modules it calls (one compiled function each).
-    public : tuple of str
-        Names of the kernels callers use: ``name`` runs ``_name``.
-    calls : mapping of str to callable, optional
-        For a public kernel doing the work of many calls (a loop over rows),
-        how many calls one call counts for, given its arguments (default 1).
-
-    Returns
-    -------
-    dict
-        ``name`` -> ``_name`` run as Python for the first :data:`PURE_CALLS`
-        kernel calls of the process (all modules counted), then compiled.
-    """
-    _MODULES.append((namespace, pure, public))
-    namespace.update(pure)  # as Python, also those imported from a module already compiled
-    if _compiled:  # a module imported after the switch: compiled at once
-        _compile_module(namespace, pure, public)
-    counts = calls or {}
-    return {
-        name: _python_first(namespace, pure[f"_{name}"], name, counts.get(name, _one_call))
-        for name in public
-    }
-
-
-def _one_call(*args: Any) -> int:
-    """Count a kernel call as one call."""
-    return 1
 
 
 def _row_calls(*args: Any) -> int:
@@ -692,63 +499,15 @@ def _row_calls(*args: Any) -> int:
     return 2 * len(args[3][0])
 
 
-def compile_kernels() -> None:
-    """Replace every kernel of every registered module by its numba version (disk cache).
-
-    ``error_model="numpy"``: a division by zero gives inf/NaN (caught as a
-    non-finite state), no exception.
-    """
-    global _compiled
-    if _compiled:
-        return
-    _DISPATCHERS.clear()
-    for module in _MODULES:
-        _compile_module(*module)
-    _compiled = True
-
-
-def _compile_module(
-    namespace: dict[str, Any], pure: dict[str, Callable[..., Any]], public: tuple[str, ...]
-) -> None:
-    """Point a module's kernel names at their numba versions (one per Python function)."""
-    from numba import njit  # ~0.5 s and ~60 MiB: only once a run is long enough to pay
-
-    for name, function in pure.items():
-        if function not in _DISPATCHERS:
-            _DISPATCHERS[function] = njit(cache=True, error_model="numpy")(function)
-        namespace[name] = _DISPATCHERS[function]
-    for name in public:  # callers looking the kernels up there get no wrapper any more
-        namespace[name] = namespace[f"_{name}"]
-
-
-def _python_first(
-    namespace: dict[str, Any],
-    function: Callable[..., Any],
-    name: str,
-    counts: Callable[..., int],
-) -> Callable[..., Any]:
-    """Return ``function`` run as Python for the first :data:`PURE_CALLS` calls, then compiled.
-
-    A call counts for ``counts(*args)`` calls (see :func:`register`).
-    """
-
-    def call(*args: Any) -> Any:
-        global _calls
-        if not _compiled:
-            _calls += counts(*args)
-            if _calls <= PURE_CALLS:
-                with np.errstate(all="ignore"):  # as numba's error_model="numpy"
-                    return function(*args)
-            compile_kernels()
-        compiled = namespace[f"_{name}"]
-        namespace[name] = compiled  # also if the module bound the wrapper after the switch
-        return compiled(*args)
-
-    call.__name__, call.__doc__ = name, function.__doc__
-    return call
-
-
-_WRAPPERS = register(globals(), _PURE, _PUBLIC, {"icr_rows": _row_calls})
+_SHARED = ("wrap", "symmetrise", "innovation_covariance", "gain_from", "joseph", "std_into")
+KERNELS: dict[str, Callable[..., Any]] = {name: kalman.KERNELS[name] for name in _SHARED} | {
+    name: globals()[name]
+    for name in ("_arc", "step_jacobian", "_sensor", "_rows", "_innovation", "_gate")
+    + ("_icr_predict", "_icr_update", "_constrain", "_std", "_icr_rows")
+}
+"""These kernels as Python by name, with those of other modules they call (see :func:`register`)."""
+_PUBLIC = ("icr_predict", "icr_update", "constrain", "std", "icr_rows")
+_WRAPPERS = register(globals(), KERNELS, _PUBLIC, {"icr_rows": _row_calls})
 icr_predict = _WRAPPERS["icr_predict"]
 icr_update = _WRAPPERS["icr_update"]
 icr_rows = _WRAPPERS["icr_rows"]

@@ -17,7 +17,7 @@ kernels do the same arithmetic in scalar loops:
   parameters) and standard deviations.
 
 A wheel sample is the ICR EKF's process step
-(:func:`~terrain_odom.estimation._kernels._step_jacobian`) with the ICRs of
+(:func:`~terrain_odom.estimation._kernels.step_jacobian`) with the ICRs of
 the slip model at that sample's speeds; its Jacobian's ICR columns, chained
 through the composition to the window's end and through the (unclipped)
 ICR functions, give ``d change / d params``. The numpy formulation
@@ -25,12 +25,15 @@ ICR functions, give ``d change / d params``. The numpy formulation
 :meth:`~terrain_odom.kinematics.slip.SlipModel.pose_change_with_jacobian`)
 is the reference the tests hold these to (1e-12).
 
-The kernels join the switch of :mod:`~terrain_odom.estimation._kernels`
-(:func:`~terrain_odom.estimation._kernels.register`): the process's first
-``PURE_CALLS`` kernel calls run as Python, then all are compiled together.
-numba's disk cache keys a function on its own file only: after editing a
-kernel of ``_kernels.py`` that these call, touch this file too (or clear
-``__pycache__``), or the cache keeps the former callee compiled in.
+The kernels join the switch of :mod:`~terrain_odom.estimation._kernel_switch`
+(:func:`~terrain_odom.estimation._kernel_switch.register`): the process's
+first ``PURE_CALLS`` kernel calls run as Python, then all are compiled
+together. The gain, the Joseph form and the other Kalman arithmetic are the
+ICR EKF's (:mod:`~terrain_odom.estimation._kalman_kernels`). numba's disk
+cache keys a function on its own file only: after editing a kernel of
+``_kernels.py`` or ``_kalman_kernels.py`` that these call, touch this file
+too (or clear ``__pycache__``), or the cache keeps the former callee
+compiled in.
 
 The model constants ``model`` are, in order: nominal track width ``B``,
 curvature regulariser ``eps``, lateral acceleration on (1) or off (0),
@@ -41,21 +44,32 @@ alpha_min, alpha_max`` (:func:`~terrain_odom.estimation.slip_ekf.model_constants
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
-from terrain_odom.estimation import _kernels
-from terrain_odom.estimation._kernels import (
-    _gain,
-    _inverse,
-    _joseph,
-    _std,
-    _step_jacobian,
-    _symmetrise,
-    _wrap,
+from terrain_odom.estimation import _kalman_kernels as kalman
+from terrain_odom.estimation import _kernels as icr
+from terrain_odom.estimation._kalman_kernels import (
+    inverse,
+    joseph,
+    kalman_gain,
+    std_into,
+    symmetrise,
+    wrap,
 )
+from terrain_odom.estimation._kernel_switch import register
+from terrain_odom.estimation._kernels import step_jacobian
 
-__all__ = ["CHI2_99", "dead_reckon", "slip_estimate", "slip_predict", "slip_update"]
+__all__ = [
+    "CHI2_99",
+    "KERNELS",
+    "dead_reckon",
+    "slip_estimate",
+    "slip_predict",
+    "slip_update",
+]
 
 CHI2_99 = np.array([np.nan, 6.635, 9.210, 11.345])
 """99 % quantiles of the chi-square distribution with 1, 2 and 3 degrees of freedom."""
@@ -110,7 +124,7 @@ def _dead_reckon(
     state = np.empty(7)  # the ICR EKF's: pose, y_l, y_r, x_icr, alpha
     state[:3] = pose
     _load_icrs(state, x, v_l, v_r, model)
-    _step_jacobian(state, v_l, v_r, dt, np.empty((7, 7)))
+    step_jacobian(state, v_l, v_r, dt, np.empty((7, 7)))
     pose[:] = state[:3]
 
 
@@ -138,7 +152,7 @@ def _pose_change(
     jac = np.empty((7, 7))
     for i in range(count):
         feats[i, 0], feats[i, 1] = _load_icrs(state, x, v_l[lo + i], v_r[lo + i], model)
-        _step_jacobian(state, v_l[lo + i], v_r[lo + i], dt[lo + i], jac)
+        step_jacobian(state, v_l[lo + i], v_r[lo + i], dt[lo + i], jac)
         steps[i] = jac[:3, 3:]
         after[i, 0], after[i, 1] = state[0], state[1]
     out = np.zeros((3, n))
@@ -187,7 +201,7 @@ def _chord_turn(
     c2, j2 = _chord(second, j_second, arm)
     l1, l2 = c1[0] * c1[0] + c1[1] * c1[1], c2[0] * c2[0] + c2[1] * c2[1]
     length = math.sqrt(l2)
-    h = np.array([length, _wrap(first[2] + math.atan2(c2[1], c2[0]) - math.atan2(c1[1], c1[0]))])
+    h = np.array([length, wrap(first[2] + math.atan2(c2[1], c2[0]) - math.atan2(c1[1], c1[0]))])
     jac = np.empty((2, j_first.shape[1]))
     for col in range(j_first.shape[1]):
         jac[0, col] = (c2[0] * j2[0, col] + c2[1] * j2[1, col]) / length
@@ -232,7 +246,7 @@ def _residual(z: np.ndarray, h: np.ndarray, angle: int) -> np.ndarray:
     """``z - h``, row ``angle`` wrapped (none if negative)."""
     res = z - h
     if angle >= 0:
-        res[angle] = _wrap(res[angle])
+        res[angle] = wrap(res[angle])
     return res
 
 
@@ -240,7 +254,7 @@ def _inflation(res: np.ndarray, p: np.ndarray, jac: np.ndarray, r: np.ndarray) -
     """Factor (>= 1) on ``R`` bringing the NIS ``res^T (H P H^T + R)^-1 res`` to the 99 % bound."""
     m = res.size
     s = _matmul_rect(_matmul_rect(jac, p), jac.T) + r
-    si = _inverse(s)
+    si = inverse(s)
     nis = 0.0
     for i in range(m):
         for j in range(m):
@@ -324,7 +338,7 @@ def _slip_update(
         res = _residual(z_m, h, angle)
         if it == 0 and robust:
             r_m *= _inflation(res, p, jac, r_m)
-        gain, si = _gain(p, jac, index, r_m)
+        gain, si = kalman_gain(p, jac, index, r_m)
         x_last = x_i
         x_i = x0 + _matmul_vec(gain, res - _matmul_vec(jac, x0 - x_last))
     y = _residual(z_m, h + _matmul_vec(jac, x0 - x_last), angle)
@@ -333,8 +347,8 @@ def _slip_update(
         x[:] += gain[:, i] * y[i]
         for j in range(m):
             nis += y[i] * si[i, j] * y[j]
-    _joseph(p, gain, jac, index, r_m)
-    _symmetrise(p)
+    joseph(p, gain, jac, index, r_m)
+    symmetrise(p)
     return nis, bool(np.all(np.isfinite(x))) and bool(np.all(np.isfinite(p)))
 
 
@@ -366,19 +380,24 @@ def _slip_estimate(
         var = a * (a * p[c, c] + k * p[c + 1, c]) + k * (a * p[c, c + 1] + k * p[c + 1, c + 1])
         std[3 + i] = math.sqrt(max(var, 0.0))
     state[6:] = x
-    std[6:] = _std(p)
+    std_into(p, std[6:])
     return state, std
 
 
-_SHARED = ("_wrap", "_step_jacobian", "_symmetrise", "_inverse", "_gain", "_joseph", "_std")
-_PURE = {name: _kernels._PURE[name] for name in _SHARED} | {  # the Python versions
-    name: globals()[name]
-    for name in ("_features", "_clip", "_icrs", "_load_icrs", "_slip_predict", "_dead_reckon")
-    + ("_pose_change", "_chord", "_chord_turn", "_measure", "_residual", "_inflation")
-    + ("_matmul_rect", "_slip_update", "_matmul_vec", "_slip_estimate")
-}
-_WRAPPERS = _kernels.register(
-    globals(), _PURE, ("slip_predict", "dead_reckon", "slip_update", "slip_estimate")
+_SHARED = ("wrap", "symmetrise", "inverse", "kalman_gain", "joseph", "std_into")
+KERNELS: dict[str, Callable[..., Any]] = (
+    {name: kalman.KERNELS[name] for name in _SHARED}
+    | {"step_jacobian": icr.KERNELS["step_jacobian"]}
+    | {
+        name: globals()[name]
+        for name in ("_features", "_clip", "_icrs", "_load_icrs", "_slip_predict", "_dead_reckon")
+        + ("_pose_change", "_chord", "_chord_turn", "_measure", "_residual", "_inflation")
+        + ("_matmul_rect", "_slip_update", "_matmul_vec", "_slip_estimate")
+    }
+)
+"""These kernels as Python by name, with those of other modules they call (see :func:`register`)."""
+_WRAPPERS = register(
+    globals(), KERNELS, ("slip_predict", "dead_reckon", "slip_update", "slip_estimate")
 )
 slip_predict = _WRAPPERS["slip_predict"]
 dead_reckon = _WRAPPERS["dead_reckon"]

@@ -24,7 +24,7 @@ import scipy.linalg
 from numpy.typing import ArrayLike
 
 from terrain_odom.errors import EstimationError
-from terrain_odom.estimation._kernels import _REACQUIRED_NIS
+from terrain_odom.estimation._kernels import REACQUIRED_NIS
 from terrain_odom.estimation.icr_ekf import IcrEkf, gate_bounds, icr_step_with_jacobian
 from terrain_odom.estimation.pose_measurement import measured_rows, measurement
 from terrain_odom.kinematics import wrap_angle
@@ -149,7 +149,7 @@ class FilterpyIcrEkf(IcrEkf):
 
         The position's NIS is that of its 2x2 block of ``S = H P H^T + R``
         (SciPy's inverse), the heading's its innovation squared over its
-        variance in ``S``; a re-acquired component beyond ``_REACQUIRED_NIS`` bounds grows the
+        variance in ``S``; a re-acquired component beyond ``REACQUIRED_NIS`` bounds grows the
         pose variances it measures by ``S``'s in proportion (:attr:`gating` as
         the kernels keep it).
         """
@@ -176,7 +176,7 @@ class FilterpyIcrEkf(IcrEkf):
                     continue
                 self.gating[[g, 2 + g]] = np.nan, 0.0
                 self.gating[6 + g] += 1
-                grow = max(nis / (_REACQUIRED_NIS * bounds[g]) - 1.0, 0.0)
+                grow = max(nis / (REACQUIRED_NIS * bounds[g]) - 1.0, 0.0)
                 self._P[rows[part], rows[part]] += grow * np.diag(s)[part]
             keep.extend(rows[part])
         return np.array(keep, dtype=int)

@@ -128,7 +128,7 @@ class OnlineOdometry:
         mounting = _mounting(config)
         steps: _IcrSteps | _SlipSteps
         if estimator == "slip-ekf":
-            from terrain_odom.estimation.slip_ekf import SlipEkf  # filterpy, SciPy: slip EKF only
+            from terrain_odom.estimation.slip_ekf import SlipEkf  # lazy: ICR runs skip its kernels
 
             if priors is not None or config.pose_sensor.heading_bias:
                 raise ConfigError(

@@ -34,12 +34,13 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 from sklearn.base import BaseEstimator, ClassifierMixin
-from sklearn.model_selection import GridSearchCV, ParameterGrid, StratifiedKFold, cross_validate
+from sklearn.model_selection import GridSearchCV, ParameterGrid, cross_validate
 
 from terrain_odom.config.classifier import MIN_TILE_SIZE, ClassifierConfig
 from terrain_odom.config.fields import build_section
 from terrain_odom.errors import ConfigError
 from terrain_odom.vision.classifier import TerrainClassifier
+from terrain_odom.vision.cross_validation import stratified_folds
 from terrain_odom.vision.dataset import LabelledFeatures
 
 __all__ = [
@@ -364,7 +365,7 @@ def _grid_search(
         ImageKNN.of(cache, base),
         grid,
         scoring=SCORING,
-        cv=StratifiedKFold(n_splits=folds, shuffle=True, random_state=seed),
+        cv=stratified_folds(folds, seed),
         n_jobs=jobs,
         error_score="raise",
     )
@@ -393,7 +394,7 @@ def search_settings(
         From :func:`check_grid`.
     labels : ndarray of str, shape (n_images,)
     folds, seed : int
-        ``StratifiedKFold(folds, shuffle=True, random_state=seed)``.
+        :func:`~terrain_odom.vision.cross_validation.stratified_folds` ``(folds, seed)``.
     jobs : int
         joblib workers of the search.
 
@@ -451,8 +452,8 @@ def nested_search(
     ``cross_validate`` runs :func:`search_settings`'s ``GridSearchCV`` (with
     ``inner_folds`` folds) on each outer training fold and predicts the
     outer test fold with the refitted choice. Parameters as
-    :func:`search_settings`; the outer folds are ``StratifiedKFold(folds,
-    shuffle=True, random_state=seed)``.
+    :func:`search_settings`; the outer folds are
+    :func:`~terrain_odom.vision.cross_validation.stratified_folds` ``(folds, seed)``.
     """
     X = image_index(labels.size)
     result = cross_validate(
@@ -460,7 +461,7 @@ def nested_search(
         X,
         labels,
         scoring=SCORING,
-        cv=StratifiedKFold(n_splits=folds, shuffle=True, random_state=seed),
+        cv=stratified_folds(folds, seed),
         return_estimator=True,
         return_indices=True,
         error_score="raise",
