@@ -13,7 +13,6 @@ from terrain_odom.app.patches import (
     PATCHES_JSON,
     LabelIntervals,
     PatchesResult,
-    _Odometer,
     make_patches,
     read_intervals,
 )
@@ -21,7 +20,6 @@ from terrain_odom.app.simulate import write_simulation
 from terrain_odom.config import Config, load_config
 from terrain_odom.errors import ConfigError, InputFileError
 from terrain_odom.io.images import read_image_rgb
-from terrain_odom.records import WheelLog
 from terrain_odom.sim import Simulation, get_scenario, simulate
 from terrain_odom.vision.camera import GroundCamera
 
@@ -242,23 +240,3 @@ def test_intervals_are_sorted_and_half_open(tmp_path: Path) -> None:
     assert spans.labels == ("grass", "gravel", "brick")
     got = [spans.at(t) for t in (-1.0, 0.0, 9.999, 10.0, 20.0, 22.0, 29.0, 30.0)]
     assert got == ["", "grass", "grass", "gravel", "", "", "brick", ""]
-
-
-def _straight_log(t: np.ndarray, speed: float, segment: np.ndarray | None = None) -> WheelLog:
-    segment = np.zeros(t.size, dtype=int) if segment is None else segment
-    n = t.size
-    return WheelLog(t, np.full(n, speed), np.full(n, speed), np.full((n, 3), np.nan), None, segment)
-
-
-def test_odometer_arrival_known_answers() -> None:
-    """Straight at 0.5 m/s (ICRs of any width, x_icr 0): 1 m ahead is reached 2 s later."""
-    t = np.arange(0.0, 10.0, 0.1)
-    states = np.tile([0.0, 0.0, 0.0, 0.3, -0.3, 0.0], (t.size, 1))
-    odometer = _Odometer(_straight_log(t, 0.5), states)
-    assert odometer.arrival(31, 3.15, 1.0) == pytest.approx(5.15)
-    assert odometer.arrival(31, 3.15, 0.0) == 3.15
-    assert odometer.arrival(90, 9.0, 1.0) is None  # the log ends first
-    segment = (t >= 4.0).astype(int)
-    broken = _Odometer(_straight_log(t, 0.5, segment), states)
-    assert broken.arrival(31, 3.15, 1.0) is None  # the segment ends first
-    assert broken.arrival(41, 4.1, 1.0) == pytest.approx(6.1)

@@ -22,8 +22,9 @@ Which label: one for the whole recording (``label``), time intervals
 log's ``terrain`` column. The region lies ahead of the robot, so a patch
 takes the label at the time the robot *reaches* it: when, from the frame's
 time, the robot has travelled the distance to the region's centre
-(``ahead_m`` of ``frames.csv``), by the odometer of the EKF's motion (the
-rule by which ``run`` applies camera-confirmed changes on arrival). A frame
+(``ahead_m`` of ``frames.csv``), by the odometer of the EKF's motion
+(:class:`~terrain_odom.estimation.terrain.Odometer`: the arrival rule by which
+``run`` applies camera-confirmed changes). A frame
 whose region the robot does not reach before its log segment ends is
 skipped (``not_reached``), unless one label covers the whole recording.
 """
@@ -47,13 +48,13 @@ from terrain_odom.app.run import images_config, read_calibrated_log
 from terrain_odom.config import Config, config_to_dict, load_config
 from terrain_odom.errors import ConfigError, InputFileError
 from terrain_odom.estimation.odometry import run_icr_ekf
+from terrain_odom.estimation.terrain import Odometer
 from terrain_odom.io._csv import read_csv, shown
 from terrain_odom.io.atomic import write_atomic
 from terrain_odom.io.folder import OutputFolder, writing
 from terrain_odom.io.frames import FRAMES_CSV, FrameList, read_frames
 from terrain_odom.io.paths import check_outputs
 from terrain_odom.io.report import path_or_none, report_header, write_json
-from terrain_odom.kinematics import twist_icr
 from terrain_odom.records import WheelLog
 from terrain_odom.vision.camera import (
     GroundCamera,
@@ -258,39 +259,12 @@ class _Patch:
     ahead: float
 
 
-class _Odometer:
-    """Distance the EKF's model travels along a log, m (nothing across segment breaks)."""
-
-    def __init__(self, log: WheelLog, states: np.ndarray) -> None:
-        v_x, v_y, _ = twist_icr(log.v_l, log.v_r, *states[:, 3:].T)
-        self.t = log.t
-        self.speed = np.hypot(v_x, v_y)  # m/s, held from each row to the next
-        step = self.speed[:-1] * np.diff(log.t)
-        step[log.run_starts()[1:] - 1] = 0.0
-        self.s = np.r_[0.0, np.cumsum(step)]
-        self.run = log.segment_runs()
-
-    def arrival(self, row: int, t: float, distance: float) -> float | None:
-        """Time the robot, at ``t`` after ``row``, has gone ``distance`` m further; None if never.
-
-        None when its segment ends first.
-        """
-        s_t = self.s[row] + self.speed[row] * (t - self.t[row])
-        target = s_t + distance
-        if target <= s_t:
-            return t
-        j = int(np.searchsorted(self.s, target, side="left"))
-        if j >= self.s.size or self.run[j] != self.run[row]:
-            return None
-        return float(self.t[j - 1] + (target - self.s[j - 1]) / self.speed[j - 1])
-
-
 def _plan(
     frames: FrameList, log: WheelLog, cfg: Config, labels: _Labels, skipped: dict[str, int]
 ) -> list[_Patch]:
     """Place every frame's region and label it; count the frames skipped."""
     result = run_icr_ekf(log, cfg, labels=labels.rows())
-    odometer = _Odometer(log, result.states)
+    odometer = Odometer(log, result.states)
     camera = GroundCamera(cfg.camera)
     plan = []
     for index, t in enumerate(map(float, frames.t)):
