@@ -85,9 +85,6 @@ _FAR_FIX = (
 )
 
 
-_ZERO_FIX = "GPS fix at latitude/longitude 0/0 (a receiver's placeholder, in the open sea)"
-
-
 def outlying_stamps(stamp_ns: np.ndarray, receive_ns: np.ndarray) -> np.ndarray:
     """Mask of the stamps that lie over :data:`MAX_STAMP_SKEW` from the rest, judged by receive time.
 
@@ -291,9 +288,6 @@ class PoseStream(_Stream):
         position = (float(msg.latitude), float(msg.longitude), float(msg.altitude))
         if fix_status(msg) < 0 or not (abs(position[0]) <= 90.0 and abs(position[1]) <= 180.0):
             self._skip("GPS fix without a solution (status < 0 or NaN)")
-            return
-        if position[0] == 0.0 and position[1] == 0.0:  # the live path has no median to judge by
-            self._skip(_ZERO_FIX)
             return
         if np.isinf(position[2]):
             position = (position[0], position[1], np.nan)
