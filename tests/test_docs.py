@@ -124,7 +124,7 @@ def test_readme_is_a_short_front_door():
 def test_readme_shows_the_commands_ci_runs():
     ci = (REPO / ".ci" / "run").read_text(encoding="utf-8")
     code = _code(README.read_text(encoding="utf-8"))
-    for command in ('pip install -e ".[dev]"', "python -m pytest"):
+    for command in ('pip install -e ".[dev]"', "python -m pytest -n auto"):
         assert command in ci and command in code, command
 
 
