@@ -10,6 +10,9 @@ import numpy as np
 import pytest
 
 from terrain_odom.cli.main import main
+from terrain_odom.io.bag_messages import NAV_SAT_FIX
+from terrain_odom.io.bag_reader import BagMessage
+from terrain_odom.io.bag_streams import PoseStream, StampRule
 from terrain_odom.io.bag_writer import MessageFactory, write_bag
 from terrain_odom.io.wheel_log import read_wheel_log
 
@@ -95,3 +98,16 @@ def test_a_fix_outside_the_globe_is_no_solution(
     bag = next(write_bag(tmp_path / "rec", "mcap", sorted(records, key=lambda r: r[2])).glob("*"))
     assert _import(bag, tmp_path / "out") == 0
     assert "GPS fix without a solution" in capsys.readouterr().out
+
+
+def test_a_live_stream_never_takes_its_origin_from_a_zero_fix() -> None:
+    """Message by message (the ROS node's path, no median to judge by): 0/0 is skipped, counted."""
+    stream = PoseStream("--pose-topic /fix", StampRule())
+    for k, (lat, lon) in enumerate([(0.0, 0.0), (LAT, LON), (LAT + 1.0 / NORTH_PER_DEG, LON)]):
+        t = BASE + k * STEP
+        stream.add(BagMessage("/fix", NAV_SAT_FIX, t, M.nav_sat_fix(t, lat, lon, alt=50.0)))
+        rows = stream.take_poses(NAV_SAT_FIX)
+        assert len(rows) == (k > 0)
+    assert stream.origin_used is not None and stream.origin_used[:2] == (LAT, LON)
+    np.testing.assert_allclose(rows.values[0, :2], [0.0, 1.0], atol=2e-3)
+    assert list(stream.skipped.values()) == [1] and "0/0" in next(iter(stream.skipped))

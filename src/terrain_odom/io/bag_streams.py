@@ -85,6 +85,9 @@ _FAR_FIX = (
 )
 
 
+_ZERO_FIX = "GPS fix at latitude/longitude 0/0 (a receiver's placeholder)"
+
+
 def outlying_stamps(stamp_ns: np.ndarray, receive_ns: np.ndarray) -> np.ndarray:
     """Mask of the stamps that lie over :data:`MAX_STAMP_SKEW` from the rest, judged by receive time.
 
@@ -350,7 +353,13 @@ class PoseStream(_Stream):
         """
         self.sigmas.clear()
         rows = self.take(3)
-        return self._enu(rows) if topic_type == NAV_SAT_FIX and len(rows) else rows
+        if topic_type != NAV_SAT_FIX:
+            return rows
+        zero = (rows.values[:, 0] == 0.0) & (rows.values[:, 1] == 0.0)
+        if zero.any():  # no median to judge by here: never an origin at a receiver's placeholder
+            self.skipped[_ZERO_FIX] = self.skipped.get(_ZERO_FIX, 0) + int(zero.sum())
+            rows = StampedRows(rows.stamp_ns[~zero], rows.values[~zero])
+        return self._enu(rows) if len(rows) else rows
 
     def _enu(self, geo: StampedRows) -> StampedRows:
         """East, north, NaN of fixes (lat, lon deg, alt m) in the frame of ``origin_used``.
