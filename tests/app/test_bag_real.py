@@ -12,7 +12,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from terrain_odom.app.bag_import import ImportOptions, import_bag, inspect_bag
+from terrain_odom.app.bag_import import import_bag
+from terrain_odom.io.bag.options import ImportOptions
+from terrain_odom.io.bag.reader import summarize_bag
 from terrain_odom.io.wheel_log import read_wheel_log, write_wheel_log
 from tests.conftest import SHARED_DATA
 
@@ -29,7 +31,7 @@ def jackal_bag() -> Path:
 
 
 def test_inspect_real_bag(jackal_bag: Path) -> None:
-    summary = inspect_bag(jackal_bag, progress=False)
+    summary = summarize_bag(jackal_bag, progress=False)
     topics = {t.topic: (t.count, round(t.rate or 0, 1), t.roles) for t in summary.topics}
     assert topics == {IMU: (3061, 50.0, ("heading",)), ODOM: (3060, 50.0, ("wheels", "pose"))}
 
