@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from terrain_odom.cli.options import add_config_option, print_written
+from terrain_odom.io.bag.options import ImportOptions  # light: no rosbags
 
 
 def add_bag_topic_options(p: argparse.ArgumentParser, *, wheels_required: bool = False) -> None:
@@ -73,17 +74,10 @@ def add_bag_topic_options(p: argparse.ArgumentParser, *, wheels_required: bool =
     )
 
 
-def _options(args: argparse.Namespace) -> Any:
-    """Return the :class:`~terrain_odom.io.bag.options.ImportOptions` of parsed arguments.
-
-    None without ``--wheels-topic`` (a command given no bag).
-    """
-    from terrain_odom.io.bag.options import ImportOptions
-
-    if args.wheels_topic is None:
-        return None
+def _options(args: argparse.Namespace, wheels_topic: str) -> ImportOptions:
+    """Return the :class:`~terrain_odom.io.bag.options.ImportOptions` of parsed arguments."""
     return ImportOptions(
-        wheels_topic=args.wheels_topic,
+        wheels_topic=wheels_topic,
         pose_topic=args.pose_topic,
         heading_topic=args.heading_topic,
         image_topic=getattr(args, "image_topic", None),
@@ -128,7 +122,9 @@ def logs_from_bags(
     """
     from terrain_odom.app.bag_import import logs_from_bags as import_logs
 
-    return import_logs(paths, _options(args), out_dir, _print_import)
+    topic = args.wheels_topic
+    options = _options(args, topic) if topic is not None else None
+    return import_logs(paths, options, out_dir, _print_import)
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -161,7 +157,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 def _cmd_import(args: argparse.Namespace) -> int:
     from terrain_odom.app.bag_import import import_bag
 
-    _print_import(import_bag(args.bag, args.out, _options(args)))
+    _print_import(import_bag(args.bag, args.out, _options(args, args.wheels_topic)))
     return 0
 
 
