@@ -53,6 +53,15 @@ def indoor_dir() -> Path:
     return _shared("indoor_surface")
 
 
+@pytest.fixture(scope="session")
+def jackal_bag() -> Path:
+    """Return ``../shared/data/bags/jackal_odom_imu.bag``: a real ROS 1 bag (odometry, IMU)."""
+    path = _shared("bags") / "jackal_odom_imu.bag"
+    if not path.is_file():
+        pytest.skip(f"real data not present: {path} (../shared beside the repository)")
+    return path
+
+
 @pytest.fixture(scope="module")
 def scheduler() -> Iterator[str]:
     """Return the address of a Dask scheduler with 2 single-thread workers (threads of this process).

@@ -15,18 +15,9 @@ import pytest
 from terrain_odom.errors import ConfigError
 from terrain_odom.io.bag.contents import check_options, read_bag, read_bag_log
 from terrain_odom.io.bag.options import ImportOptions
-from tests.conftest import SHARED_DATA
 
 ODOM, IMU = "/jackal_velocity_controller/odom", "/imu/data"
 TRACK = 0.563
-
-
-@pytest.fixture(scope="module")
-def jackal_bag() -> Path:
-    path = SHARED_DATA / "bags" / "jackal_odom_imu.bag"
-    if not path.is_file():
-        pytest.skip(f"real data not present: {path} (../shared beside the repository)")
-    return path
 
 
 def test_contents_of_the_real_bag(jackal_bag: Path) -> None:
