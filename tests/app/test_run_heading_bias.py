@@ -7,8 +7,10 @@ import json
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from terrain_odom.app.run import run
+from terrain_odom.errors import ConfigError
 from terrain_odom.kinematics import integrate, twist_icr, wrap_angle
 
 
@@ -38,3 +40,15 @@ def test_the_heading_bias_is_in_the_trajectory_and_the_report(tmp_path: Path) ->
     bias, std = report["final_state"]["heading_bias"], report["final_std"]["heading_bias"]
     assert abs(bias - 0.2) < 0.05 and std < 0.1  # the constant 0.2-rad offset, found
     assert report["config"]["pose_sensor"]["heading_bias"] is True
+
+
+def test_headings_without_positions_refuse_the_heading_bias(tmp_path: Path) -> None:
+    """Only a course tells a heading's slow bias from the yaw: one line naming the log and key."""
+    path = tmp_path / "imu.csv"
+    rows = "".join(f"{0.05 * k:.2f},1.0,1.2,,,{0.01 * k:.3f}\n" for k in range(200))
+    path.write_text("t,v_l,v_r,x,y,yaw\n" + rows, encoding="utf-8")
+    config = tmp_path / "bias.yaml"
+    config.write_text("pose_sensor: {heading_bias: true}\n", encoding="utf-8")
+    with pytest.raises(ConfigError, match="headings but no positions: pose_sensor.heading_bias"):
+        run(path, tmp_path / "out", config_path=config, progress=False, plots=False)
+    assert not (tmp_path / "out" / "trajectory.csv").exists()

@@ -23,6 +23,7 @@ from terrain_odom.config import Config, dump_config, load_config
 from terrain_odom.estimation.time_offset import TimeCalibration
 from terrain_odom.io import read_wheel_log
 from terrain_odom.io.atomic import write_text_atomic
+from terrain_odom.io.folder import replacing
 from terrain_odom.io.paths import check_outputs
 from terrain_odom.io.report import report_header, write_json
 
@@ -92,12 +93,10 @@ def calibrate(
     check_outputs([wheels, config_path], paths)
     log = read_wheel_log(wheels, wheel_radius=cfg.robot.wheel_radius)
     _, resolved, found, timing = calibrate_inputs(log, cfg, everything=True)
-    out.mkdir(parents=True, exist_ok=True)
     header = (
         f"# {Path(wheels).name} calibrated by terrain-odom calibrate: each value found is "
         "commented with how and its standard error.\n"
     )
-    write_text_atomic(paths[0], header + dump_config(resolved, found.comments()))
     seconds = time.perf_counter() - started
     report = {
         **report_header("calibrate"),
@@ -107,7 +106,9 @@ def calibrate(
         "time_calibration": timing.to_dict(),
         **found.to_dict(),
     }
-    write_json(paths[1], report)
+    with replacing(out, "calibrate", [p.name for p in paths], all_previous=False):
+        write_text_atomic(paths[0], header + dump_config(resolved, found.comments()))
+        write_json(paths[1], report)  # its own previous files replaced, never another's
     return CalibrateSummary(paths[0], paths[1], found, timing, len(log), seconds)
 
 

@@ -47,6 +47,7 @@ from terrain_odom.fitting import (
 )
 from terrain_odom.io import read_wheel_log
 from terrain_odom.io.atomic import write_atomic, write_text_atomic
+from terrain_odom.io.folder import writing_if
 from terrain_odom.io.params import (
     ANY_TERRAIN,
     ModelParams,
@@ -588,17 +589,38 @@ def compare(
     for name in names:
         if name not in MODELS:
             raise ConfigError(f"unknown kinematic model {name!r}; choose from {sorted(MODELS)}")
+    files = [params_file_name(name) for name in names] + list(COMPARE_FILES)
     if out_dir is not None:
-        files = [params_file_name(name) for name in names] + list(COMPARE_FILES)
         check_outputs(_paths(logs, eval_logs, config_path), [Path(out_dir) / f for f in files])
+    with writing_if(out_dir, "compare") as folder:  # locked; its own files replaced, no other
+        if folder is not None:
+            folder.prepare(files, overwrite=True, remove=False)
+        report, raw_errors = _compare(
+            logs, eval_logs, names, horizon, by_terrain, options, config, config_path, dask
+        )
+        if folder is None:
+            return report
+        folder.prepare(files, overwrite=True)
+        return _write_compare(folder.path, report, raw_errors)
+
+
+def _compare(
+    logs: Sequence[LogSource],
+    eval_logs: Sequence[LogSource],
+    names: list[str],
+    horizon: str | float | Horizon,
+    by_terrain: bool,
+    options: FitOptions | None,
+    config: Config | None,
+    config_path: str | Path | None,
+    dask: str | None,
+) -> tuple[CompareReport, dict[str, dict[str, list[WindowErrors]]]]:
+    """Fit and evaluate the models of :func:`compare`: the report and the raw window errors."""
     cfg = config if config is not None else load_config(config_path)
     h_t = _horizon(horizon)
     timing: dict[str, TimeCalibration] = {}
     train = _load(logs, cfg, "training", timing)
     evals = _load(eval_logs, cfg, "evaluation", timing)
-    target = None if out_dir is None else Path(out_dir)
-    if target is not None:
-        target.mkdir(parents=True, exist_ok=True)
     opt = options or FitOptions()
     b = cfg.robot.track_width
     h_e = cfg.evaluation.horizon
@@ -616,9 +638,6 @@ def compare(
         )
     results = {name: result for name, (result, _) in zip(names, compared, strict=True)}
     raw_errors = {name: raw for name, (_, raw) in zip(names, compared, strict=True)}
-    if target is not None:
-        for name, result in results.items():
-            write_params(target / params_file_name(name), result.params)
     report = CompareReport(
         training_logs=tuple(log.source for log in train),
         evaluation_logs=tuple(log.source for log in evals),
@@ -629,16 +648,25 @@ def compare(
         models=results,
         markdown=_markdown(results, b, h_t, h_e),
     )
-    if target is not None:
-        md, js, png = (target / name for name in COMPARE_FILES)
-        write_text_atomic(md, report.markdown)
-        write_json(js, report.to_dict())
-        values = {n: {g: error_values(e) for g, e in raw_errors[n].items()} for n in names}
-        fig = error_boxes_figure(values, h_e, "Held-out model error")
-        write_atomic(png, lambda handle: save_png(fig, handle))
-        params = tuple(target / params_file_name(name) for name in names)
-        report = dataclasses.replace(report, outputs=(md, js, png, *params))
-    return report
+    return report, raw_errors
+
+
+def _write_compare(
+    target: Path, report: CompareReport, raw_errors: dict[str, dict[str, list[WindowErrors]]]
+) -> CompareReport:
+    """Write the files of :func:`compare` into ``target``; return the report naming them."""
+    for name, result in report.models.items():
+        write_params(target / params_file_name(name), result.params)
+    md, js, png = (target / name for name in COMPARE_FILES)
+    write_text_atomic(md, report.markdown)
+    write_json(js, report.to_dict())
+    values = {
+        n: {g: error_values(e) for g, e in errors.items()} for n, errors in raw_errors.items()
+    }
+    fig = error_boxes_figure(values, report.horizon_eval, "Held-out model error")
+    write_atomic(png, lambda handle: save_png(fig, handle))
+    params = tuple(target / params_file_name(name) for name in report.models)
+    return dataclasses.replace(report, outputs=(md, js, png, *params))
 
 
 def _compare_model(

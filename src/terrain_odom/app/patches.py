@@ -49,6 +49,7 @@ from terrain_odom.errors import ConfigError, InputFileError
 from terrain_odom.estimation.odometry import run_icr_ekf
 from terrain_odom.io._csv import read_csv, shown
 from terrain_odom.io.atomic import write_atomic
+from terrain_odom.io.folder import OutputFolder, writing
 from terrain_odom.io.frames import FRAMES_CSV, FrameList, read_frames
 from terrain_odom.io.paths import check_outputs
 from terrain_odom.io.report import path_or_none, report_header, write_json
@@ -347,10 +348,7 @@ def _previous(out: Path, overwrite: bool, append: bool) -> _Previous:
     if not report.is_file():
         return _Previous([], [], frozenset())
     if not (overwrite or append):
-        raise InputFileError(
-            f"{out}: holds patches already ({PATCHES_JSON}); --append adds this recording's, "
-            "--overwrite replaces them, or choose another --out"
-        )
+        raise InputFileError(_already(out))
     try:
         data = json.loads(report.read_text(encoding="utf-8"))
         files = frozenset(str(entry["file"]) for entry in data["patches"])
@@ -358,6 +356,13 @@ def _previous(out: Path, overwrite: bool, append: bool) -> _Previous:
     except (ValueError, TypeError, KeyError):
         raise InputFileError(f"{report}: not a patches.json of 'terrain-odom patches'") from None
     return previous
+
+
+def _already(out: Path) -> str:
+    return (
+        f"{out}: holds patches already ({PATCHES_JSON}); --append adds this recording's, "
+        "--overwrite replaces them, or choose another --out"
+    )
 
 
 def _names(
@@ -380,15 +385,6 @@ def _names(
         taken.add(name)
         names.append(name)
     return names
-
-
-def _remove(out: Path, previous: _Previous) -> None:
-    """Remove the previous patches' files (only ``out/<label>/<name>.png``)."""
-    root = out.resolve()
-    for name in previous.files:
-        path = (out / name).resolve()
-        if path.parent.parent == root and path.suffix == ".png":
-            path.unlink(missing_ok=True)
 
 
 def _check_size(plan: list[_Patch], frames: FrameList) -> None:
@@ -479,8 +475,9 @@ def make_patches(
         (:func:`~terrain_odom.app.run.read_calibrated_log`).
     out : str or Path
         Training folder (created): ``<label>/<frame stem>.png`` and
-        ``patches.json``. Refused if it holds patches already, unless
-        ``overwrite`` or ``append``.
+        ``patches.json``, locked and recorded in its manifest
+        (:mod:`terrain_odom.io.folder`). Refused if it holds patches
+        already, unless ``overwrite`` or ``append``.
     label : str, optional
         One label for the whole recording.
     intervals : str or Path, optional
@@ -491,7 +488,8 @@ def make_patches(
         ``config_path``, else ``images/config.yaml`` if it exists, else the
         built-in defaults.
     overwrite : bool
-        Replace the patches already in ``out`` (those its ``patches.json`` lists).
+        Replace the patches already in ``out`` (those its manifest records as
+        written by ``patches``; every other file is kept).
     append : bool
         Add this recording's patches to those already in ``out`` (a name
         taken gets ``-2``, ``-3`` ...), e.g. one recording per terrain.
@@ -504,15 +502,45 @@ def make_patches(
     ------
     InputFileError
         Unreadable inputs; an output would overwrite an input; a frame of
-        another size than the configured camera's.
+        another size than the configured camera's; a file among those it
+        would write that ``patches`` did not write (``patches.json`` of a
+        folder written before the manifest, or by hand).
     ConfigError
         Both ``label`` and ``intervals``, or ``overwrite`` and ``append``; a
         label that cannot name a folder.
     """
     started = time.perf_counter()
-    root = Path(out)
     if label is not None and intervals is not None:
         raise ConfigError("--label and --labels exclude each other")
+    with writing(out, "patches") as folder:  # locked; never a file patches did not write
+        return _make_patches(
+            images,
+            wheels,
+            folder,
+            label,
+            intervals,
+            config,
+            config_path,
+            overwrite,
+            append,
+            started,
+        )
+
+
+def _make_patches(
+    images: str | Path,
+    wheels: str | Path,
+    folder: OutputFolder,
+    label: str | None,
+    intervals: str | Path | None,
+    config: Config | None,
+    config_path: str | Path | None,
+    overwrite: bool,
+    append: bool,
+    started: float,
+) -> PatchesResult:
+    """:func:`make_patches` into the locked ``folder``."""
+    root = folder.path
     previous = _previous(root, overwrite, append)
     if config is None:
         config_path = config_path if config_path is not None else images_config(images)
@@ -528,9 +556,13 @@ def make_patches(
     inputs = [wheels, config_path, intervals, Path(images) / FRAMES_CSV, *frames.files]
     check_outputs(inputs, [root / PATCHES_JSON, *(root / name for name in names)])
     _check_size(plan, frames)
-    root.mkdir(parents=True, exist_ok=True)
-    if not append:
-        _remove(root, previous)
+    # appending keeps its previous patches and rewrites patches.json; else all are replaced
+    folder.prepare(
+        [PATCHES_JSON, *names],
+        overwrite=overwrite or append,
+        all_previous=not append,
+        refuse=lambda _: _already(root),
+    )
     written = _cut(plan, names, frames, root, skipped)
     skipped = {reason: skipped[reason] for reason in SKIP_REASONS if reason in skipped}
     recording = {

@@ -28,6 +28,7 @@ from terrain_odom.config.classifier import ClassifierConfig, paper_config
 from terrain_odom.errors import ConfigError, InputFileError
 from terrain_odom.io.atomic import write_atomic, write_text_atomic
 from terrain_odom.io.classifier_file import save_classifier
+from terrain_odom.io.folder import writing_if
 from terrain_odom.io.images import median_short_side, scan_image_folder
 from terrain_odom.io.paths import check_outputs
 from terrain_odom.io.report import report_header, write_json
@@ -436,10 +437,9 @@ def report_accuracy(
     ------
     InputFileError
         As :func:`train` (a file to write in ``out_dir`` is an input), or a
-        class with fewer images than ``folds``.
+        class with fewer images than ``folds``; a file in ``out_dir`` it did
+        not write (:mod:`terrain_odom.io.folder`).
     """
-    from terrain_odom.app.tune import feature_cache, nested_tuning  # as in train
-
     cfg = ClassifierConfig() if cfg is None else cfg
     if folds < 2:
         raise ConfigError(f"folds: must be >= 2, got {folds}")
@@ -450,7 +450,33 @@ def report_accuracy(
         check_outputs(
             [*scan.paths, config_path, grid_path], [out_dir / name for name in ACCURACY_FILES]
         )
-        out_dir.mkdir(parents=True, exist_ok=True)
+    with writing_if(out_dir, "report accuracy") as folder:  # locked; its own files replaced
+        if folder is not None:
+            folder.prepare(ACCURACY_FILES, overwrite=True, remove=False)
+        report = _accuracy(Path(images), scan, cfg, grid, folds, jobs, dask, progress)
+        if folder is None:
+            return report
+        folder.prepare(ACCURACY_FILES, overwrite=True)
+        outputs = tuple(folder.path / name for name in ACCURACY_FILES)
+        write_json(outputs[0], report.to_dict())
+        write_text_atomic(outputs[1], accuracy_csv(report))
+        write_atomic(outputs[2], lambda handle: plot_confusion(report, handle))
+    return dataclasses.replace(report, outputs=outputs)
+
+
+def _accuracy(
+    images: Path,
+    scan: LabelledImages,
+    cfg: ClassifierConfig,
+    grid: Grid | None,
+    folds: int,
+    jobs: int | None,
+    dask: str | None,
+    progress: bool | None,
+) -> AccuracyReport:
+    """Cross-validate ``cfg`` and Chen et al.'s recipe (and tune, with a grid) on ``images``."""
+    from terrain_odom.app.tune import feature_cache, nested_tuning  # as in train
+
     paper = paper_config()
     with dask_cluster(dask) as cluster:
         jobs = jobs if cluster is None else cluster.jobs
@@ -459,7 +485,7 @@ def report_accuracy(
         tuned = None if grid is None else nested_tuning(cache, cfg, grid, folds=folds, jobs=jobs)
     chosen_data, paper_data = cache.features(cfg), cache.features(paper)
     report = AccuracyReport(
-        images=Path(images),
+        images=images,
         chosen=cross_validate(chosen_data, folds=folds),
         paper=cross_validate(paper_data, folds=folds),
         feature_ms={"chosen": feature_times_ms(chosen_data), "paper": feature_times_ms(paper_data)},
@@ -468,13 +494,7 @@ def report_accuracy(
         outputs=(),
         tuned=tuned,
     )
-    if out_dir is None:
-        return report
-    outputs = tuple(out_dir / name for name in ACCURACY_FILES)
-    write_json(outputs[0], report.to_dict())
-    write_text_atomic(outputs[1], accuracy_csv(report))
-    write_atomic(outputs[2], lambda handle: plot_confusion(report, handle))
-    return dataclasses.replace(report, outputs=outputs)
+    return report
 
 
 def accuracy_csv(report: AccuracyReport) -> str:

@@ -7,7 +7,9 @@ result; the options several subcommands share live in
 package (bad input files, invalid configuration) and files the operating
 system refuses (read-only, a name too long, a full disk) are printed as one
 line, control characters escaped, and exit with code 2; ``SIGTERM`` and
-``SIGHUP`` stop a command as Ctrl-C does; real bugs keep their traceback.
+``SIGHUP`` stop a command as Ctrl-C does; a library's warning (numpy's
+floating-point ones) is one line at the end of a command that succeeded;
+real bugs keep their traceback.
 """
 
 from __future__ import annotations
@@ -17,10 +19,14 @@ import contextlib
 import signal
 import sys
 import threading
+import warnings
 from collections.abc import Iterator, Sequence
+from pathlib import Path
+from typing import TextIO
 
 from terrain_odom import __version__
 from terrain_odom.cli import (
+    adopt,
     bag_import,
     calibrate,
     compare,
@@ -51,6 +57,7 @@ SUBCOMMANDS = (
     inspect,
     bag_import,
     patches,
+    adopt,
 )
 
 EXIT_USAGE = 2
@@ -75,6 +82,14 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; returns the exit code."""
     parser = build_parser()
+    with _library_warnings() as caught:
+        code = _main(parser, argv)
+    if caught and code == 0:  # after an error, its one line says what matters
+        print(f"terrain-odom: warning: {printable(caught.describe())}", file=sys.stderr)
+    return code
+
+
+def _main(parser: argparse.ArgumentParser, argv: Sequence[str] | None) -> int:
     try:
         with _terminating_signals_interrupt():
             args = parser.parse_args(argv)  # two spellings of one option: a ConfigError
@@ -120,6 +135,60 @@ def _escape(char: str) -> str:
     if "\udc80" <= char <= "\udcff":  # a byte that was not UTF-8 (surrogateescape)
         return f"\\x{ord(char) - 0xDC00:02x}"
     return repr(char)[1:-1]
+
+
+class _Caught:
+    """Warnings of the libraries (numpy's floating-point ones ...) met during a command."""
+
+    def __init__(self) -> None:
+        self.first = ""
+        self.count = 0
+
+    def __bool__(self) -> bool:
+        return self.count > 0
+
+    def show(
+        self,
+        message: Warning | str,
+        category: type[Warning],
+        filename: str,
+        lineno: int,
+        file: TextIO | None = None,
+        line: str | None = None,
+    ) -> None:
+        """Count a warning and keep the first (``warnings.showwarning``'s signature)."""
+        self.count += 1
+        if not self.first:
+            where = Path(filename)
+            inside = (
+                "/".join(where.parts[where.parts.index("terrain_odom") :])
+                if "terrain_odom" in where.parts
+                else where.name
+            )
+            self.first = f"{category.__name__}: {message} ({inside}:{lineno})"
+
+    def describe(self) -> str:
+        """One line: the first warning, how many others, what it means."""
+        more = f" and {self.count - 1} other warning(s)" if self.count > 1 else ""
+        return (
+            f"{self.first}{more}: the results above were computed past it; check them, and "
+            "please report it"
+        )
+
+
+@contextlib.contextmanager
+def _library_warnings() -> Iterator[_Caught]:
+    """Within: warnings of the libraries are counted, not printed.
+
+    The package raises none itself and handles the non-finite numbers its
+    computations may meet; a warning that still reaches this point is printed
+    as one line at the end of a command that succeeded, never as the
+    library's two lines of source in the middle of the output.
+    """
+    caught = _Caught()
+    with warnings.catch_warnings():  # the filters stay: ``-W error`` (and pytest's) still raise
+        warnings.showwarning = caught.show
+        yield caught
 
 
 @contextlib.contextmanager

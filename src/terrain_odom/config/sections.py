@@ -43,6 +43,7 @@ __all__ = [
     "PoseSensorConfig",
     "MAX_POSE_DELAY",
     "MAX_ANTENNA_OFFSET",
+    "ROBOT_SIZE",
     "Config",
 ]
 
@@ -57,6 +58,9 @@ MAX_POSE_DELAY = 5.0
 """Largest ``time.pose_delay`` accepted, s (beyond it a value is a unit mistake, not a latency)."""
 MAX_ANTENNA_OFFSET = 10.0
 """Largest ``pose_sensor.antenna_x`` / ``antenna_y`` accepted, m (beyond: centimetres?)."""
+ROBOT_SIZE = (1e-3, 100.0)
+"""Range of ``robot.wheel_radius``, ``track_width`` and ``length`` accepted, m: a ground robot's
+(beyond: another unit, or a typing slip; the plausibility checks judge values within it)."""
 
 
 @dataclass(frozen=True)
@@ -79,6 +83,16 @@ class RobotConfig:
     wheel_radius: float = 0.1
     track_width: float = 0.5
     length: float | None = None
+
+    def __post_init__(self) -> None:
+        low, high = ROBOT_SIZE
+        for name in ("wheel_radius", "track_width", "length"):
+            value = getattr(self, name)
+            if value is not None and not low <= value <= high:
+                raise ConfigError(
+                    f"{name}: {value:g} m is no ground robot's ({low * 1e3:g} mm to {high:g} m); "
+                    "give metres"
+                )
 
     @property
     def body_length(self) -> float:

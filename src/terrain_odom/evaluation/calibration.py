@@ -735,8 +735,11 @@ def _yaw_scale_from_headings(
     rows = np.flatnonzero(np.r_[True, np.diff(np.floor(time / span)) != 0])
     same = np.diff(log.segment_runs()[rows]) == 0
     dm, di = np.diff(measured[rows])[same], np.diff(ideal[rows])[same]
-    energy = float(di @ di)
-    return float(dm @ di) / energy if energy > 0 else 1.0
+    size = float(np.max(np.abs(di), initial=0.0))
+    if not 0.0 < size < np.inf:
+        return 1.0
+    di = di / size  # any track width: the squares neither overflow nor underflow
+    return float(dm @ di) / float(di @ di) / size
 
 
 def _yaw_scale_from_positions(

@@ -373,20 +373,35 @@ def _travel(wheel: float, pose: float, lim: PlausibilityLimits) -> list[Finding]
 
 
 def _yaw_fit(iv: _Intervals, yaw: np.ndarray) -> tuple[float, float]:
-    """Least-squares scale of measured to ideal heading changes, and their correlation."""
+    """Least-squares scale of measured to ideal heading changes, and their correlation.
+
+    Both series are divided by their largest magnitude first, so a wheels'
+    turn of any size (a track width of 1 mm or of 100 m) neither overflows
+    nor underflows the sums of squares.
+    """
     m, w = iv.pose_turn[yaw], iv.wheel_turn[yaw]
-    mw, ww, mm = float(m @ w), float(w @ w), float(m @ m)
-    if ww == 0.0 or mm == 0.0:
+    m_top = float(np.max(np.abs(m), initial=0.0))
+    w_top = float(np.max(np.abs(w), initial=0.0))
+    if not (0.0 < m_top < np.inf and 0.0 < w_top < np.inf):
         return float("nan"), float("nan")
-    return mw / ww, mw / np.sqrt(ww * mm)
+    m, w = m / m_top, w / w_top
+    mw, ww, mm = float(m @ w), float(w @ w), float(m @ m)
+    return mw / ww * (m_top / w_top), mw / np.sqrt(ww * mm)
 
 
 def _yaw(
     iv: _Intervals, yaw: np.ndarray, scale: float, corr: float, lim: PlausibilityLimits
 ) -> list[Finding]:
-    """Judge the fitted turn ``scale`` and correlation ``corr`` (:func:`_yaw_fit`), if turned."""
-    turned = min(np.sum(np.abs(iv.wheel_turn[yaw])), np.sum(np.abs(iv.pose_turn[yaw])))
-    if turned < lim.min_turn:
+    """Judge the fitted turn ``scale`` and correlation ``corr`` (:func:`_yaw_fit`), if turned.
+
+    Judged once the heading and the wheels both turned ``min_turn``, or the
+    heading turned that much following the wheels' far smaller turn (a
+    track width far too large: the wheels seem not to turn at all).
+    """
+    wheels = float(np.sum(np.abs(iv.wheel_turn[yaw])))
+    heading = float(np.sum(np.abs(iv.pose_turn[yaw])))
+    follows = corr >= lim.min_correlation and scale > lim.yaw_scale[1]
+    if heading < lim.min_turn or (wheels < lim.min_turn and not follows):
         return []
     if corr <= -lim.min_correlation:
         return [
@@ -397,12 +412,10 @@ def _yaw(
             )
         ]
     low, high = lim.yaw_scale
-    if corr < lim.min_correlation or not low <= scale <= high:
-        return [
-            Finding(
-                "yaw_follow",
-                f"the heading does not follow the wheels' turn (x{scale:.2f}, correlation "
-                f"{corr:.2f}): yaw in degrees, or a track width far off",
-            )
-        ]
-    return []
+    if corr < lim.min_correlation:
+        told = f"the heading does not follow the wheels' turn (correlation {corr:.2f}"
+    elif not low <= scale <= high:
+        told = f"the heading turns x{scale:.3g} as fast as the wheels say (correlation {corr:.2f}"
+    else:
+        return []
+    return [Finding("yaw_follow", f"{told}): yaw in degrees, or a track width far off")]

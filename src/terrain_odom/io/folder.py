@@ -15,6 +15,8 @@ A writing command opens its ``--out`` folder with :func:`writing`:
   since, a file the manifest does not know), then, where asked to
   overwrite, removes exactly the command's own previous files (so old and
   new never mix) and keeps every other file;
+- :meth:`OutputFolder.adopt` records files already there as the command's
+  (``terrain-odom adopt``: a folder written before folders had a manifest);
 - on leaving, the files written are recorded with their hashes (also when
   the command stops with an error or a signal); a file being written when
   the process was killed stays recorded as the command's (``sha256`` null),
@@ -33,6 +35,7 @@ import glob
 import hashlib
 import json
 import os
+import shlex
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath
@@ -50,6 +53,7 @@ __all__ = [
     "holder",
     "replacing",
     "writing",
+    "writing_if",
 ]
 
 MANIFEST = ".terrain-odom.json"
@@ -320,8 +324,9 @@ class OutputFolder:
         if entry is None:
             raise InputFileError(
                 f"{path}: not written by terrain-odom {self.command} in this folder (no record "
-                f"in its {MANIFEST}), and {self.command} would replace it; move it away or "
-                "choose another --out"
+                f"in its {MANIFEST}), and {self.command} would replace it; move it away, choose "
+                f"another --out, or if {self.command} wrote it before folders had a manifest: "
+                f"terrain-odom adopt {shlex.quote(str(self.path))} --by {self.command.split()[0]}"
             )
         writer = entry.get("command")
         if entry.get("sha256") is not None and _sha256(path) != entry["sha256"]:
@@ -379,6 +384,55 @@ class OutputFolder:
             found += [(base / f).as_posix() for f in sorted(files)]
         return [f for f in found if f != MANIFEST]
 
+    def adopt(self, names: Iterable[str] | None = None) -> tuple[list[str], list[str]]:
+        """Record files already in the folder as this command's, with their content now.
+
+        For a folder written before folders had a manifest (or by hand): the
+        explicit way to let the command replace them again. Files the
+        manifest records already keep their record.
+
+        Parameters
+        ----------
+        names : iterable of str, optional
+            Files relative to the folder (default: every file in it).
+
+        Returns
+        -------
+        adopted, kept : list of str
+            The files recorded now, and those already recorded (unchanged).
+
+        Raises
+        ------
+        InputFileError
+            A name that is no file within the folder.
+        """
+        existing = self._existing()
+        chosen = existing if names is None else [self._inside(name) for name in names]
+        adopted, kept = [], []
+        for name in chosen:
+            if name in self._files:
+                kept.append(name)
+                continue
+            self._files[name] = {"command": self.command, "sha256": _sha256(self.path / name)}
+            adopted.append(name)
+        self._claimed += adopted  # recorded on leaving, as files written
+        return adopted, kept
+
+    def _inside(self, name: str) -> str:
+        """Return ``name`` (relative to the folder, or a path into it) as the manifest names it."""
+        path = Path(name)
+        if path.is_absolute() or path.parts[: len(self.path.parts)] == self.path.parts:
+            try:
+                path = path.resolve().relative_to(self.path.resolve())
+            except ValueError:
+                raise InputFileError(f"{name}: not within the folder {self.path}") from None
+        relative = path.as_posix()
+        if not _within(relative) or not (self.path / relative).is_file():
+            raise InputFileError(f"{self.path / relative}: no file within the folder {self.path}")
+        if relative == MANIFEST:
+            raise InputFileError(f"{self.path / relative}: the manifest itself")
+        return relative
+
     def record(self) -> None:
         """Record the files this command wrote (claimed and existing) with their hashes."""
         claimed = [name for name in self._claimed if not name.endswith("/")]
@@ -427,6 +481,9 @@ def _already(folder: OutputFolder, previous: list[str]) -> str:
 def writing(path: str | Path, command: str) -> Iterator[OutputFolder]:
     """Create and lock the folder ``path`` for ``command``; record its files on leaving.
 
+    A command that writes nothing (refused) leaves the folder as it was: a
+    folder it created is removed again if still empty.
+
     Raises
     ------
     FolderInUseError
@@ -434,6 +491,7 @@ def writing(path: str | Path, command: str) -> Iterator[OutputFolder]:
     InputFileError, OutputFileError
         As :func:`create_folder`.
     """
+    created = not os.path.lexists(path)
     folder = create_folder(path)
     fd = os.open(folder, os.O_RDONLY | os.O_DIRECTORY)
     try:
@@ -466,8 +524,10 @@ def writing(path: str | Path, command: str) -> Iterator[OutputFolder]:
                 if opened._claimed:
                     opened.record()
                     opened._save()
-                else:  # refused, or only checked: the manifest as it was
+                else:  # refused, or only checked: the folder as it was
                     _restore(folder / MANIFEST, original)
+                    if created:
+                        folder.rmdir()  # made for this command: gone again (if still empty)
     finally:
         os.close(fd)  # releases the lock
 
@@ -491,3 +551,10 @@ def replacing(
     with writing(path, command) as folder:
         folder.prepare(names, overwrite=overwrite, all_previous=all_previous)
         yield folder.path
+
+
+def writing_if(
+    path: str | Path | None, command: str
+) -> contextlib.AbstractContextManager[OutputFolder | None]:
+    """:func:`writing` the folder ``path`` for ``command``, or nothing (None) if ``path`` is None."""
+    return contextlib.nullcontext() if path is None else writing(path, command)

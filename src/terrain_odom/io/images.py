@@ -16,9 +16,10 @@ from __future__ import annotations
 
 import os
 import stat
+import warnings
 from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, BinaryIO
 
 import numpy as np
 from numpy.typing import NDArray
@@ -33,6 +34,7 @@ __all__ = [
     "MAX_IMAGE_BYTES",
     "scan_image_folder",
     "read_image_bytes",
+    "open_image_file",
     "decode_image_rgb",
     "read_image_rgb",
 ]
@@ -129,17 +131,10 @@ def read_image_bytes(path: str | Path) -> tuple[bytes | None, str]:
     >>> read_image_bytes(fifo)
     (None, 'not a regular file (a FIFO)')
     """
-    try:
-        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
-    except FileNotFoundError:
-        return None, "missing"
-    except OSError as exc:
-        return None, f"unreadable ({exc.strerror})"
-    mode = os.fstat(fd).st_mode
-    if not stat.S_ISREG(mode):
-        os.close(fd)
-        return None, f"not a regular file ({_kind(mode)})"
-    with os.fdopen(fd, "rb") as handle:
+    handle, problem = open_image_file(path)
+    if handle is None:
+        return None, problem
+    with handle:
         try:
             data = handle.read(MAX_IMAGE_BYTES + 1)
         except OSError as exc:
@@ -147,6 +142,28 @@ def read_image_bytes(path: str | Path) -> tuple[bytes | None, str]:
     if len(data) > MAX_IMAGE_BYTES:
         return None, f"larger than {MAX_IMAGE_BYTES >> 20} MiB"
     return data, ""
+
+
+def open_image_file(path: str | Path) -> tuple[BinaryIO | None, str]:
+    """Open an image file for reading, or return ``(None, problem)``; never blocks.
+
+    Only a regular file of at most :data:`MAX_IMAGE_BYTES` is opened (a
+    FIFO, a device or a folder named like an image is a problem, not a wait).
+    """
+    try:
+        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
+    except FileNotFoundError:
+        return None, "missing"
+    except OSError as exc:
+        return None, f"unreadable ({exc.strerror})"
+    info = os.fstat(fd)
+    if not stat.S_ISREG(info.st_mode):
+        os.close(fd)
+        return None, f"not a regular file ({_kind(info.st_mode)})"
+    if info.st_size > MAX_IMAGE_BYTES:
+        os.close(fd)
+        return None, f"larger than {MAX_IMAGE_BYTES >> 20} MiB"
+    return os.fdopen(fd, "rb"), ""
 
 
 def _kind(mode: int) -> str:
@@ -189,16 +206,22 @@ def median_short_side(paths: Sequence[str | Path]) -> float | None:
     """Median shorter side of the images, px, from their headers (no decoding); ``None`` if none is readable.
 
     What ``min_tile_size: auto`` and the default ``--tune`` grid are scaled to
-    (:func:`terrain_odom.vision.features.resolve_scale`). Unreadable images are
-    left out here; the feature extraction reports them.
+    (:func:`terrain_odom.vision.features.resolve_scale`). Unreadable images
+    (and files no image is read from: :func:`open_image_file`) are left out
+    here; the feature extraction reports them.
     """
     from PIL import Image, UnidentifiedImageError
 
     sides = []
     for path in paths:
+        handle, _ = open_image_file(path)
+        if handle is None:
+            continue
         try:
-            with Image.open(path) as image:
-                sides.append(min(image.size))
-        except (OSError, UnidentifiedImageError, ValueError):
+            with handle, warnings.catch_warnings():
+                warnings.simplefilter("ignore", Image.DecompressionBombWarning)  # a size only
+                with Image.open(handle) as image:
+                    sides.append(min(image.size))
+        except (OSError, UnidentifiedImageError, ValueError, Image.DecompressionBombError):
             continue
     return float(np.median(sides)) if sides else None

@@ -405,6 +405,10 @@ def icr_priors(params: ModelParams) -> IcrPriors:
     return IcrPriors(start=next(iter(states.values())))
 
 
+GEOMETRY_RTOL = 1e-6
+"""Relative difference below which two robot sizes are the same (1 um on a metre)."""
+
+
 def check_geometry(
     params: ModelParams, wheel_radius: float, track_width: float, path: str | Path
 ) -> None:
@@ -414,15 +418,17 @@ def check_geometry(
     ------
     ConfigError
         The file's ``wheel_radius`` or ``track_width`` (where recorded) differs
-        from the configuration's; the message names both.
+        from the configuration's by more than :data:`GEOMETRY_RTOL` (relative);
+        the message names both, with every digit they differ in.
     """
     recorded = {"wheel_radius": params.info.get("wheel_radius"), "track_width": params.track_width}
     used = {"wheel_radius": wheel_radius, "track_width": track_width}
     for name, value in recorded.items():
-        if value is not None and not math.isclose(float(value), used[name], rel_tol=1e-9):
+        if value is not None and not math.isclose(float(value), used[name], rel_tol=GEOMETRY_RTOL):
             raise ConfigError(
-                f"{path}: fitted with robot.{name} {float(value):g} m, but the configuration in "
-                f"use says {used[name]:g} m: give the configuration it was fitted with (--config)"
+                f"{path}: fitted with robot.{name} {float(value)!r} m, but the configuration in "
+                f"use says {float(used[name])!r} m: give the configuration it was fitted with "
+                "(--config)"
             )
 
 

@@ -77,6 +77,16 @@ MAX_STAMP_SKEW = 3600.0
 _OUTLYING = f"header stamp over {MAX_STAMP_SKEW:g} s away from the others' (a wrong clock or stamp)"
 
 
+MAX_GROUND_SPEED = 30.0
+"""m/s: no ground robot drives faster (as the plausibility checks' ``max_speed``)."""
+FIX_SLACK = 1000.0
+"""m: the distance a fix may lie from the others' median beyond a drive at :data:`MAX_GROUND_SPEED`."""
+_FAR_FIX = (
+    "GPS fix further from the others than a ground robot drives in the recording "
+    "(latitude/longitude 0/0?)"
+)
+
+
 def outlying_stamps(stamp_ns: np.ndarray, receive_ns: np.ndarray) -> np.ndarray:
     """Mask of the stamps that lie over :data:`MAX_STAMP_SKEW` from the rest, judged by receive time.
 
@@ -275,11 +285,14 @@ class PoseStream(_Stream):
                 self._keep(message, tf_pose(tr.transform), tr.header)
 
     def _fix(self, message: BagMessage) -> None:
+        """Keep a fix with a solution; a NaN altitude (unknown, legal in ROS) is kept as NaN."""
         msg = message.msg
         position = (float(msg.latitude), float(msg.longitude), float(msg.altitude))
-        if fix_status(msg) < 0 or not np.all(np.isfinite(position)):
+        if fix_status(msg) < 0 or not (abs(position[0]) <= 90.0 and abs(position[1]) <= 180.0):
             self._skip("GPS fix without a solution (status < 0 or NaN)")
             return
+        if np.isinf(position[2]):
+            position = (position[0], position[1], np.nan)
         self._keep(message, position)
         if int(msg.position_covariance_type) > 0:
             cov = msg.position_covariance
@@ -308,7 +321,28 @@ class PoseStream(_Stream):
                 f"{self.where}: a NavSatFix topic without fixes (every message has status < 0 "
                 "or NaN position); expected at least one fix with a solution"
             )
-        return self._enu(self.rows(3))
+        return self._enu(self._near(self.rows(3)))
+
+    def _near(self, geo: StampedRows) -> StampedRows:
+        """Drop (and count) fixes further from the others' median than a ground robot drives.
+
+        A robot at :data:`MAX_GROUND_SPEED` over the recording's span, plus
+        :data:`FIX_SLACK`: a fix beyond is a receiver's placeholder
+        (latitude 0, longitude 0) or a wrong solution.
+        """
+        if not len(geo):
+            return geo
+        centre = (float(np.median(geo.values[:, 0])), float(np.median(geo.values[:, 1])), 0.0)
+        flat = np.zeros(len(geo))
+        distance = np.hypot(
+            *enu_from_geodetic(geo.values[:, 0], geo.values[:, 1], flat, centre)[:, :2].T
+        )
+        span = float(geo.stamp_ns.max() - geo.stamp_ns.min()) * 1e-9
+        far = distance > MAX_GROUND_SPEED * span + FIX_SLACK
+        if not far.any() or far.all():
+            return geo
+        self.skipped[_FAR_FIX] = int(far.sum())  # set, not added: rows may be asked again
+        return StampedRows(geo.stamp_ns[~far], geo.values[~far])
 
     def take_poses(self, topic_type: str) -> StampedRows:
         """Return the poses converted since the last call (as :meth:`pose_rows`), and forget them.
@@ -330,9 +364,11 @@ class PoseStream(_Stream):
             first = int(np.argmin(geo.stamp_ns))
             self.origin_used = self.origin or tuple(float(v) for v in geo.values[first])  # type: ignore[assignment]
         assert self.origin_used is not None
-        enu = enu_from_geodetic(
-            geo.values[:, 0], geo.values[:, 1], geo.values[:, 2], self.origin_used
-        )
+        if not np.isfinite(self.origin_used[2]):  # altitude unknown: the first one known, or 0
+            known = geo.values[np.isfinite(geo.values[:, 2]), 2]
+            self.origin_used = (*self.origin_used[:2], float(known[0]) if known.size else 0.0)
+        alt = np.where(np.isfinite(geo.values[:, 2]), geo.values[:, 2], self.origin_used[2])
+        enu = enu_from_geodetic(geo.values[:, 0], geo.values[:, 1], alt, self.origin_used)
         values = np.column_stack([enu[:, 0], enu[:, 1], np.full(len(geo), np.nan)])
         return StampedRows(geo.stamp_ns, values)
 
