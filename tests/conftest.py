@@ -7,6 +7,7 @@ skipped, with the reason, where it is absent.
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -62,6 +63,28 @@ def jackal_bag() -> Path:
     return path
 
 
+@pytest.fixture(scope="session")
+def sample_camera_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, str]:
+    """Run the camera quick start once (``run --images sample_images/chen2023 ...``).
+
+    Return its output folder and what it printed. Tests only read them.
+    """
+    import contextlib
+    import io
+
+    from terrain_odom.cli.main import main
+
+    sample = REPO / "sample_images" / "chen2023"
+    out = tmp_path_factory.mktemp("sample_run") / "out"
+    printed = io.StringIO()
+    with contextlib.redirect_stdout(printed):
+        code = main(
+            ["run", "--images", str(sample), "--wheels", str(sample / "log.csv"), "--out", str(out)]
+        )
+    assert code == 0, printed.getvalue()
+    return out, printed.getvalue()
+
+
 @pytest.fixture(scope="module")
 def scheduler() -> Iterator[str]:
     """Return the address of a Dask scheduler with 2 single-thread workers (threads of this process).
@@ -73,3 +96,19 @@ def scheduler() -> Iterator[str]:
         n_workers=2, threads_per_worker=1, processes=False, dashboard_address=":0"
     ) as local:
         yield local.scheduler_address
+
+
+@pytest.fixture(scope="session", autouse=True)
+def _no_worker_processes_left() -> Iterator[None]:
+    """Stop joblib's worker processes when the tests end, and wait for them.
+
+    Left alone, they exit on their own after 300 s idle, and whoever waits for
+    any child of this process then gets them: mutmut, which runs the tests in
+    its own process and then waits for its forked mutant runs, stopped on an
+    unknown pid (docs/testing.md).
+    """
+    yield
+    if "joblib.externals.loky.reusable_executor" in sys.modules:
+        executor = sys.modules["joblib.externals.loky.reusable_executor"]._executor
+        if executor is not None:
+            executor.shutdown(wait=True)

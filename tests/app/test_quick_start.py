@@ -66,11 +66,8 @@ def _short_copy(tmp_path: Path, seconds: float = 3.0, config: bool = False) -> P
     return images
 
 
-def test_quick_start_on_the_sample_needs_no_model_and_no_config(tmp_path, capsys):
-    out = tmp_path / "out"
-    args = ["run", "--images", str(SAMPLE), "--wheels", str(SAMPLE / "log.csv")]
-    assert main([*args, "--out", str(out)]) == 0
-    printed = capsys.readouterr().out
+def test_quick_start_on_the_sample_needs_no_model_and_no_config(sample_camera_run):
+    out, printed = sample_camera_run
     assert f"report:     {out / 'report.json'}" in printed
     assert f"config:     {SAMPLE / 'config.yaml'}" in printed
     assert f"model:      {MODEL.resolve()}" in printed

@@ -8,6 +8,7 @@ the repository, skipped when absent) check the accuracy acceptance.
 from __future__ import annotations
 
 import csv
+import dataclasses
 import json
 import os
 import subprocess
@@ -255,15 +256,17 @@ def test_train_errors_exit_2(tmp_path, capsys):
 
 
 def test_indoor_surface_accuracy_acceptance(indoor_dir):
-    # 5-fold cross-validation on every image with the default features
-    # (the full-dataset figures are in docs/results/classification.md).
+    # 5-fold cross-validation on every other photo (887 of 1,774: the features of
+    # all cost ~22 s of CPU; the mean accuracy, ~96 %, moves by well under the
+    # margins below) with the default features (the full-dataset figures are in
+    # docs/results/classification.md).
+    images = scan_image_folder(indoor_dir)
+    assert images.counts() == {"carpet": 726, "tiles": 595, "wood": 453}
+    half = dataclasses.replace(images, paths=images.paths[::2], labels=images.labels[::2])
     default, paper = extract_feature_sets(
-        scan_image_folder(indoor_dir),
-        [ClassifierConfig(), paper_config()],
-        read=read_image_rgb,
-        progress=False,
+        half, [ClassifierConfig(), paper_config()], read=read_image_rgb, progress=False
     )
-    assert default.counts() == {"carpet": 726, "tiles": 595, "wood": 453}
+    assert default.counts() == {"carpet": 363, "tiles": 298, "wood": 226}
     assert np.all(np.bincount(default.region) == 16)  # short side >= 320 px: 4x4 tiles
     result = cross_validate(default)
     assert result.mean_accuracy >= 90.0

@@ -112,11 +112,8 @@ def test_calls_reproduce_the_cli_run_on_a_real_log(tmp_path, capsys, estimator, 
         )
 
 
-def test_frames_reproduce_the_cli_frame_labels(tmp_path, capsys):
-    out = tmp_path / "out"
-    args = ["--images", str(SAMPLE), "--wheels", str(SAMPLE / "log.csv"), "--out", str(out)]
-    assert main(["run", *args]) == 0
-    capsys.readouterr()
+def test_frames_reproduce_the_cli_frame_labels(sample_camera_run):
+    out, _ = sample_camera_run  # run --images sample_images/chen2023 --wheels .../log.csv
     with (out / "frames.csv").open(newline="") as handle:
         expected = [(r["label"], r["confirmed_label"]) for r in csv.DictReader(handle)]
     cfg = load_config(SAMPLE / "config.yaml")
