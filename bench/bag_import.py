@@ -26,8 +26,8 @@ from pathlib import Path
 
 import numpy as np
 
-from terrain_odom.io.bag_reader import open_bag
-from terrain_odom.io.bag_writer import MessageFactory, Record, write_bag
+from terrain_odom.io.bag.reader import open_bag
+from terrain_odom.io.bag.writer import MessageFactory, Record, write_bag
 
 REPO = Path(__file__).resolve().parents[1]
 REAL = REPO.parent / "shared" / "data" / "bags" / "jackal_odom_imu.bag"

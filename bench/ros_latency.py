@@ -1,7 +1,7 @@
 """Latency and sustained rate of the live node's core (``terrain-odom-ros`` without the transport).
 
 Messages as a robot sends them (``rosbags`` objects, built by
-:class:`~terrain_odom.io.bag_writer.MessageFactory`): ``JointState`` wheels
+:class:`~terrain_odom.io.bag.writer.MessageFactory`): ``JointState`` wheels
 at 100 Hz, ``Imu`` headings at 50 Hz, ``NavSatFix`` fixes at 5 Hz and
 ``CompressedImage`` frames at 10 Hz (the shipped simulated run's 320x240
 JPEGs, classified by the packaged model on the worker thread), fed to
@@ -36,8 +36,8 @@ from typing import Any
 import numpy as np
 
 from terrain_odom.app.live import LiveOptions, LiveOutput, LiveTopics, build_live
-from terrain_odom.io.bag_messages import COMPRESSED_IMAGE, IMU, JOINT_STATE, NAV_SAT_FIX
-from terrain_odom.io.bag_writer import MessageFactory
+from terrain_odom.io.bag.messages import COMPRESSED_IMAGE, IMU, JOINT_STATE, NAV_SAT_FIX
+from terrain_odom.io.bag.writer import MessageFactory
 
 REPO = Path(__file__).resolve().parents[1]
 SAMPLE = REPO / "sample_images" / "chen2023"

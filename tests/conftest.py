@@ -55,6 +55,15 @@ def indoor_dir() -> Path:
 
 
 @pytest.fixture(scope="session")
+def jackal_bag() -> Path:
+    """Return ``../shared/data/bags/jackal_odom_imu.bag``: a real ROS 1 bag (odometry, IMU)."""
+    path = _shared("bags") / "jackal_odom_imu.bag"
+    if not path.is_file():
+        pytest.skip(f"real data not present: {path} (../shared beside the repository)")
+    return path
+
+
+@pytest.fixture(scope="session")
 def sample_camera_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, str]:
     """Run the camera quick start once (``run --images sample_images/chen2023 ...``).
 

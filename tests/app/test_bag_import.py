@@ -12,10 +12,12 @@ import pytest
 import yaml
 from scipy.spatial.transform import Rotation
 
-from terrain_odom.app.bag_import import ImportOptions, import_bag, inspect_bag
+from terrain_odom.app.bag_import import import_bag
 from terrain_odom.config import load_config
 from terrain_odom.errors import ConfigError, InputFileError
-from terrain_odom.io.bag_writer import MessageFactory, write_bag
+from terrain_odom.io.bag.options import ImportOptions
+from terrain_odom.io.bag.reader import summarize_bag
+from terrain_odom.io.bag.writer import MessageFactory, write_bag
 from terrain_odom.io.frames import read_frames
 from terrain_odom.io.wheel_log import read_wheel_log
 
@@ -312,7 +314,7 @@ def test_images_and_camera_info(tmp_path: Path) -> None:
 
 
 def test_inspect_lists_types_counts_rates_and_roles(tmp_path: Path) -> None:
-    summary = inspect_bag(_known_bag(tmp_path, "sqlite3"), progress=False)
+    summary = summarize_bag(_known_bag(tmp_path, "sqlite3"), progress=False)
     topics = {t.topic: t for t in summary.topics}
     js = topics["/joint_states"]
     assert (js.msgtype, js.count, js.roles) == ("sensor_msgs/msg/JointState", 15, ("wheels",))

@@ -10,10 +10,11 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from terrain_odom.app.bag_import import ImportOptions, import_bag
+from terrain_odom.app.bag_import import import_bag
 from terrain_odom.config import load_config
 from terrain_odom.errors import InputFileError
-from terrain_odom.io.bag_writer import MessageFactory, write_bag
+from terrain_odom.io.bag.options import ImportOptions
+from terrain_odom.io.bag.writer import MessageFactory, write_bag
 
 M = MessageFactory()
 BASE = 1_700_000_000 * 10**9

@@ -12,24 +12,17 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from terrain_odom.app.bag_import import ImportOptions, import_bag, inspect_bag
+from terrain_odom.app.bag_import import import_bag
+from terrain_odom.io.bag.options import ImportOptions
+from terrain_odom.io.bag.reader import summarize_bag
 from terrain_odom.io.wheel_log import read_wheel_log, write_wheel_log
-from tests.conftest import SHARED_DATA
 
 ODOM, IMU = "/jackal_velocity_controller/odom", "/imu/data"
 TRACK = 0.563  # jackal_control: URDF wheel separation 0.37559 m x wheel_separation_multiplier 1.5
 
 
-@pytest.fixture(scope="module")
-def jackal_bag() -> Path:
-    path = SHARED_DATA / "bags" / "jackal_odom_imu.bag"
-    if not path.is_file():
-        pytest.skip(f"real data not present: {path} (../shared beside the repository)")
-    return path
-
-
 def test_inspect_real_bag(jackal_bag: Path) -> None:
-    summary = inspect_bag(jackal_bag, progress=False)
+    summary = summarize_bag(jackal_bag, progress=False)
     topics = {t.topic: (t.count, round(t.rate or 0, 1), t.roles) for t in summary.topics}
     assert topics == {IMU: (3061, 50.0, ("heading",)), ODOM: (3060, 50.0, ("wheels", "pose"))}
 

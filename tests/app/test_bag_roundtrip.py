@@ -2,7 +2,7 @@
 
 ``sample_images/chen2023`` is a run of ``terrain-odom simulate`` (wheels at
 50 Hz, poses at 10 Hz, 96 JPEG frames, its camera). Written as a recording
-(:func:`~terrain_odom.io.bag_writer.log_records`: JointState, PoseStamped,
+(:func:`~terrain_odom.io.bag.writer.log_records`: JointState, PoseStamped,
 CompressedImage, CameraInfo, ``/tf_static``) in each bag format and
 imported, it gives back the same log, frames and camera, so ``run`` gives
 the same trajectory.
@@ -16,10 +16,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from terrain_odom.app.bag_import import ImportOptions, import_bag, read_bag_log
+from terrain_odom.app.bag_import import import_bag
 from terrain_odom.app.run import run
 from terrain_odom.config import load_config
-from terrain_odom.io.bag_writer import log_records, write_bag
+from terrain_odom.io.bag.contents import read_bag_log
+from terrain_odom.io.bag.options import ImportOptions
+from terrain_odom.io.bag.writer import log_records, write_bag
 from terrain_odom.io.frames import read_frames
 from terrain_odom.io.trajectory import read_trajectory_csv
 from terrain_odom.io.wheel_log import read_wheel_log, write_wheel_log

@@ -1,7 +1,7 @@
 """The live layer under the ROS node, without ROS: order, late and bad messages, frames off the path.
 
 Messages are ``rosbags``' objects (the real Jackal bag's, and the shipped
-simulated run's as :func:`~terrain_odom.io.bag_writer.log_records` builds
+simulated run's as :func:`~terrain_odom.io.bag.writer.log_records` builds
 them), fed as a node would, one by one.
 """
 
@@ -19,7 +19,6 @@ from typing import Any
 import numpy as np
 import pytest
 
-from terrain_odom.app.bag_import import ImportOptions, read_bag_log
 from terrain_odom.app.live import (
     LiveOdometry,
     LiveOptions,
@@ -32,9 +31,11 @@ from terrain_odom.app.run import run
 from terrain_odom.config import Config, load_config
 from terrain_odom.estimation.odometry import run_odometry
 from terrain_odom.estimation.online import OnlineOdometry
-from terrain_odom.io.bag_messages import IMU, ODOMETRY
-from terrain_odom.io.bag_reader import open_bag, stream_messages
-from terrain_odom.io.bag_writer import MessageFactory, log_records
+from terrain_odom.io.bag.contents import read_bag_log
+from terrain_odom.io.bag.messages import IMU, ODOMETRY
+from terrain_odom.io.bag.options import ImportOptions
+from terrain_odom.io.bag.reader import open_bag, stream_messages
+from terrain_odom.io.bag.writer import MessageFactory, log_records
 from terrain_odom.io.frames import read_frames
 from terrain_odom.io.wheel_log import read_wheel_log
 from terrain_odom.records import Sighting

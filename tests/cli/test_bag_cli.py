@@ -13,7 +13,7 @@ from terrain_odom.cli.main import main
 from terrain_odom.config import load_config
 from terrain_odom.estimation import odometry, online
 from terrain_odom.estimation.icr_ekf_reference import FilterpyIcrEkf
-from terrain_odom.io.bag_writer import MessageFactory, write_bag
+from terrain_odom.io.bag.writer import MessageFactory, write_bag
 from terrain_odom.io.wheel_log import read_wheel_log
 from tests.conftest import SHARED_DATA
 

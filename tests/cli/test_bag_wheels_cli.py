@@ -9,7 +9,7 @@ import pytest
 import yaml
 
 from terrain_odom.cli.main import main
-from terrain_odom.io.bag_writer import log_records, write_bag
+from terrain_odom.io.bag.writer import log_records, write_bag
 from terrain_odom.io.wheel_log import read_wheel_log
 from tests.conftest import SHARED_DATA
 

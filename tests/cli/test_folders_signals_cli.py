@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 from terrain_odom.cli.main import main
-from terrain_odom.io.bag_writer import MessageFactory, write_bag
+from terrain_odom.io.bag.writer import MessageFactory, write_bag
 from terrain_odom.io.folder import MANIFEST
 from terrain_odom.io.trajectory import read_trajectory_csv
 

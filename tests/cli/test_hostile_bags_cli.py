@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from terrain_odom.cli.main import main
-from terrain_odom.io.bag_writer import MessageFactory, write_bag
+from terrain_odom.io.bag.writer import MessageFactory, write_bag
 from terrain_odom.io.wheel_log import read_wheel_log
 
 M = MessageFactory()

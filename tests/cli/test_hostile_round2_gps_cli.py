@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 
 from terrain_odom.cli.main import main
-from terrain_odom.io.bag_messages import NAV_SAT_FIX
-from terrain_odom.io.bag_reader import BagMessage
-from terrain_odom.io.bag_streams import PoseStream, StampRule
-from terrain_odom.io.bag_writer import MessageFactory, write_bag
+from terrain_odom.io.bag.messages import NAV_SAT_FIX
+from terrain_odom.io.bag.reader import BagMessage
+from terrain_odom.io.bag.streams import PoseStream, StampRule
+from terrain_odom.io.bag.writer import MessageFactory, write_bag
 from terrain_odom.io.wheel_log import read_wheel_log
 
 M = MessageFactory()

@@ -177,7 +177,7 @@ def ros(ros_python: str, tmp_path_factory: pytest.TempPathFactory) -> Iterator[R
 
 def read_bag(path: Path) -> dict[str, list[tuple[int, Any]]]:
     """Return the messages of a recorded bag by topic: ``(receive ns, message)``."""
-    from terrain_odom.io.bag_reader import open_bag, stream_messages
+    from terrain_odom.io.bag.reader import open_bag, stream_messages
 
     # rosbag record's C++ child closes the file after the wrapper the test stopped has exited
     active = path.with_name(path.name + ".active")

@@ -20,11 +20,12 @@ import numpy as np
 import pytest
 import yaml
 
-from terrain_odom.app.bag_import import ImportOptions, import_bag
+from terrain_odom.app.bag_import import import_bag
 from terrain_odom.app.run import run
 from terrain_odom.config import load_config
-from terrain_odom.io.bag_messages import stamp_ns, yaw_from_quaternion
-from terrain_odom.io.bag_writer import log_records, write_bag
+from terrain_odom.io.bag.messages import stamp_ns, yaw_from_quaternion
+from terrain_odom.io.bag.options import ImportOptions
+from terrain_odom.io.bag.writer import log_records, write_bag
 from terrain_odom.io.frames import read_frames
 from terrain_odom.io.trajectory import read_trajectory_csv
 from terrain_odom.io.wheel_log import read_wheel_log

@@ -4,10 +4,10 @@ Middleware-free: the ROS node (:mod:`terrain_odom.ros.node`) hands every
 message it receives to :meth:`LiveOdometry.message` with its role
 (``wheels``, ``pose``, ``heading``, ``images``) and type, and publishes each
 :class:`LiveOutput`. Messages are converted by the streams ``import`` uses
-(:mod:`~terrain_odom.io.bag_streams`: one conversion for a bag's messages
+(:mod:`~terrain_odom.io.bag.streams`: one conversion for a bag's messages
 and a live one's) and fed to
 :class:`~terrain_odom.estimation.online.OnlineOdometry` as the rows of the
-log ``import`` would write (:mod:`~terrain_odom.io.bag_log`'s rules), so a
+log ``import`` would write (:mod:`~terrain_odom.io.bag.log`'s rules), so a
 recording played into the node gives ``terrain-odom run``'s estimates.
 
 Ordering policy (docs/ros.md):
@@ -59,11 +59,11 @@ from terrain_odom.config import load_config
 from terrain_odom.errors import ConfigError, InputFileError
 from terrain_odom.estimation._kernel_switch import compile_kernels
 from terrain_odom.estimation.online import OnlineOdometry
-from terrain_odom.io.bag_frames import frame_rgb
-from terrain_odom.io.bag_log import time_origin_ns
-from terrain_odom.io.bag_messages import ROLE_TYPES, TF_MESSAGE, message_type
-from terrain_odom.io.bag_reader import BagMessage, short_type
-from terrain_odom.io.bag_streams import HeadingStream, PoseStream, StampRule, WheelStream
+from terrain_odom.io.bag.frames import frame_rgb
+from terrain_odom.io.bag.log import time_origin_ns
+from terrain_odom.io.bag.messages import ROLE_TYPES, TF_MESSAGE, message_type
+from terrain_odom.io.bag.reader import BagMessage, short_type
+from terrain_odom.io.bag.streams import HeadingStream, PoseStream, StampRule, WheelStream
 from terrain_odom.kinematics.models import twist_icr, twist_icr_jacobian
 from terrain_odom.records import Sighting, TerrainChange
 

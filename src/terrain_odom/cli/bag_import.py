@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from terrain_odom.cli.options import add_config_option, print_written
+from terrain_odom.io.bag.options import ImportOptions  # light: no rosbags
 
 
 def add_bag_topic_options(p: argparse.ArgumentParser, *, wheels_required: bool = False) -> None:
@@ -73,12 +74,10 @@ def add_bag_topic_options(p: argparse.ArgumentParser, *, wheels_required: bool =
     )
 
 
-def _options(args: argparse.Namespace, bag_wheels_topic: str) -> Any:
-    """Return the :class:`~terrain_odom.app.bag_import.ImportOptions` of parsed arguments."""
-    from terrain_odom.app.bag_import import ImportOptions
-
+def _options(args: argparse.Namespace, wheels_topic: str) -> ImportOptions:
+    """Return the :class:`~terrain_odom.io.bag.options.ImportOptions` of parsed arguments."""
     return ImportOptions(
-        wheels_topic=bag_wheels_topic,
+        wheels_topic=wheels_topic,
         pose_topic=args.pose_topic,
         heading_topic=args.heading_topic,
         image_topic=getattr(args, "image_topic", None),
@@ -116,63 +115,16 @@ def wheels_from_bag(args: argparse.Namespace, out_dir: str) -> tuple[str, str | 
 def logs_from_bags(
     paths: Sequence[str], args: argparse.Namespace, out_dir: str | Path
 ) -> tuple[list[str], str | None]:
-    """Return the wheel logs to use for ``paths``: each itself, or its import if it is a bag.
+    """Return the wheel logs to use for ``paths`` and the configuration an import gives.
 
-    The bags are imported with the bag options (``--wheels-topic`` ...) into
-    ``OUT/bag/``, or ``OUT/bag/<bag name>/`` when there are several; the
-    first import's ``config.yaml`` is the configuration when ``--config`` is
-    not given (None is returned otherwise, and without a bag).
-
-    Raises
-    ------
-    ConfigError
-        A bag without ``--wheels-topic``, or ``--wheels-topic`` and no bag.
+    :func:`terrain_odom.app.bag_import.logs_from_bags` with the bag options
+    of ``args``, each import printed as it is written.
     """
-    from terrain_odom.errors import ConfigError
-    from terrain_odom.io.bag_paths import is_bag  # rosbags loads for a bag only
+    from terrain_odom.app.bag_import import logs_from_bags as import_logs
 
-    bags = [path for path in paths if is_bag(path)]
-    if args.wheels_topic is None:
-        if bags:
-            raise ConfigError(
-                f"--wheels {bags[0]} is a ROS bag: give --wheels-topic (and the other topic "
-                f"options; 'terrain-odom inspect {bags[0]}' lists its topics)"
-            )
-        return list(paths), None
-    if not bags:
-        raise ConfigError(
-            f"--wheels-topic reads a ROS bag, but --wheels {' '.join(paths)} is not one "
-            "(a .bag or .mcap file or a ROS 2 bag folder)"
-        )
-    from terrain_odom.app.bag_import import import_bag  # frame writing (OpenCV): bags only
-
-    folders = _bag_folders(bags, Path(out_dir) / "bag")
-    logs, configs = [], []
-    for path in paths:
-        if path not in folders:
-            logs.append(path)
-            continue
-        result = import_bag(path, folders[path], _options(args, args.wheels_topic))
-        _print_import(result)
-        logs.append(str(result.log_csv))
-        configs.append(str(result.config_yaml))
-    return logs, None if args.config else configs[0]
-
-
-def _bag_folders(bags: Sequence[str], root: Path) -> dict[str, Path]:
-    """Return the import folder of each bag: ``root`` for one, ``root/<name>`` for several."""
-    unique = list(dict.fromkeys(bags))
-    if len(unique) == 1:
-        return {unique[0]: root}
-    folders: dict[str, Path] = {}
-    for bag in unique:
-        name = Path(bag).stem or "bag"
-        folder, n = root / name, 1
-        while folder in folders.values():
-            n += 1
-            folder = root / f"{name}-{n}"
-        folders[bag] = folder
-    return folders
+    topic = args.wheels_topic
+    options = _options(args, topic) if topic is not None else None
+    return import_logs(paths, options, out_dir, _print_import)
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:

@@ -16,10 +16,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def _cmd_inspect(args: argparse.Namespace) -> int:
-    from terrain_odom.app.bag_import import inspect_bag
-    from terrain_odom.io.bag_reader import short_type
+    from terrain_odom.io.bag.reader import short_type, summarize_bag
 
-    summary = inspect_bag(args.bag)
+    summary = summarize_bag(args.bag)
     span = (
         (summary.end_ns - summary.start_ns) / 1e9
         if summary.start_ns is not None and summary.end_ns is not None

@@ -20,7 +20,7 @@ from rosbags.image import ImageConversionError, ImageFormatError, message_to_cvi
 
 from terrain_odom.errors import InputFileError
 from terrain_odom.io.atomic import write_atomic, write_text_atomic
-from terrain_odom.io.bag_messages import COMPRESSED_IMAGE
+from terrain_odom.io.bag.messages import COMPRESSED_IMAGE
 from terrain_odom.io.images import decode_image_rgb
 
 __all__ = ["FRAME_FORMATS", "frame_rgb", "write_frame", "write_frames_csv"]

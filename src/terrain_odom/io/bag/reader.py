@@ -25,7 +25,7 @@ from rosbags.typesys import Stores, get_typestore
 from tqdm import tqdm
 
 from terrain_odom.errors import InputFileError
-from terrain_odom.io.bag_messages import ROLE_TYPES
+from terrain_odom.io.bag.messages import ROLE_TYPES
 
 __all__ = [
     "BagMessage",

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from terrain_odom.io.bag_log import StampedRows, merge_streams
+from terrain_odom.io.bag.log import StampedRows, merge_streams
 
 S = 10**9
 MS = 10**6

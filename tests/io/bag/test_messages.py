@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from terrain_odom.io.bag_messages import (
+from terrain_odom.io.bag.messages import (
     Intrinsics,
     enu_from_geodetic,
     intrinsics,

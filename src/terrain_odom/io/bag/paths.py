@@ -1,7 +1,7 @@
 """Whether a path names a ROS bag, by its name only (no ``rosbags`` import).
 
 Commands that take a wheel log or a bag ask this first; only a bag then
-loads :mod:`terrain_odom.io.bag_reader` and ``rosbags`` (~50 ms of start-up
+loads :mod:`terrain_odom.io.bag.reader` and ``rosbags`` (~50 ms of start-up
 that a run on a CSV log does not pay).
 """
 
@@ -17,7 +17,7 @@ def is_bag(path: str | os.PathLike[str]) -> bool:
     """Whether ``path`` looks like a bag: a ``.bag``/``.mcap``/``.db3`` file or a ROS 2 folder.
 
     By name only (a ROS 2 folder holds ``metadata.yaml``);
-    :func:`~terrain_odom.io.bag_reader.open_bag` says whether it is readable.
+    :func:`~terrain_odom.io.bag.reader.open_bag` says whether it is readable.
     """
     p = Path(path)
     if p.is_dir():

@@ -1,4 +1,4 @@
-"""Whether a path names a bag, by its name only (``io.bag_paths``)."""
+"""Whether a path names a bag, by its name only (``io.bag.paths``)."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ import pytest
      ("run.bag.csv", False), ("bag", False), ("run.BAG", False)],
 )  # fmt: skip
 def test_a_file_is_a_bag_by_its_suffix(tmp_path: Path, name: str, expected: bool) -> None:
-    from terrain_odom.io.bag_paths import is_bag
+    from terrain_odom.io.bag.paths import is_bag
 
     assert is_bag(tmp_path / name) is expected  # need not exist: by name only
     (tmp_path / name).write_text("not a bag at all")
@@ -21,7 +21,7 @@ def test_a_file_is_a_bag_by_its_suffix(tmp_path: Path, name: str, expected: bool
 
 
 def test_a_folder_is_a_bag_when_it_holds_metadata_yaml(tmp_path: Path) -> None:
-    from terrain_odom.io.bag_paths import is_bag
+    from terrain_odom.io.bag.paths import is_bag
 
     folder = tmp_path / "rosbag2_run.bag"  # a folder: its suffix does not count
     folder.mkdir()

@@ -1,11 +1,11 @@
-"""Collect the streams of a bag import, message by message.
+"""Collect the streams of a bag import, message by message (:class:`BagStreams`: one import's).
 
 :class:`WheelStream`, :class:`PoseStream` and :class:`HeadingStream` each
 take the messages of one topic (:meth:`add`) and keep only the few numbers
 per message the wheel log needs (a stamp and two or three floats, in
 compact arrays: 24-32 bytes a message), so a long bag is read in one pass
 at small memory; :meth:`rows` returns them as
-:class:`~terrain_odom.io.bag_log.StampedRows`. Each raises a one-line
+:class:`~terrain_odom.io.bag.log.StampedRows`. Each raises a one-line
 :class:`~terrain_odom.errors.InputFileError` naming the topic on a message
 it cannot use (a ``JointState`` without velocities or without the joints
 asked for, an ``Imu`` without orientation on every message, a
@@ -22,13 +22,14 @@ from typing import Any
 import numpy as np
 
 from terrain_odom.errors import InputFileError
-from terrain_odom.io.bag_log import StampedRows
-from terrain_odom.io.bag_messages import (
+from terrain_odom.io.bag.log import StampedRows
+from terrain_odom.io.bag.messages import (
     JOINT_STATE,
     NAV_SAT_FIX,
     ODOMETRY,
     POSE_COV_STAMPED,
     TF_MESSAGE,
+    Intrinsics,
     enu_from_geodetic,
     fix_status,
     imu_yaw,
@@ -40,9 +41,10 @@ from terrain_odom.io.bag_messages import (
     tf_pose,
     track_speeds,
 )
-from terrain_odom.io.bag_reader import BagMessage
+from terrain_odom.io.bag.reader import BagMessage
 
 __all__ = [
+    "BagStreams",
     "HeadingStream",
     "PoseStream",
     "StampRule",
@@ -429,3 +431,38 @@ class HeadingStream(_Stream):
     def sigma(self) -> float | None:
         """Median yaw standard deviation of the orientation covariances, if known."""
         return median_sigma(self.sigmas)
+
+
+@dataclass
+class BagStreams:
+    """The streams of one import and the topics they read (filled message by message).
+
+    Attributes
+    ----------
+    wheels, poses, headings : WheelStream, PoseStream or None, HeadingStream or None
+    types : dict of str to str
+        The topics read: their message types.
+    bag : str
+    images : list of (int, str)
+        Each frame written: its stamp (ns) and file (``frames/NNNNNN.jpg``).
+    camera : Intrinsics or None
+        The first CameraInfo's; ``camera_topic`` its topic.
+    static : dict of (str, str) to ndarray
+        ``/tf_static``'s transforms (4x4) by (parent, child) frame.
+    image_frame : str or None
+        The first image's ``frame_id``.
+    images_unstamped : int
+        Images skipped for a zero header stamp.
+    """
+
+    wheels: WheelStream
+    poses: PoseStream | None
+    headings: HeadingStream | None
+    types: dict[str, str]
+    bag: str
+    images: list[tuple[int, str]] = field(default_factory=list)
+    camera: Intrinsics | None = None
+    static: dict[tuple[str, str], np.ndarray] = field(default_factory=dict)
+    image_frame: str | None = None
+    images_unstamped: int = 0
+    camera_topic: str | None = None

@@ -38,6 +38,7 @@ __all__ = [
     "COMPRESSED_IMAGE",
     "CAMERA_INFO",
     "ROLE_TYPES",
+    "TF_STATIC",
     "Intrinsics",
     "yaw_from_quaternion",
     "stamp_ns",
@@ -69,6 +70,8 @@ IMU = "sensor_msgs/msg/Imu"
 IMAGE = "sensor_msgs/msg/Image"
 COMPRESSED_IMAGE = "sensor_msgs/msg/CompressedImage"
 CAMERA_INFO = "sensor_msgs/msg/CameraInfo"
+TF_STATIC = "/tf_static"
+"""The topic of the static transforms (the mountings)."""
 
 #: The message types each role accepts (``inspect`` shows the roles a topic can play).
 ROLE_TYPES: dict[str, tuple[str, ...]] = {

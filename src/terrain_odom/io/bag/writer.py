@@ -23,7 +23,7 @@ from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from scipy.spatial.transform import Rotation
 
 from terrain_odom.config import CameraConfig
-from terrain_odom.io.bag_messages import (
+from terrain_odom.io.bag.messages import (
     CAMERA_INFO,
     COMPRESSED_IMAGE,
     IMAGE,
