@@ -453,17 +453,15 @@ def test_writing_into_a_missing_folder_fails_and_leaves_nothing(tmp_path: Path) 
 def test_a_large_log_reads_every_row_and_segment(tmp_path: Path) -> None:
     """100,000 rows, a pose row in ten, 100 segments (its speed: ``python bench/read_wheel_log.py``)."""
     n = 100_000
-    t = np.arange(n) * 0.01
-    speeds = np.round(np.sin(t), 6)
+    k = np.arange(n)
+    speeds = np.round(np.sin(0.01 * k), 6)
+    pose = np.where(k % 10 == 0, [f"{1e-3 * i},{-1e-3 * i},0.5" for i in k], ",,")
+    rows = [
+        f"{0.01 * i:.2f},{w},{-w},{p},grass,{i // 1000}"
+        for i, w, p in zip(k.tolist(), speeds.tolist(), pose.tolist(), strict=True)
+    ]
     path = tmp_path / "big.csv"
-    with open(path, "w") as handle:
-        handle.write("t,omega_l,omega_r,x,y,yaw,terrain,segment\n")
-        handle.writelines(
-            f"{t[k]:.2f},{speeds[k]},{-speeds[k]},"
-            + (f"{k * 1e-3},{-k * 1e-3},0.5" if k % 10 == 0 else ",,")
-            + f",grass,{k // 1000}\n"
-            for k in range(n)
-        )
+    path.write_text("t,omega_l,omega_r,x,y,yaw,terrain,segment\n" + "\n".join(rows) + "\n")
     log = read_wheel_log(path, wheel_radius=0.3)
     assert len(log) == n and np.unique(log.segment).size == n // 1000
     assert np.isfinite(log.pose[:, 0]).sum() == n // 10
