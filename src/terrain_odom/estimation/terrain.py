@@ -81,14 +81,14 @@ class TerrainTracker:
             self.current = label
             return None
         if label == self.current:
-            self._candidate, self._count = None, 0
+            self._candidate = None  # the count restarts with the next candidate
             return None
         if label != self._candidate:
             self._candidate, self._count, self._candidate_at = label, 0, at
         self._count += 1
         if self._count < self.confirm:
             return None
-        self.current, self._candidate, self._count = label, None, 0
+        self.current, self._candidate = label, None
         self.changed_at = self._candidate_at
         return label
 
