@@ -29,6 +29,7 @@ from terrain_odom.app.live import (
 )
 from terrain_odom.app.run import run
 from terrain_odom.config import Config, load_config
+from terrain_odom.errors import ConfigError
 from terrain_odom.estimation.odometry import run_odometry
 from terrain_odom.estimation.online import OnlineOdometry
 from terrain_odom.io.bag.contents import read_bag_log
@@ -362,3 +363,11 @@ def test_frames_faster_than_the_classifier_are_skipped_not_queued(sample_dir: Pa
     skipped = live.dropped["images: the classifier is behind (frames skipped to keep up)"]
     assert max(waiting) <= 3 and skipped > 0
     assert live.counts["frames_classified"] + skipped == live.counts["images"]
+
+
+def test_the_heading_bias_without_a_pose_topic_is_refused(tmp_path: Path) -> None:
+    """As ``run`` on a log without positions: nothing would observe the bias (one line)."""
+    config = tmp_path / "bias.yaml"
+    config.write_text("pose_sensor: {heading_bias: true}\n", encoding="utf-8")
+    with pytest.raises(ConfigError, match="no --pose-topic: headings but no positions"):
+        build_live(config, LiveTopics(ODOM, heading=IMU_TOPIC))

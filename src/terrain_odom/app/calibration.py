@@ -20,7 +20,7 @@ import numpy as np
 
 from terrain_odom.config import Config
 from terrain_odom.config.sections import PoseChangeSigmas, PoseSigmas
-from terrain_odom.errors import EstimationError, InputFileError
+from terrain_odom.errors import ConfigError, EstimationError, InputFileError
 from terrain_odom.estimation.time_offset import (
     PoseDelayEstimate,
     TimeCalibration,
@@ -37,6 +37,7 @@ __all__ = [
     "SensorCalibration",
     "calibrate_config",
     "calibrate_inputs",
+    "check_heading_bias",
     "check_plausible",
     "apply_delays",
 ]
@@ -406,6 +407,26 @@ def _noise(cfg: Config, fit: SensorFit, found: list[Found], notes: list[str]) ->
     return dataclasses.replace(cfg, ekf=ekf, slip_ekf=slip, pose_sensor=sensor)
 
 
+def check_heading_bias(cfg: Config, has_positions: bool, source: str) -> None:
+    """Refuse the ICR EKF's heading-bias state where no positions come (one line).
+
+    Only the positions' course tells a heading's slow bias from the yaw:
+    with headings alone nothing observes it, and the wheels' disagreement
+    with the heading is shared between the bias and the ICRs.
+
+    Raises
+    ------
+    ConfigError
+        ``pose_sensor.heading_bias`` is on and ``has_positions`` is false;
+        ``source`` names the log or the topics.
+    """
+    if cfg.pose_sensor.heading_bias and not has_positions:
+        raise ConfigError(
+            f"{source}: headings but no positions: pose_sensor.heading_bias needs both (only "
+            "the positions' course tells a heading's slow bias from the yaw); set it false"
+        )
+
+
 def calibrate_inputs(
     log: WheelLog, cfg: Config, *, everything: bool = False
 ) -> tuple[WheelLog, Config, SensorCalibration, TimeCalibration]:
@@ -429,7 +450,14 @@ def calibrate_inputs(
     (WheelLog, Config, SensorCalibration, TimeCalibration)
         The log with its delays applied, the resolved configuration, what
         was found, and the delays.
+
+    Raises
+    ------
+    ConfigError
+        ``pose_sensor.heading_bias`` on a log without positions
+        (:func:`check_heading_bias`).
     """
+    check_heading_bias(cfg, bool(log.has_position.any()), log.source)
     try:
         resolved, found, timing = calibrate_config(log, cfg, everything=everything)
     except (InputFileError, EstimationError):

@@ -54,6 +54,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from terrain_odom.app.calibration import check_heading_bias
 from terrain_odom.app.frames import one_thread
 from terrain_odom.config import load_config
 from terrain_odom.errors import ConfigError, InputFileError
@@ -680,6 +681,7 @@ def build_live(
         cfg = dataclasses.replace(cfg, robot=dataclasses.replace(cfg.robot, **given))
     if topics.stamps not in ("header", "receive"):
         raise ConfigError(f"--stamps must be header or receive, got {topics.stamps!r}")
+    check_heading_bias(cfg, topics.pose is not None, "no --pose-topic")
     frames = None
     if topics.images is not None:
         from terrain_odom.io.classifier_file import default_model, load_classifier

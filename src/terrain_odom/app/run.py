@@ -264,11 +264,6 @@ def _read_inputs(
     icr_priors = None if priors is None else read_priors(priors, cfg.robot)
     log = read_wheel_log(wheels, wheel_radius=cfg.robot.wheel_radius)
     log, cfg, calibration, timing = calibrate_inputs(log, cfg)
-    if cfg.pose_sensor.heading_bias and not slip and not log.has_position.any():
-        raise ConfigError(
-            f"{log.source} has headings but no positions: pose_sensor.heading_bias needs both "
-            "(only the positions' course tells a heading's slow bias from the yaw); set it false"
-        )
     gt = _read_groundtruth(groundtruth, log) if groundtruth is not None else None
     use_frames = images is not None and terrain is not TerrainSource.NONE
     labels = None if use_frames else _labels(log, terrain)
