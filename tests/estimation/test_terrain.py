@@ -1,4 +1,9 @@
-"""The arrival rule: the model's speed, the log odometer, and the stream applying it alike."""
+"""``estimation/terrain.py``: confirming a change, and the arrival rule.
+
+``TerrainTracker``'s confirmation counts and ``steady`` are stated as
+properties (written for mutants no test killed, docs/testing.md); the arrival
+rule through the model's speed, the log odometer, and the stream applying it alike.
+"""
 
 from __future__ import annotations
 
@@ -7,7 +12,7 @@ import pytest
 
 from terrain_odom.config import Config
 from terrain_odom.estimation.online import OnlineOdometry
-from terrain_odom.estimation.terrain import Odometer, model_speed
+from terrain_odom.estimation.terrain import Odometer, TerrainTracker, model_speed
 from terrain_odom.records import Sighting, WheelLog
 
 
@@ -68,3 +73,51 @@ def test_the_stream_applies_a_change_where_the_log_odometer_arrives() -> None:
     [change] = odo.changes
     assert (change.previous, change.label) == ("grass", "gravel")
     assert change.t == pytest.approx(t[t >= reached][0])
+
+
+# --- TerrainTracker: a change confirmed after `confirm` consecutive observations
+def test_steady_only_on_the_current_label_with_no_candidate_pending():
+    tracker = TerrainTracker(confirm=3)
+    tracker.observe("grass")
+    assert tracker.steady("grass")
+    assert not tracker.steady("sand")  # another label would start a candidate
+    tracker.observe("sand")  # a candidate is pending: the next "grass" clears it
+    assert not tracker.steady("grass") and not tracker.steady("sand")
+    tracker.observe("grass")
+    assert tracker.steady("grass") and not tracker.steady("sand")
+
+
+def test_a_fresh_tracker_is_steady_on_no_label():
+    tracker = TerrainTracker()
+    assert not tracker.steady("grass")  # the first observation sets the terrain
+
+
+@pytest.mark.parametrize("confirm", [1, 2, 3, 5])
+def test_a_change_needs_exactly_confirm_observations_after_an_interruption(confirm):
+    tracker = TerrainTracker(confirm=confirm)
+    tracker.observe("grass")
+    # a candidate interrupted by the current label starts again from nothing
+    for _ in range(confirm - 1):
+        assert tracker.observe("sand") is None
+    assert tracker.observe("grass") is None
+    seen = [tracker.observe("sand", at=float(k)) for k in range(confirm)]
+    assert seen == [None] * (confirm - 1) + ["sand"]
+    assert tracker.current == "sand" and tracker.changed_at == 0.0
+    # after a confirmed change the count starts again from nothing too
+    seen = [tracker.observe("mud", at=10.0 + k) for k in range(confirm)]
+    assert seen == [None] * (confirm - 1) + ["mud"]
+    assert tracker.changed_at == 10.0
+
+
+def test_confirm_below_one_is_refused():
+    with pytest.raises(ValueError, match="confirm must be >= 1, got 0"):
+        TerrainTracker(confirm=0)
+
+
+def test_by_default_a_change_is_confirmed_on_its_second_observation():
+    tracker = TerrainTracker()
+    assert tracker.changed_at is None  # no change yet, not even after the first label
+    tracker.observe("grass", at=0.0)
+    assert tracker.changed_at is None and tracker.current == "grass"
+    assert [tracker.observe("sand", at=t) for t in (1.0, 2.0)] == [None, "sand"]
+    assert tracker.changed_at == 1.0
