@@ -209,7 +209,8 @@ class Odometer:
     Parameters
     ----------
     log : WheelLog
-        Times and track speeds; nothing is integrated across its segment breaks.
+        Times and track speeds; ground is never reached across a segment break
+        (:meth:`arrival` looks inside the row's run only).
     states : ndarray, shape (N, 6) or (N, 7)
         The ICR EKF's estimate after each row: ``y_l, y_r, x_icr(, alpha)``
         from column 3 on.
@@ -218,9 +219,7 @@ class Odometer:
     def __init__(self, log: WheelLog, states: np.ndarray) -> None:
         self.t = log.t
         self.speed = np.asarray(model_speed(log.v_l, log.v_r, states[:, 3:].T))  # m/s, held
-        step = self.speed[:-1] * np.diff(log.t)
-        step[log.run_starts()[1:] - 1] = 0.0
-        self.s = np.r_[0.0, np.cumsum(step)]
+        self.s = np.r_[0.0, np.cumsum(self.speed[:-1] * np.diff(log.t))]
         self.run = log.segment_runs()
 
     def arrival(self, row: int, t: float, distance: float) -> float | None:
