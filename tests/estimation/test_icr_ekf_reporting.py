@@ -1,0 +1,50 @@
+"""What ``IcrEkf`` reports besides its state: ``last_nis``, the log of a reset, its errors.
+
+Written for mutants of ``estimation/icr_ekf.py`` no test killed
+(docs/testing.md): ``last_nis`` overwritten by an update that measured
+nothing (or never set), the terrain change's log line emptied, and the
+non-finite error raised without its message.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+
+import numpy as np
+import pytest
+
+from terrain_odom.config import EkfConfig, IcrState, TerrainConfig
+from terrain_odom.errors import EstimationError
+from terrain_odom.estimation import IcrEkf
+from terrain_odom.estimation.icr_ekf import IcrPriors
+
+
+def test_last_nis_is_the_last_update_that_measured_something():
+    ekf = IcrEkf(EkfConfig(), TerrainConfig())
+    assert math.isnan(ekf.last_nis)  # nothing fused yet
+    nis = ekf.update([0.1, 0.0, 0.0])
+    assert nis > 0.0 and ekf.last_nis == nis
+    assert math.isnan(ekf.update([np.nan, np.nan, np.nan]))  # nothing measured ...
+    assert ekf.last_nis == nis  # ... leaves the last value
+    second = ekf.update([0.1, 0.05, np.nan])
+    assert second != nis and ekf.last_nis == second
+
+
+def test_a_terrain_change_is_logged_with_what_was_done(caplog):
+    ekf = IcrEkf(EkfConfig(), TerrainConfig())
+    ekf.set_terrain("grass")
+    ekf.predict(0.5, 0.5, 1.25)
+    with caplog.at_level(logging.INFO, logger="terrain_odom.estimation.icr_ekf"):
+        ekf.reset_on_terrain_change("sand")
+    assert [r.getMessage() for r in caplog.records] == [
+        "terrain grass -> sand at t=1.25 s (restored=False, prior=False)"
+    ]
+
+
+def test_a_non_finite_prior_raises_the_non_finite_error():
+    priors = IcrPriors(terrains={"sand": IcrState(math.nan, -0.3, 0.0, 1.0)})
+    ekf = IcrEkf(EkfConfig(), TerrainConfig(), priors=priors)
+    ekf.set_terrain("grass")
+    with pytest.raises(EstimationError, match="^EKF state became non-finite"):
+        ekf.reset_on_terrain_change("sand")
