@@ -48,3 +48,23 @@ def test_a_non_finite_prior_raises_the_non_finite_error():
     ekf.set_terrain("grass")
     with pytest.raises(EstimationError, match="^EKF state became non-finite"):
         ekf.reset_on_terrain_change("sand")
+
+
+@pytest.mark.parametrize(
+    ("since", "t", "smallest"),
+    [
+        (0.0, [0.0, 0.1, 0.2], 0.0),  # the first row at the time of the sample before it
+        (0.5, [0.25, 0.6, 0.7], -0.25),  # the first row before it
+        (0.0, [0.1, 0.2, 0.2], 0.0),  # a row repeated
+    ],
+)
+def test_run_rows_refuses_time_that_does_not_advance(since, t, smallest):
+    ekf = IcrEkf(EkfConfig(), TerrainConfig())
+    t = np.array(t)
+    speeds = (np.full(3, 0.5), np.full(3, 0.5))
+    with pytest.raises(EstimationError, match=f"^predict needs dt > 0 s, got {smallest}"):
+        ekf.run_rows((since, 0.5, 0.5), t, speeds, np.full((3, 3), np.nan))
+    ekf.run_rows(
+        (since, 0.5, 0.5), np.array([since + 0.1]), (t[:1], t[:1]), np.full((1, 3), np.nan)
+    )
+    assert ekf.t == pytest.approx(0.1)  # one step of 0.1 s advances the filter's clock
