@@ -1,0 +1,66 @@
+"""``TerrainFlow`` with a stand-in filter: ``steady``, and changes recorded without adaptation.
+
+Written for mutants of ``estimation/terrain.py`` no test killed
+(docs/testing.md): the recorded change of a run with ``terrain.adapt`` off
+(its time, terrains and flags) and ``steady`` before and after the first terrain.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+from terrain_odom.config import Config
+from terrain_odom.estimation.terrain import TerrainFlow
+from terrain_odom.records import Sighting, TerrainChange
+
+
+class _Filter:
+    """The part of a filter the flow uses, recording what it was asked to do."""
+
+    def __init__(self) -> None:
+        self.t = 0.0
+        self.terrain: str | None = None
+        self.resets: list[str] = []
+
+    def set_terrain(self, label: str) -> None:
+        self.terrain = label
+
+    def reset_on_terrain_change(self, label: str) -> TerrainChange:
+        self.resets.append(label)
+        change = TerrainChange(self.t, self.terrain, label, restored=False)
+        self.terrain = label
+        return change
+
+
+def _flow(adapt: bool) -> tuple[TerrainFlow, _Filter]:
+    cfg = Config()
+    terrain = dataclasses.replace(cfg.terrain, adapt=adapt, confirm=2, reset_at="immediate")
+    ekf = _Filter()
+    return TerrainFlow(ekf, dataclasses.replace(cfg, terrain=terrain)), ekf
+
+
+def test_without_adaptation_a_change_is_recorded_not_reset():
+    flow, ekf = _flow(adapt=False)
+    flow.observe(Sighting("grass"))
+    ekf.t = 4.5
+    flow.observe(Sighting("sand"))
+    assert flow.changes == []  # one sighting confirms nothing
+    ekf.t = 5.0
+    flow.observe(Sighting("sand"))
+    assert flow.changes == [TerrainChange(5.0, "grass", "sand", restored=False, reset=False)]
+    assert ekf.terrain == "sand" and ekf.resets == []
+
+
+def test_with_adaptation_the_filter_resets():
+    flow, ekf = _flow(adapt=True)
+    for label in ("grass", "sand", "sand"):
+        flow.observe(Sighting(label))
+    assert ekf.resets == ["sand"] and flow.changes == [TerrainChange(0.0, "grass", "sand", False)]
+
+
+def test_steady_once_the_filter_has_a_terrain_and_the_label_is_it():
+    flow, _ = _flow(adapt=True)
+    assert flow.steady(None)  # no label changes nothing
+    assert not flow.steady(Sighting("grass"))  # the first label names the terrain
+    flow.observe(Sighting("grass"))
+    assert flow.steady(Sighting("grass")) and not flow.steady(Sighting("sand"))
