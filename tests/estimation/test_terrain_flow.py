@@ -64,3 +64,38 @@ def test_steady_once_the_filter_has_a_terrain_and_the_label_is_it():
     assert not flow.steady(Sighting("grass"))  # the first label names the terrain
     flow.observe(Sighting("grass"))
     assert flow.steady(Sighting("grass")) and not flow.steady(Sighting("sand"))
+
+
+def _arrival_flow() -> tuple[TerrainFlow, _Filter]:
+    cfg = Config()
+    terrain = dataclasses.replace(cfg.terrain, confirm=2, reset_at="arrival")
+    ekf = _Filter()
+    return TerrainFlow(ekf, dataclasses.replace(cfg, terrain=terrain)), ekf
+
+
+def test_a_change_reached_later_records_when_it_was_confirmed():
+    flow, ekf = _arrival_flow()
+    flow.observe(Sighting("grass", 1.0))
+    ekf.t = 2.0
+    for _ in range(2):  # confirmed at t = 2 s, on ground 1 m ahead
+        flow.observe(Sighting("sand", 1.0))
+    assert flow.changes == [] and len(flow.pending) == 1
+    flow.travel(0.99)
+    flow.apply_reached()
+    assert flow.changes == []  # not there yet
+    ekf.t = 3.0
+    flow.travel(0.01)
+    flow.apply_reached()
+    assert flow.changes == [TerrainChange(3.0, "grass", "sand", False, t_confirmed=2.0)]
+
+
+def test_a_change_reached_when_it_is_confirmed_has_no_earlier_confirmation():
+    flow, ekf = _arrival_flow()
+    flow.observe(Sighting("grass", 1.0))
+    ekf.t = 2.0
+    for _ in range(2):
+        flow.observe(Sighting("sand", 1.0))
+    flow.travel(1.0)  # reached with no filter time passing: t_confirmed is not earlier than t
+    flow.apply_reached()
+    assert flow.changes == [TerrainChange(2.0, "grass", "sand", False)]
+    assert flow.changes[0].t_confirmed is None
