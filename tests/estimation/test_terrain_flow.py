@@ -63,6 +63,7 @@ def test_steady_once_the_filter_has_a_terrain_and_the_label_is_it():
     assert flow.steady(None)  # no label changes nothing
     assert not flow.steady(Sighting("grass"))  # the first label names the terrain
     flow.observe(Sighting("grass"))
+    assert flow.ekf.terrain == "grass" and flow.seen == "grass"
     assert flow.steady(Sighting("grass")) and not flow.steady(Sighting("sand"))
 
 

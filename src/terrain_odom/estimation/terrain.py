@@ -154,8 +154,8 @@ class TerrainFlow:
         where = self.travelled + (sighting.ahead if self.on_arrival else 0.0)
         self.odometer_on = self.odometer_on or where > self.travelled
         confirmed = self.tracker.observe(sighting.label, at=where)
-        if self.ekf.terrain is None:
-            self.ekf.set_terrain(self.tracker.current or sighting.label)
+        if self.ekf.terrain is None:  # the first label (the filter's is never unset)
+            self.ekf.set_terrain(sighting.label)
             return
         if confirmed is None:
             return
