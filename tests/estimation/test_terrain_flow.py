@@ -100,3 +100,19 @@ def test_a_change_reached_when_it_is_confirmed_has_no_earlier_confirmation():
     flow.apply_reached()
     assert flow.changes == [TerrainChange(2.0, "grass", "sand", False)]
     assert flow.changes[0].t_confirmed is None
+
+
+def test_a_change_reached_at_once_waits_behind_an_earlier_pending_one():
+    flow, ekf = _arrival_flow()
+    flow.observe(Sighting("grass", 1.0))
+    for _ in range(2):  # sand 1 m ahead: pending
+        flow.observe(Sighting("sand", 1.0))
+    ekf.t = 0.5
+    for _ in range(2):  # mud under the robot: reached already, but sand comes first
+        flow.observe(Sighting("mud", 0.0))
+    assert flow.changes == [] and [p[1] for p in flow.pending] == ["sand", "mud"]
+    ekf.t = 1.0
+    flow.travel(1.0)
+    flow.apply_reached()
+    assert [(c.previous, c.label) for c in flow.changes] == [("grass", "sand"), ("sand", "mud")]
+    assert [c.t_confirmed for c in flow.changes] == [0.0, 0.5] and ekf.terrain == "mud"
