@@ -1,4 +1,4 @@
-"""What ``IcrEkf`` reports besides its state: ``last_nis``, the log of a reset, its errors.
+"""What ``IcrEkf`` reports besides its state: names, ``last_nis``, the log of a reset, errors.
 
 Written for mutants of ``estimation/icr_ekf.py`` no test killed
 (docs/testing.md): ``last_nis`` overwritten by an update that measured
@@ -8,6 +8,7 @@ non-finite error raised without its message.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 
@@ -17,7 +18,7 @@ import pytest
 from terrain_odom.config import EkfConfig, IcrState, TerrainConfig
 from terrain_odom.errors import EstimationError
 from terrain_odom.estimation import IcrEkf
-from terrain_odom.estimation.icr_ekf import IcrPriors
+from terrain_odom.estimation.icr_ekf import IcrPriors, state_names
 
 
 def test_last_nis_is_the_last_update_that_measured_something():
@@ -68,3 +69,15 @@ def test_run_rows_refuses_time_that_does_not_advance(since, t, smallest):
         (since, 0.5, 0.5), np.array([since + 0.1]), (t[:1], t[:1]), np.full((1, 3), np.nan)
     )
     assert ekf.t == pytest.approx(0.1)  # one step of 0.1 s advances the filter's clock
+
+
+def test_state_names_follow_the_estimated_states():
+    icr = ("x", "y", "yaw", "y_l", "y_r", "x_icr")
+    assert state_names(False) == icr
+    assert state_names(True) == (*icr, "alpha")
+    assert state_names(False, heading_bias=True) == (*icr, "heading_bias")
+    assert state_names(True, heading_bias=True) == (*icr, "alpha", "heading_bias")
+    assert (
+        len(state_names(False))
+        == IcrEkf(dataclasses.replace(EkfConfig(), estimate_alpha=False)).x.size
+    )
