@@ -81,3 +81,19 @@ def test_state_names_follow_the_estimated_states():
         len(state_names(False))
         == IcrEkf(dataclasses.replace(EkfConfig(), estimate_alpha=False)).x.size
     )
+
+
+def test_the_filter_starts_at_the_origin_with_the_configured_icrs():
+    cfg = EkfConfig()
+    ekf = IcrEkf(cfg)
+    assert ekf.pose.tolist() == [0.0, 0.0, 0.0]  # no pose given: the origin
+    assert ekf.params.tolist() == [0.25, -0.25, 0.0, 1.0]  # +-B/2 of the default robot
+
+
+@pytest.mark.parametrize("y_r", [0.3, 0.4])
+def test_initial_icrs_that_do_not_straddle_are_refused(y_r):
+    initial = dataclasses.replace(EkfConfig().initial, y_l=0.3, y_r=y_r)
+    with pytest.raises(
+        EstimationError, match=f"^initial ICRs need y_l > y_r, got y_l=0.3, y_r={y_r}"
+    ):
+        IcrEkf(dataclasses.replace(EkfConfig(), initial=initial))
