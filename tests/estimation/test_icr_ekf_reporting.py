@@ -18,7 +18,7 @@ import pytest
 from terrain_odom.config import EkfConfig, IcrState, TerrainConfig
 from terrain_odom.errors import EstimationError
 from terrain_odom.estimation import IcrEkf
-from terrain_odom.estimation.icr_ekf import IcrPriors, state_names
+from terrain_odom.estimation.icr_ekf import HeadingBias, IcrPriors, state_names
 
 
 def test_last_nis_is_the_last_update_that_measured_something():
@@ -88,6 +88,16 @@ def test_the_filter_starts_at_the_origin_with_the_configured_icrs():
     ekf = IcrEkf(cfg)
     assert ekf.pose.tolist() == [0.0, 0.0, 0.0]  # no pose given: the origin
     assert ekf.params.tolist() == [0.25, -0.25, 0.0, 1.0]  # +-B/2 of the default robot
+    s = cfg.sigma_p0  # P0 is diagonal, the squares of sigma_p0
+    expected = [s.x**2, s.y**2, s.yaw**2, s.y_l**2, s.y_r**2, s.x_icr**2, s.alpha**2]
+    np.testing.assert_allclose(ekf.P, np.diag(expected), rtol=1e-15, atol=0.0)
+    assert np.isnan(ekf.gating[:2]).all() and not ekf.gating[2:].any()  # nothing rejected yet
+
+
+@pytest.mark.parametrize("sigma, tau", [(0.0, 10.0), (0.01, 0.0), (0.01, -1.0), (0.01, np.inf)])
+def test_a_heading_bias_needs_positive_finite_sigma_and_tau(sigma, tau):
+    with pytest.raises(EstimationError, match="^a heading bias needs sigma, tau > 0"):
+        IcrEkf(EkfConfig(), heading_bias=HeadingBias(sigma, tau))
 
 
 @pytest.mark.parametrize("y_r", [0.3, 0.4])
