@@ -228,10 +228,10 @@ def load_config_option(args: argparse.Namespace, path: str | Path | None = None)
     """
     from terrain_odom.config import ChecksConfig, load_config, with_pose_delay
 
-    cfg = load_config(args.config if path is None else path)
+    config = load_config(args.config if path is None else path)
     if getattr(args, "no_checks", False):
-        cfg = dataclasses.replace(cfg, checks=ChecksConfig(enabled=False))
-    return with_pose_delay(cfg, getattr(args, "pose_delay", None))
+        config = dataclasses.replace(config, checks=ChecksConfig(enabled=False))
+    return with_pose_delay(config, getattr(args, "pose_delay", None))
 
 
 def pose_delay_line(timing: TimeCalibration) -> str:
