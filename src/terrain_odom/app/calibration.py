@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from terrain_odom.config import Config
-from terrain_odom.config.sections import PoseChangeSigmas, PoseSigmas
+from terrain_odom.config.sections import PoseChangeSigmas, PoseSigmas, RobotConfig
 from terrain_odom.errors import ConfigError, EstimationError, InputFileError
 from terrain_odom.estimation.time_offset import (
     PoseDelayEstimate,
@@ -40,6 +40,7 @@ __all__ = [
     "check_heading_bias",
     "check_plausible",
     "apply_delays",
+    "robot_geometry",
 ]
 
 
@@ -524,7 +525,18 @@ def check_plausible(
     refused = [f for f in result.findings if f.check not in skip]
     if refused:
         raise InputFileError(
-            f"{log.source}: {refused[0].message} (wheel radius {config.robot.wheel_radius:g} m, "
-            f"track width {config.robot.track_width:g} m); --no-checks runs anyway"
+            f"{log.source}: {refused[0].message} ({robot_geometry(config.robot)}); "
+            "--no-checks runs anyway"
         )
     return [f"check {f.check}: {f.message}" for f in result.findings if f.check in skip]
+
+
+def robot_geometry(robot: RobotConfig) -> str:
+    """Return the geometry a log is judged and calibrated with, as the messages name it.
+
+    Examples
+    --------
+    >>> robot_geometry(RobotConfig())
+    'wheel radius 0.1 m, track width 0.5 m'
+    """
+    return f"wheel radius {robot.wheel_radius:g} m, track width {robot.track_width:g} m"
