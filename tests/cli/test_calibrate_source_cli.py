@@ -14,7 +14,7 @@ from terrain_odom.sim.model_log import constant_model_log
 
 @pytest.fixture(scope="module")
 def log(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """A 3-minute GPS + IMU log of a robot with a 1-m track, and its configuration beside it."""
+    """Write a 3-minute GPS + IMU log of a robot with a 1-m track and its configuration beside it."""
     root = tmp_path_factory.mktemp("source")
     clean = constant_model_log("idd", [], seconds=180.0, track_width=1.0, noise=(0.0, 0.0, 0.0))
     write_wheel_log(root / "log.csv", degrade_log(clean, Degradation(seed=0)).log)
