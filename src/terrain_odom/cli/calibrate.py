@@ -41,9 +41,9 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
     from terrain_odom.app.calibrate import calibrate
 
     wheels, bag_config = wheels_from_bag(args, args.out)
-    config = args.config or bag_config
+    config_path = args.config or bag_config
     summary = calibrate(
-        wheels, args.out, config=load_config_option(args, config), config_path=config
+        wheels, args.out, config=load_config_option(args, config_path), config_path=config_path
     )
     print(f"robot:      {robot_geometry(summary.robot)} ({_source(summary.config_path)})")
     print_pose_delay(summary.timing)
