@@ -64,7 +64,7 @@ if TYPE_CHECKING:
 
 __all__ = ["LiveOdometry"]
 
-_RANK = {"wheels": 0, "pose": 1, "heading": 2, "images": 3}  # order within one microsecond
+_RANK = {role: rank for rank, role in enumerate(ROLES)}  # order within one microsecond
 _NS_PER_US = 1000
 
 
