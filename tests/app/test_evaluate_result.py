@@ -1,4 +1,4 @@
-"""Tests of :class:`terrain_odom.app.evaluate.EvaluationResult` (the typed result of ``evaluate``)."""
+"""Tests of :class:`terrain_odom.app.evaluation_results.EvaluationResult` (the typed result of ``evaluate``)."""
 
 from __future__ import annotations
 
