@@ -264,12 +264,12 @@ class _Patch:
 
 
 def _plan(
-    frames: FrameList, log: WheelLog, cfg: Config, labels: _Labels, skipped: dict[str, int]
+    frames: FrameList, log: WheelLog, config: Config, labels: _Labels, skipped: dict[str, int]
 ) -> list[_Patch]:
     """Place every frame's region and label it; count the frames skipped."""
-    result = run_icr_ekf(log, cfg, labels=labels.rows())
+    result = run_icr_ekf(log, config, labels=labels.rows())
     odometer = Odometer(log, result.states)
-    camera = GroundCamera(cfg.camera)
+    camera = GroundCamera(config.camera)
     plan = []
     for index, t in enumerate(map(float, frames.t)):
         if t < log.t[0] or t > log.t[-1]:
@@ -279,7 +279,7 @@ def _plan(
             continue
         row = int(np.searchsorted(log.t, t, side="right")) - 1
         roi = region_of_interest(
-            camera, cfg.roi, log.v_l[row], log.v_r[row], result.states[row, 3:]
+            camera, config.roi, log.v_l[row], log.v_r[row], result.states[row, 3:]
         )
         if roi.status is not RoiStatus.INSIDE or roi.box is None:
             _skip(skipped, f"roi_{roi.status.value}")
@@ -309,24 +309,24 @@ class _Previous:
     files: frozenset[str]  # relative to the folder
 
 
-def _previous(out: Path, overwrite: bool, append: bool) -> _Previous:
-    """Read the patches already in ``out``; refuse them unless ``overwrite`` or ``append``.
+def _previous(out_dir: Path, overwrite: bool, append: bool) -> _Previous:
+    """Read the patches already in ``out_dir``; refuse them unless ``overwrite`` or ``append``.
 
     Raises
     ------
     InputFileError
-        ``out/patches.json`` exists and neither option is given, or it is not
+        ``out_dir/patches.json`` exists and neither option is given, or it is not
         one that ``patches`` wrote.
     ConfigError
         Both options.
     """
     if overwrite and append:
         raise ConfigError("--overwrite and --append exclude each other")
-    report = out / PATCHES_JSON
+    report = out_dir / PATCHES_JSON
     if not report.is_file():
         return _Previous([], [], frozenset())
     if not (overwrite or append):
-        raise InputFileError(_already(out))
+        raise InputFileError(_already(out_dir))
     try:
         data = json.loads(report.read_text(encoding="utf-8"))
         files = frozenset(str(entry["file"]) for entry in data["patches"])
@@ -336,15 +336,15 @@ def _previous(out: Path, overwrite: bool, append: bool) -> _Previous:
     return previous
 
 
-def _already(out: Path) -> str:
+def _already(out_dir: Path) -> str:
     return (
-        f"{out}: holds patches already ({PATCHES_JSON}); --append adds this recording's, "
+        f"{out_dir}: holds patches already ({PATCHES_JSON}); --append adds this recording's, "
         "--overwrite replaces them, or choose another --out"
     )
 
 
 def _names(
-    plan: list[_Patch], frames: FrameList, out: Path, previous: _Previous, append: bool
+    plan: list[_Patch], frames: FrameList, out_dir: Path, previous: _Previous, append: bool
 ) -> list[str]:
     """Name each patch ``label/<frame stem>.png`` (``-2``, ``-3`` ... where that is taken).
 
@@ -357,7 +357,7 @@ def _names(
     for patch in plan:
         stem, n = frames.files[patch.index].stem, 1
         name = f"{patch.label}/{stem}.png"
-        while name in taken or (name not in listed and (out / name).exists()):
+        while name in taken or (name not in listed and (out_dir / name).exists()):
             n += 1
             name = f"{patch.label}/{stem}-{n}.png"
         taken.add(name)
@@ -569,7 +569,7 @@ def _make_patches(
 
 
 def _write_report(
-    out: Path, kept: _Previous, recording: dict[str, Any], written: list[dict[str, Any]]
+    out_dir: Path, kept: _Previous, recording: dict[str, Any], written: list[dict[str, Any]]
 ) -> dict[str, int]:
     """Write ``patches.json``: the kept patches and this recording's; return the counts."""
     number = len(kept.recordings)
@@ -581,5 +581,5 @@ def _write_report(
         "recordings": [*kept.recordings, recording],
         "patches": patches,
     }
-    write_json(out / PATCHES_JSON, report)
+    write_json(out_dir / PATCHES_JSON, report)
     return total

@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from terrain_odom.app.calibration import SensorCalibration, calibrate_inputs
-from terrain_odom.app.frames import FramePipeline, FrameRecord
+from terrain_odom.app.frames import FrameRecord
 from terrain_odom.app.groundtruth import GroundTruthReport, groundtruth_section
 from terrain_odom.app.inputs import (
     GIVEN,
@@ -47,7 +47,7 @@ from terrain_odom.app.run_folder import (
     mark_running,
     prepare_folder,
 )
-from terrain_odom.app.run_stream import stream_log
+from terrain_odom.app.run_stream import frames_report, stream_log
 from terrain_odom.config import Config, TimeConfig, dump_config
 from terrain_odom.errors import ConfigError
 from terrain_odom.estimation.icr_ekf import IcrPriors
@@ -63,8 +63,6 @@ from terrain_odom.io.report import path_or_none, report_header, to_jsonable, wri
 from terrain_odom.records import GroundTruth, WheelLog
 from terrain_odom.reporting import run_markdown
 from terrain_odom.reporting.run_report import (
-    FrameCounts,
-    FramesReport,
     RunCounts,
     RunInputs,
     RunOutputs,
@@ -358,7 +356,7 @@ def run(wheels: str | Path, out_dir: str | Path, options: RunOptions | None = No
         report,
         warnings=tuple(_lever_arm_warning(x_icr, inputs.config) + guarded.warnings()),
         outage_guard=to_jsonable(guarded.section()),
-        frames=None if root is None else _frames_report(result, pipeline, options.use_roi),
+        frames=None if root is None else frames_report(result, pipeline, options.use_roi),
         groundtruth=None if scored is None else to_jsonable(scored.section),
     )
     drawn, recording = _pictures(out, inputs, result, scored, records, root)
@@ -467,34 +465,6 @@ def _check_run_outputs(out_dir: str | Path, inputs: _Inputs, wheels: str | Path)
     if options.images is not None:
         read += [Path(options.images) / FRAMES_CSV, *(inputs.frames.files if inputs.frames else [])]
     check_outputs(read, [Path(out_dir) / name for name in RUN_FILES])
-
-
-def _frames_report(
-    result: OdometryResult, pipeline: FramePipeline | None, use_roi: bool
-) -> FramesReport:
-    """Return the ``frames`` section of a run with images (its frames not read: ``--no-terrain``)."""
-    if pipeline is None:
-        return FramesReport("skipped (--no-terrain: frames not read)")
-    counts = FrameCounts(
-        len(pipeline.frames),
-        len(pipeline.ms_total),
-        result.frames_before,
-        result.frames_after,
-        tuple(f"{p['file']} ({p['problem']})" for p in pipeline.problems),
-    )
-    ms = np.asarray(pipeline.ms_total)
-    unusable = sum(
-        n for status, n in pipeline.roi_counts.items() if status in ("outside", "too_small")
-    )
-    return FramesReport(
-        classification="region of interest" if use_roi else "whole frame (--no-roi)",
-        counts=counts,
-        unusable=unusable,
-        roi_status=dict(pipeline.roi_counts),
-        ms_mean=float(ms.mean()) if ms.size else None,
-        ms_max=float(ms.max()) if ms.size else None,
-        problems=pipeline.problems,
-    )
 
 
 KEPT_ROWS = 20_000

@@ -24,11 +24,12 @@ from terrain_odom.estimation.online import OnlineOdometry
 from terrain_odom.io import TrajectoryWriter
 from terrain_odom.io.trajectory import TrajectoryBlocks, TumWriter, trajectory_columns
 from terrain_odom.records import WheelLog
+from terrain_odom.reporting.run_report import FrameCounts, FramesReport
 
 if TYPE_CHECKING:
     from terrain_odom.io.frames import FrameList
 
-__all__ = ["stream_log"]
+__all__ = ["stream_log", "frames_report"]
 
 
 def stream_log(
@@ -130,3 +131,31 @@ def _relative(path: Path, root: Path) -> str:
         return path.relative_to(root).as_posix()
     except ValueError:
         return str(path)
+
+
+def frames_report(
+    result: OdometryResult, pipeline: FramePipeline | None, use_roi: bool
+) -> FramesReport:
+    """Return the ``frames`` section of a run with images (its frames not read: ``--no-terrain``)."""
+    if pipeline is None:
+        return FramesReport("skipped (--no-terrain: frames not read)")
+    counts = FrameCounts(
+        len(pipeline.frames),
+        len(pipeline.ms_total),
+        result.frames_before,
+        result.frames_after,
+        tuple(f"{p['file']} ({p['problem']})" for p in pipeline.problems),
+    )
+    ms = np.asarray(pipeline.ms_total)
+    unusable = sum(
+        n for status, n in pipeline.roi_counts.items() if status in ("outside", "too_small")
+    )
+    return FramesReport(
+        classification="region of interest" if use_roi else "whole frame (--no-roi)",
+        counts=counts,
+        unusable=unusable,
+        roi_status=dict(pipeline.roi_counts),
+        ms_mean=float(ms.mean()) if ms.size else None,
+        ms_max=float(ms.max()) if ms.size else None,
+        problems=pipeline.problems,
+    )
