@@ -65,12 +65,14 @@ def test_the_configuration_is_chosen_in_order_and_says_how(files, tmp_path):
     assert nothing.config == load_config(None)
 
 
-def test_a_given_object_is_used_as_it_is(files):
+def test_a_given_object_is_used_not_reloaded_and_edits_make_a_copy(files):
     config = load_config(files["images"])
-    chosen = choose_config(config, files["given"], edits=ConfigEdits(checks=False))
-    assert chosen.config is config  # neither reloaded nor edited
+    chosen = choose_config(config, files["given"])
+    assert chosen.config is config  # not reloaded from its file
     assert chosen.file.how == GIVEN and chosen.path == files["given"]
     assert choose_config(config).file.how == DEFAULT
+    edited = choose_config(config, edits=ConfigEdits(checks=False)).config
+    assert edited.checks.enabled is False and config.checks.enabled is True
 
 
 def test_edits_change_a_copy_of_the_files_values(files):

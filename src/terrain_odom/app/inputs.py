@@ -190,8 +190,8 @@ def choose_config(
     any), ``config_path`` (the user's ``--config``), the ``run_dir``'s
     ``config.yaml`` (the configuration that run used), ``imported`` (written by
     the import of a bag), the ``images`` folder's ``config.yaml``, the
-    built-in defaults. ``edits`` are applied to a file's values (a given
-    object is used as it is).
+    built-in defaults. ``edits`` are applied to the configuration chosen
+    (a new object: a given one is not changed).
 
     Raises
     ------
@@ -199,11 +199,12 @@ def choose_config(
         The file chosen is not a valid configuration (naming it).
     """
     if config is not None:
-        how = GIVEN if config_path is not None else DEFAULT
-        return ChosenConfig(config, Chosen(None if config_path is None else Path(config_path), how))
-    file = _config_file(config_path, imported, images, run_dir)
-    loaded = load_config(file.path)
-    return ChosenConfig(loaded if edits is None else edits.apply(loaded), file)
+        path = None if config_path is None else Path(config_path)
+        file = Chosen(path, GIVEN if path is not None else DEFAULT)
+    else:
+        file = _config_file(config_path, imported, images, run_dir)
+        config = load_config(file.path)
+    return ChosenConfig(config if edits is None else edits.apply(config), file)
 
 
 def choose_classifier(classifier_path: str | Path | None) -> Chosen:
