@@ -410,7 +410,9 @@ def traced_steps(log: Path, out: Path) -> list[tuple[int, int]]:
         setattr(app_run, name, timed(fn))
     tracemalloc.start()
     try:
-        options = app_run.RunOptions(config_path=CONFIG, overwrite=True, plots=False, progress=False)
+        options = app_run.RunOptions(
+            config_path=CONFIG, overwrite=True, plots=False, progress=False
+        )
         app_run.run(log, out, options)
     finally:
         tracemalloc.stop()

@@ -96,7 +96,10 @@ def test_run_on_the_import_is_the_csv_run(
         RunOptions(config=cfg, images=tmp_path / "imp", progress=False),
     )
     a, b = (read_trajectory_csv(r.trajectory_csv) for r in (csv_run, bag_run))
-    assert a["t"].size == 2400 and csv_run.report.counts.terrain_changes == bag_run.report.counts.terrain_changes == 2
+    assert (
+        a["t"].size == 2400
+        and csv_run.report.counts.terrain_changes == bag_run.report.counts.terrain_changes == 2
+    )
     for column in ("t", "x", "y", "yaw", "y_l", "y_r", "x_icr"):
         np.testing.assert_allclose(b[column], a[column], atol=1e-6, err_msg=column)
     np.testing.assert_array_equal(b["terrain"], a["terrain"])
