@@ -14,6 +14,7 @@ from terrain_odom.app.inputs import (
     IMPORTED,
     IN_IMAGES,
     OF_RUN,
+    Chosen,
     ConfigEdits,
     TerrainSource,
     check_frame_times,
@@ -70,7 +71,7 @@ def test_a_given_object_is_used_not_reloaded_and_edits_make_a_copy(files):
     chosen = choose_config(config, files["given"])
     assert chosen.config is config  # not reloaded from its file
     assert chosen.file.how == GIVEN and chosen.path == files["given"]
-    assert choose_config(config).file.how == DEFAULT
+    assert choose_config(config).file == Chosen(None, GIVEN)  # an object, no file
     edited = choose_config(config, edits=ConfigEdits(checks=False)).config
     assert edited.checks.enabled is False and config.checks.enabled is True
 

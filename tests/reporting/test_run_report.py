@@ -7,6 +7,7 @@ import json
 
 import pytest
 
+from terrain_odom.app.inputs import GIVEN, Chosen
 from terrain_odom.app.run import RunOptions, run
 from terrain_odom.config import load_config
 from terrain_odom.estimation.time_offset import PoseDelayEstimate, TimeCalibration
@@ -49,7 +50,7 @@ def test_the_summary_names_the_folders_files(summary):
     assert summary.trajectory_csv == folder / "trajectory.csv"
     assert summary.config_yaml == folder / "config.yaml"
     assert summary.frames_csv is None and summary.recording is None
-    assert summary.config.how == "default" and summary.classifier is None
+    assert summary.config == Chosen(None, GIVEN) and summary.classifier is None  # an object
 
 
 @pytest.mark.parametrize(

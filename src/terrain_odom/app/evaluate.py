@@ -233,7 +233,7 @@ def _evaluation_config(
     """
     chosen = choose_config(config, config_path, edits=edits, imported=imported, run_dir=run_dir)
     recorded = None if run_dir is None else run_config(run_dir)
-    if recorded is not None and chosen.file.how == GIVEN:
+    if recorded is not None and chosen.file.how == GIVEN and chosen.path is not None:
         used = load_config(recorded).robot
         for name in ("wheel_radius", "track_width"):
             mine, theirs = getattr(chosen.config.robot, name), getattr(used, name)

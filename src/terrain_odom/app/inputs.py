@@ -78,7 +78,7 @@ class Chosen:
     Attributes
     ----------
     path : Path or None
-        The file (None: the built-in defaults, no file).
+        The file (None: the built-in defaults, or a configuration object given).
     how : str
         :data:`GIVEN`, :data:`IMPORTED`, :data:`IN_IMAGES`, :data:`OF_RUN`
         or :data:`DEFAULT`.
@@ -199,8 +199,7 @@ def choose_config(
         The file chosen is not a valid configuration (naming it).
     """
     if config is not None:
-        path = None if config_path is None else Path(config_path)
-        file = Chosen(path, GIVEN if path is not None else DEFAULT)
+        file = Chosen(None if config_path is None else Path(config_path), GIVEN)
     else:
         file = _config_file(config_path, imported, images, run_dir)
         config = load_config(file.path)
