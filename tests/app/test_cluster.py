@@ -141,7 +141,7 @@ def test_evaluate_logs_pools_the_logs_and_matches_evaluate(
     sim_output: SimOutput, tmp_path: Path, scheduler: str
 ) -> None:
     logs = [sim_output.log_csv, sim_output.log_csv]
-    batch = evaluate_logs(logs, horizon=1.0, out=tmp_path / "ev")
+    batch = evaluate_logs(logs, horizon=1.0, out_dir=tmp_path / "ev")
     single = evaluate(None, sim_output.log_csv, horizon=1.0)
     assert [r.to_dict() for r in batch.logs] == [single.to_dict()] * 2
     (name,) = batch.pooled
@@ -215,12 +215,12 @@ def test_train_tuned_on_the_cluster_is_the_same(
     there = train(
         folder, tmp_path / "b", cfg, folds=3, progress=False, grid_path=grid, dask=scheduler
     )
-    assert there.cfg == here.cfg and there.counts == here.counts
+    assert there.config == here.config and there.counts == here.counts
     assert here.cross_validation is not None and there.cross_validation is not None
     assert np.array_equal(there.cross_validation.confusion, here.cross_validation.confusion)
-    mine, theirs = load_tuning(here.model_path), load_tuning(there.model_path)
+    mine, theirs = load_tuning(here.classifier_path), load_tuning(there.classifier_path)
     assert mine is not None and theirs == mine
-    assert dataclasses.asdict(there.cfg) == mine["chosen_config"]
+    assert dataclasses.asdict(there.config) == mine["chosen_config"]
 
 
 def test_real_logs_batch_on_the_cluster(drive_dir: Path, warthog_yaml: Path, scheduler: str):

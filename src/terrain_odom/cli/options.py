@@ -26,6 +26,7 @@ from typing import TYPE_CHECKING, Any, TypedDict, overload
 
 if TYPE_CHECKING:
     from terrain_odom.app.calibration import SensorCalibration
+    from terrain_odom.app.inputs import Chosen, ConfigEdits
     from terrain_odom.config import Config
     from terrain_odom.config.classifier import ClassifierConfig
     from terrain_odom.estimation.time_offset import TimeCalibration
@@ -214,7 +215,7 @@ def add_log_options(p: argparse.ArgumentParser) -> None:
     )
 
 
-def load_config_option(args: argparse.Namespace, path: str | Path | None = None) -> Config:
+def load_config_option(args: argparse.Namespace, config_path: str | Path | None = None) -> Config:
     """Return the configuration of ``--config`` with ``--pose-delay`` and ``--no-checks`` applied.
 
     Parameters
@@ -222,16 +223,39 @@ def load_config_option(args: argparse.Namespace, path: str | Path | None = None)
     args : argparse.Namespace
         Parsed arguments with ``config`` and, for subcommands that have them,
         ``pose_delay`` and ``no_checks``.
-    path : str or Path, optional
+    config_path : str or Path, optional
         The configuration file to load instead of ``--config`` (e.g. one found
         beside the input); built-in defaults when neither is given.
     """
     from terrain_odom.config import ChecksConfig, load_config, with_pose_delay
 
-    cfg = load_config(args.config if path is None else path)
+    config = load_config(args.config if config_path is None else config_path)
     if getattr(args, "no_checks", False):
-        cfg = dataclasses.replace(cfg, checks=ChecksConfig(enabled=False))
-    return with_pose_delay(cfg, getattr(args, "pose_delay", None))
+        config = dataclasses.replace(config, checks=ChecksConfig(enabled=False))
+    return with_pose_delay(config, getattr(args, "pose_delay", None))
+
+
+def config_edits(args: argparse.Namespace, **edits: Any) -> ConfigEdits:
+    """Return ``--pose-delay`` and ``--no-checks`` (and ``edits``) as the app takes them.
+
+    The app chooses and loads the configuration file and applies them
+    (:func:`~terrain_odom.app.inputs.choose_config`).
+    """
+    from terrain_odom.app.inputs import ConfigEdits
+
+    return ConfigEdits(
+        pose_delay=getattr(args, "pose_delay", None),
+        checks=not getattr(args, "no_checks", False),
+        **edits,
+    )
+
+
+def print_config(chosen: Chosen | None) -> None:
+    """Print the configuration file the app found for the user (``--images``), if it did."""
+    from terrain_odom.app.inputs import IN_IMAGES
+
+    if chosen is not None and chosen.how == IN_IMAGES:
+        print(f"config:     {chosen.path} (found in the --images folder; --config to change)")
 
 
 def pose_delay_line(timing: TimeCalibration) -> str:
