@@ -107,3 +107,18 @@ def test_initial_icrs_that_do_not_straddle_are_refused(y_r):
         EstimationError, match=f"^initial ICRs need y_l > y_r, got y_l=0.3, y_r={y_r}"
     ):
         IcrEkf(dataclasses.replace(EkfConfig(), initial=initial))
+
+
+def test_run_rows_reports_the_last_nis():
+    ekf = IcrEkf(EkfConfig(), TerrainConfig())
+    one = (np.full(1, 0.5), np.full(1, 0.5))
+    ekf.run_rows((0.0, 0.5, 0.5), np.array([0.1]), one, np.full((1, 3), np.nan))
+    assert math.isnan(ekf.last_nis)  # nothing measured
+    ekf.run_rows((0.1, 0.5, 0.5), np.array([0.2]), one, np.array([[0.15, 0.01, np.nan]]))
+    nis = ekf.last_nis
+    copy = IcrEkf(EkfConfig(), TerrainConfig())
+    copy.predict(0.5, 0.5, 0.1)
+    copy.predict(0.5, 0.5, 0.1)
+    assert nis > 0.0 and nis == pytest.approx(copy.update([0.15, 0.01, np.nan]), rel=1e-12)
+    ekf.run_rows((0.2, 0.5, 0.5), np.array([0.3]), one, np.full((1, 3), np.nan))
+    assert ekf.last_nis == nis  # a stretch measuring nothing keeps it
