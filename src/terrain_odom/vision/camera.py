@@ -427,7 +427,7 @@ def _visible_pixels(camera: GroundCamera, ground: np.ndarray) -> np.ndarray | No
 
 def _fully_visible(camera: GroundCamera, ground: np.ndarray) -> bool:
     """Whether every vertex of a convex ground polygon (K, 2) is in front and inside the image."""
-    values = np.c_[ground, np.ones(len(ground))] @ camera.image_constraints().T
+    values = np.column_stack((ground, np.ones(len(ground)))) @ camera.image_constraints().T
     return bool(np.all(values >= 0.0) and np.all(values[:, 0] > 0.0))
 
 
