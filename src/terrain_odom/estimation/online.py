@@ -351,11 +351,12 @@ class OnlineOdometry:
         )
         self.n_updates += updates
         # Step i predicts with row i-1's speeds held and the model after row i-1.
-        self._flow.travel_rows(
-            np.diff(t, prepend=self._t),
-            (np.r_[held[0], speeds[0][:-1]], np.r_[held[1], speeds[1][:-1]]),
-            np.vstack([before, params[:-1]]),
-        )
+        if self._flow.odometer_on:
+            self._flow.travel_rows(
+                t - _after(self._t, t),
+                (_after(held[0], speeds[0]), _after(held[1], speeds[1])),
+                np.vstack([before, params[:-1]]),
+            )
         self._t, self._speeds = float(t[-1]), (float(speeds[0][-1]), float(speeds[1][-1]))
 
     def _steady(self) -> bool:
@@ -515,6 +516,11 @@ def _mounting(config: Config) -> Mounting:
             "run or calibrate, app.calibration.calibrate_config); give OnlineOdometry numbers"
         )
     return Mounting(*(float(v) for v in values.values()))
+
+
+def _after(first: float, values: np.ndarray) -> np.ndarray:
+    """``first``, then ``values`` but the last: each row's predecessor."""
+    return np.concatenate(([first], values[:-1]))
 
 
 def _valid_from(t: np.ndarray, v_l: np.ndarray, v_r: np.ndarray) -> np.ndarray:

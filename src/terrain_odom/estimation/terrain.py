@@ -163,7 +163,7 @@ class TerrainFlow:
         if not self.odometer_on:
             return
         steps = np.asarray(model_speed(*speeds, params.T)) * dt  # m, the same floats per step
-        self.travelled = float(np.cumsum(np.r_[self.travelled, steps])[-1])  # added in order
+        self.travelled = float(np.concatenate(([self.travelled], steps)).cumsum()[-1])  # in order
 
     def apply_reached(self) -> None:
         """Apply the pending changes whose ground the robot has reached."""
