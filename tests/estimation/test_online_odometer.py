@@ -124,3 +124,48 @@ def _twist(v_l: float, v_r: float, params: np.ndarray) -> tuple[float, float]:
     d = y_l - y_r
     omega = alpha * (v_r - v_l) / d
     return alpha * (v_r * y_l - v_l * y_r) / d, -omega * x_icr
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_random_sightings_and_breaks_give_the_calls_bits(seed):
+    """Sightings at any distance (0, behind, far, none), segment breaks, gaps: rows() == calls."""
+    rng = np.random.default_rng(seed)
+    n = 600
+    t = np.cumsum(rng.uniform(0.005, 0.05, n))
+    v_l, v_r = rng.normal(0.8, 0.4, n), rng.normal(0.8, 0.4, n)
+    pose = np.full((n, 3), np.nan)
+    every = rng.random(n) < 0.2
+    pose[every] = np.column_stack([0.5 * t, 0.2 * np.sin(t), 0.3 * np.cos(t)])[every]
+    pose[rng.random(n) < 0.05, :2] = np.nan  # heading only
+    breaks = np.sort(rng.choice(np.arange(50, n), 2, replace=False))
+    t[breaks[1] :] -= 5.0  # the clock restarts at the second break
+    cuts = np.unique(np.r_[0, breaks, np.sort(rng.choice(np.arange(1, n), 80)), n])
+    aheads = [0.0, -1.0, 0.3, 2.5, 40.0]
+    events = [
+        (str(rng.choice(["grass", "gravel", "sand"], p=[0.6, 0.3, 0.1])), float(rng.choice(aheads)))
+        for _ in cuts[:-1]
+    ]
+    results = []
+    for by_rows in (True, False):
+        odo = OnlineOdometry(Config())
+        states = []
+        spans = zip(cuts[:-1], cuts[1:], strict=True)
+        for (start, stop), (label, ahead) in zip(spans, events, strict=True):
+            new = bool(start == 0 or start in breaks)
+            if by_rows:
+                got = odo.rows(t[start:stop], v_l[start:stop], v_r[start:stop],
+                               pose[start:stop], new_segment=new)  # fmt: skip
+                states.append(np.hstack(got[:2]))
+            else:
+                for k in range(start, stop):
+                    odo.wheels(float(t[k]), float(v_l[k]), float(v_r[k]),
+                               new_segment=new and k == start)  # fmt: skip
+                    if np.isfinite(pose[k]).any():
+                        odo.pose(float(t[k]), *pose[k].tolist())
+                    states.append(np.hstack(odo.estimate())[None])
+            odo.sighting(float(t[stop - 1]), Sighting(label, ahead))
+        results.append((np.vstack(states), odo.odometer, odo.changes, odo.pose_use))
+    (fast, odometer, changes, use), (slow, *expected) = results
+    np.testing.assert_array_equal(fast, slow)
+    assert [odometer, changes, use] == expected
+    assert odometer > 0.0 and changes
