@@ -49,7 +49,8 @@ import cv2
 import numpy as np
 
 from terrain_odom.app.frames import one_thread
-from terrain_odom.app.run import TerrainSource, run
+from terrain_odom.app.inputs import TerrainSource
+from terrain_odom.app.run import RunOptions, run
 from terrain_odom.cli.main import main as cli
 from terrain_odom.config import load_config
 from terrain_odom.io.classifier_file import load_classifier
@@ -225,11 +226,13 @@ def main() -> None:
             run(
                 sim / "log.csv",
                 args.work / out,
-                images=sim,
-                model=sim / MODEL,
-                progress=False,
-                overwrite=True,
-                plots=plots,
+                RunOptions(
+                    images=sim,
+                    classifier_path=sim / MODEL,
+                    progress=False,
+                    overwrite=True,
+                    plots=plots,
+                ),
             )
 
         return timed
@@ -238,10 +241,7 @@ def main() -> None:
         run(
             sim / "log.csv",
             args.work / "out_wheels",
-            terrain=TerrainSource.NONE,
-            progress=False,
-            overwrite=True,
-            plots=False,
+            RunOptions(terrain=TerrainSource.NONE, progress=False, overwrite=True, plots=False),
         )
 
     timed = {
@@ -273,10 +273,12 @@ def main() -> None:
     run(
         sim / "log.csv",
         scored,
-        images=sim,
-        model=sim / MODEL,
-        groundtruth=sim / "groundtruth.csv",
-        overwrite=True,
+        RunOptions(
+            images=sim,
+            classifier_path=sim / MODEL,
+            groundtruth=sim / "groundtruth.csv",
+            overwrite=True,
+        ),
     )
     accuracy = json.loads((scored / "report.json").read_text())["groundtruth"]["frames"]
     overall = accuracy["accuracy"]["overall"]
