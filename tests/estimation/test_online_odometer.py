@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from terrain_odom import OnlineOdometry
-from terrain_odom.app.run import read_calibrated_log
+from terrain_odom.app.inputs import read_calibrated_log
 from terrain_odom.config import Config, load_config
 from terrain_odom.estimation.icr_ekf import IcrEkf
 from terrain_odom.estimation.terrain import TerrainFlow
