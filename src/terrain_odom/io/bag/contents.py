@@ -213,7 +213,7 @@ def _check_ranges(options: ImportOptions) -> None:
 
 def _robot(options: ImportOptions) -> dict[str, float | None]:
     """Track width and wheel radius: the options', else the configuration's (if one is given)."""
-    cfg = load_config(options.config) if options.config is not None else None
+    cfg = load_config(options.config_path) if options.config_path is not None else None
     return {
         "track_width": options.track_width or (cfg.robot.track_width if cfg else None),
         "wheel_radius": options.wheel_radius or (cfg.robot.wheel_radius if cfg else None),
