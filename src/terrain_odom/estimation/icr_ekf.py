@@ -69,13 +69,13 @@ from terrain_odom.config import (
 )
 from terrain_odom.errors import EstimationError
 from terrain_odom.estimation import _kernels
-from terrain_odom.estimation.pose_measurement import Mounting
 from terrain_odom.kinematics import (
     arc_increment_with_jacobian,
     twist_icr,
     twist_icr_jacobian,
     wrap_angle,
 )
+from terrain_odom.kinematics.mounting import Mounting
 from terrain_odom.records import TerrainChange
 
 __all__ = [
@@ -262,7 +262,7 @@ class IcrEkf:
         ``config.sigma_prior**2``.
     mounting : Mounting, optional
         Antenna lever arm and heading offset of the pose sensors
-        (:mod:`~terrain_odom.estimation.pose_measurement`); none by default.
+        (:mod:`~terrain_odom.kinematics.mounting`); none by default.
     robot : RobotConfig, optional
         The robot whose track width and length give the initial ICRs and
         their limits where ``config`` leaves them ``None``
