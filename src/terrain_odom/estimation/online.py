@@ -45,7 +45,8 @@ import numpy as np
 
 from terrain_odom.config import Config, load_config
 from terrain_odom.errors import ConfigError, EstimationError
-from terrain_odom.estimation.icr_ekf import HeadingBias, IcrEkf, IcrPriors
+from terrain_odom.estimation.icr_ekf import IcrEkf, IcrPriors
+from terrain_odom.estimation.icr_model import HeadingBias
 from terrain_odom.estimation.icr_steps import IcrSteps
 from terrain_odom.estimation.pose_measurement import PoseUse
 from terrain_odom.estimation.steps import YAW, FilterSteps
