@@ -424,7 +424,7 @@ def test_never_overwrites_an_input(tmp_path: Path) -> None:
     (tmp_path / "out").mkdir()
     cfg = tmp_path / "out" / "config.yaml"
     cfg.write_text("robot: {wheel_radius: 0.5}\n")
-    opts = ImportOptions("/joint_states", config=cfg)
+    opts = ImportOptions("/joint_states", config_path=cfg)
     with pytest.raises(InputFileError, match="refusing to overwrite the input"):
         import_bag(bag, tmp_path / "out", opts, progress=False)
     assert cfg.read_text() == "robot: {wheel_radius: 0.5}\n"

@@ -109,7 +109,7 @@ def import_bag(
     robot = check_options(options)
     out = Path(out_dir)
     paths = _output_paths(out)
-    check_outputs([bag, options.config], paths.values())
+    check_outputs([bag, options.config_path], paths.values())
     if Path(bag).is_dir() and out.resolve().is_relative_to(Path(bag).resolve()):
         raise InputFileError(f"{out}: --out is inside the bag folder {bag}; choose another folder")
     # locked; the previous import's files removed, any other file never replaced
@@ -139,7 +139,7 @@ def logs_from_bags(
     ...; None without ``--wheels-topic``) into ``OUT/bag/``, or
     ``OUT/bag/<bag name>/`` when there are several, each import's result
     handed to ``on_import`` as it is written; the first import's
-    ``config.yaml`` is the configuration when ``options.config`` is not given
+    ``config.yaml`` is the configuration when ``options.config_path`` is not given
     (None is returned otherwise, and without a bag).
 
     Raises
@@ -170,7 +170,7 @@ def logs_from_bags(
         on_import(result)
         logs.append(str(result.log_csv))
         configs.append(str(result.config_yaml))
-    return logs, None if options.config else configs[0]
+    return logs, None if options.config_path else configs[0]
 
 
 def _bag_folders(bags: Sequence[str], root: Path) -> dict[str, Path]:

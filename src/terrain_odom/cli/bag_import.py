@@ -92,7 +92,7 @@ def _options(args: argparse.Namespace, wheels_topic: str) -> ImportOptions:
         stamps=args.stamps,
         max_gap=args.max_gap,
         image_format=getattr(args, "image_format", "jpg"),
-        config=args.config,
+        config_path=args.config,
     )
 
 

@@ -77,7 +77,9 @@ def bag_config(
         A pose topic and a heading topic measuring the yaw of frames turned
         from each other (one ``heading_offset`` cannot serve both).
     """
-    data: dict[str, Any] = dict(read_yaml(Path(options.config)) or {}) if options.config else {}
+    data: dict[str, Any] = (
+        dict(read_yaml(Path(options.config_path)) or {}) if options.config_path else {}
+    )
     fill = ["robot.track_width"] if robot["track_width"] is None else []
     data["robot"] = {**data.get("robot", {}), **{k: v for k, v in robot.items() if v is not None}}
     sources = {

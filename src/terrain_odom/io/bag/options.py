@@ -30,7 +30,7 @@ class ImportOptions:
         camera-info topics. The camera-info topic defaults to the image
         topic's sibling ``camera_info`` (used when present).
     track_width, wheel_radius : float, optional
-        m; default the configuration's when ``config`` is given. The track
+        m; default the configuration's when ``config_path`` is given. The track
         width converts a body twist, the wheel radius joint velocities.
     left_joints, right_joints : tuple of str
         Shell patterns of the JointState joints of each side (averaged).
@@ -48,7 +48,7 @@ class ImportOptions:
     max_gap : float
         s; a longer gap between wheel messages starts a new segment.
     image_format : {'jpg', 'png'}
-    config : str or Path, optional
+    config_path : str or Path, optional
         A project configuration to start ``config.yaml`` from.
     """
 
@@ -67,4 +67,4 @@ class ImportOptions:
     stamps: str = "header"
     max_gap: float = 0.5
     image_format: str = "jpg"
-    config: str | Path | None = None
+    config_path: str | Path | None = None
