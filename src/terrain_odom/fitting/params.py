@@ -35,7 +35,9 @@ __all__ = [
     "icr_priors",
 ]
 
-ANY_TERRAIN = "*"  # key of the single set of a file without per-terrain sets
+ANY_TERRAIN = "*"
+"""Key of the one parameter set for every terrain in :attr:`ModelParams.sets` (a file
+without per-terrain sets holds that set at its top level)."""
 
 
 @dataclass(frozen=True)
