@@ -10,6 +10,9 @@
 - :mod:`~terrain_odom.evaluation.groundtruth`: scores against a simulated run's truth.
 - :mod:`~terrain_odom.evaluation.plausibility`: wheels against poses before estimating.
 - :mod:`~terrain_odom.evaluation.mounting`: pose sensors' heading offset and lever arm.
+- :mod:`~terrain_odom.evaluation.calibration`: the pose sensors' self-calibration against
+  the wheel path (:mod:`~terrain_odom.evaluation.wheel_path`; statistics in
+  :mod:`~terrain_odom.evaluation.robust`).
 """
 
 from terrain_odom.evaluation import ate, metrics, outage, plausibility, prediction, sparse, windows
