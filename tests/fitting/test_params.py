@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 from terrain_odom.config import IcrState
@@ -16,6 +17,7 @@ from terrain_odom.fitting.params import (
     check_sets,
     icr_priors,
 )
+from terrain_odom.records import WheelLog
 
 ROC_BOUNDS = [(0.0, 1.5), (0.0, 1.0), (0.0, 1.0)]
 
@@ -81,3 +83,43 @@ def test_geometry_differing_beyond_its_tolerance_is_refused():
         check_geometry(params, 0.3 * (1 + 2 * GEOMETRY_RTOL), 0.5, "p.yaml")
     with pytest.raises(ConfigError, match="robot.track_width 0.5 m, but .* 0.51 m"):
         check_geometry(params, 0.3, 0.51, "p.yaml")
+
+
+# ------------------------------------------------ gaps found by mutmut (its survivors)
+@pytest.mark.parametrize("side", ["y_l", "y_r"])
+def test_an_icr_exactly_on_the_centre_line_is_refused(side):
+    icr = {"y_l": 0.4, "y_r": -0.4, "x_icr": 0.0, side: 0.0}
+    with pytest.raises(InputFileError, match="the ICRs need y_l > 0 > y_r"):
+        check_sets(ModelParams("icr", {ANY_TERRAIN: ParamSet(icr)}), None, "f")
+    with pytest.raises(ValueError, match="the parameter set needs y_l > 0 > y_r"):
+        icr_priors(ModelParams("icr", {ANY_TERRAIN: ParamSet(icr)}))
+
+
+def test_every_set_is_checked_without_bounds_too():
+    good, swapped = {"y_l": 0.4, "y_r": -0.4, "x_icr": 0.0}, {"y_l": -0.4, "y_r": 0.4, "x_icr": 0.0}
+    params = ModelParams("icr", {"grass": ParamSet(good), "gravel": ParamSet(swapped)})
+    with pytest.raises(InputFileError, match=r"^f: terrains\.gravel\.params: the ICRs"):
+        check_sets(params, None, "f")
+
+
+def test_a_value_on_the_files_own_bound_is_inside_it_and_flagged_by_it():
+    """An alpha of 0.9 on the file's bound 0.9 (far from the model's 1.5): inside, and at a bound."""
+    bounds = [(0.0, 0.9), (0.0, 1.0), (0.0, 1.0)]
+    on_bound = {"alpha": 0.9, "beta_1": 0.6, "beta_2": 0.5}
+    check_sets(_roc(on_bound, ("alpha",)), bounds, "f")
+    with pytest.raises(InputFileError, match=r"at_bounds: says \[\], but .* \['alpha'\]"):
+        check_sets(_roc(on_bound), bounds, "f")
+
+
+def test_messages_name_what_to_do():
+    per_terrain = ModelParams("icr", {"grass": ParamSet({"y_l": 0.4, "y_r": -0.4, "x_icr": 0.0})})
+    log = WheelLog(np.arange(3.0), np.ones(3), np.ones(3), np.zeros((3, 3)), None, np.zeros(3, int))
+    with pytest.raises(InputFileError) as raised:
+        per_terrain.rows(log)
+    assert str(raised.value) == (
+        "<memory>: no terrain column, but the icr parameters are per terrain (['grass'])"
+    )
+    params = ModelParams("idd", {ANY_TERRAIN: ParamSet({})}, 0.5)
+    with pytest.raises(ConfigError) as raised:
+        check_geometry(params, 0.1, 0.6, "p.yaml")
+    assert str(raised.value).endswith("0.6 m: give the configuration it was fitted with (--config)")

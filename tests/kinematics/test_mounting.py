@@ -26,7 +26,7 @@ def test_antenna_ahead_of_a_robot_facing_left_is_left_of_it():
 def test_robot_pose_of_a_position_alone_takes_the_given_yaw():
     z = np.array([1.2, 2.5, np.nan])
     np.testing.assert_allclose(robot_pose(z, MOUNT, yaw=np.pi / 2), [1.0, 2.0, np.pi / 2])
-    with pytest.raises(ValueError, match="needs a heading"):
+    with pytest.raises(ValueError, match="^robot_pose needs a heading: in z, or as yaw$"):
         robot_pose(z, MOUNT)
 
 
