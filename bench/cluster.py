@@ -40,6 +40,7 @@ from terrain_odom.app.fit import CompareReport, compare
 from terrain_odom.app.train import AccuracyReport, report_accuracy
 from terrain_odom.config import load_config
 from terrain_odom.fitting import FitOptions
+from terrain_odom.fitting.params import ANY_TERRAIN
 
 REPO = Path(__file__).resolve().parents[1]
 WORKERS = (1, 2)
@@ -130,7 +131,7 @@ def main() -> None:
         runs,
         compare_key,
     )
-    fitted = runs["baseline"][1].models["edd-asym"].errors["all"].translation
+    fitted = runs["baseline"][1].models["edd-asym"].errors[ANY_TERRAIN].translation
     print(f"  edd-asym held-out median: {fitted.median:.4f} m/m over {fitted.count} windows")
     print(f"load average at the end: {os.getloadavg()[0]:.1f}")
 

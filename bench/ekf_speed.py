@@ -213,10 +213,10 @@ def whole_run(path: Path, rows: int, work: Path, repeat: int) -> None:
     """
     import pandas as pd
 
-    from terrain_odom.app.run import run
+    from terrain_odom.app.run import RunOptions, run
 
     cfg = load_config(CONFIG)
-    summary = run(path, work / "warm", config=cfg, progress=False, overwrite=True)
+    summary = run(path, work / "warm", RunOptions(config=cfg, progress=False, overwrite=True))
     written = pd.read_csv(summary.trajectory_csv)
     tum = pd.read_csv(summary.trajectory_tum, sep=" ", comment="#", header=None)
 
@@ -248,7 +248,7 @@ def whole_run(path: Path, rows: int, work: Path, repeat: int) -> None:
             f"{seconds / t_outputs:4.1f}x pandas's input + output = {1e6 * seconds / rows:.1f} us/row"
         )
     started = time.perf_counter()
-    summary = run(path, work / "inproc", config=cfg, progress=False, overwrite=True)
+    summary = run(path, work / "inproc", RunOptions(config=cfg, progress=False, overwrite=True))
     total = time.perf_counter() - started
     report = json.loads(summary.report_json.read_text())
     print(f"   in-process run {total:.2f} s ({report['counts']['updates']} updates); its parts:")
@@ -257,7 +257,7 @@ def whole_run(path: Path, rows: int, work: Path, repeat: int) -> None:
 
 def breakdown(path: Path, cfg: Config, rows: int, work: Path) -> None:
     """Time the parts of a run separately: read, check + pose delay, filter, write."""
-    from terrain_odom.app.run import calibrate_log
+    from terrain_odom.app.inputs import calibrate_log
     from terrain_odom.estimation.odometry import run_icr_ekf
     from terrain_odom.io import TrajectoryWriter
     from terrain_odom.io.trajectory import TrajectoryBlocks, TumWriter, trajectory_columns
@@ -405,12 +405,15 @@ def traced_steps(log: Path, out: Path) -> list[tuple[int, int]]:
 
         return wrapper
 
-    saved = {name: getattr(app_run, name) for name in ("_read_inputs", "_stream")}
+    saved = {name: getattr(app_run, name) for name in ("_read_inputs", "stream_log")}
     for name, fn in saved.items():
         setattr(app_run, name, timed(fn))
     tracemalloc.start()
     try:
-        app_run.run(log, out, config_path=CONFIG, overwrite=True, plots=False, progress=False)
+        options = app_run.RunOptions(
+            config_path=CONFIG, overwrite=True, plots=False, progress=False
+        )
+        app_run.run(log, out, options)
     finally:
         tracemalloc.stop()
         for name, fn in saved.items():

@@ -25,7 +25,8 @@ from pathlib import Path
 
 import numpy as np
 
-from terrain_odom.app.run import TerrainSource, run
+from terrain_odom.app.inputs import TerrainSource
+from terrain_odom.app.run import RunOptions, run
 from terrain_odom.io.wheel_log import write_wheel_log
 from terrain_odom.kinematics import integrate, twist_icr
 from terrain_odom.records import WheelLog
@@ -83,15 +84,24 @@ def main() -> None:
     print(f"load before: {os.getloadavg()[0]:.2f}")
     best = None
     for k in range(args.repeat):
-        summary = run(log_path, work / f"run{k}", config_path=config, terrain=TerrainSource.NONE,
-                      progress=False, plots=False, overwrite=True)  # fmt: skip
+        summary = run(
+            log_path,
+            work / f"run{k}",
+            RunOptions(
+                config_path=config,
+                terrain=TerrainSource.NONE,
+                progress=False,
+                plots=False,
+                overwrite=True,
+            ),
+        )
         guard = json.loads(summary.report_json.read_text())["outage_guard"]
         assert summary.outage_guard is not None
         seconds = summary.outage_guard.seconds
-        ratio = seconds / summary.seconds
+        ratio = seconds / summary.report.run_time_s
         windows = {d: e["windows"] for d, e in guard.get("durations", {}).items()}
         print(
-            f"run {k}: {summary.rows} rows in {summary.seconds:.2f} s, guard {seconds:.3f} s "
+            f"run {k}: {summary.report.counts.rows} rows in {summary.report.run_time_s:.2f} s, guard {seconds:.3f} s "
             f"(windows {windows}): ratio {ratio:.3f}"
         )
         best = ratio if best is None else min(best, ratio)

@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from terrain_odom.app.run import run
+from terrain_odom.app.run import RunOptions, run
 from terrain_odom.config import load_config
 from terrain_odom.estimation.odometry import run_odometry
 from terrain_odom.estimation.online import OnlineOdometry
@@ -77,11 +77,15 @@ def frames() -> None:
         for record in (None, False, True):  # None: a first run, loading every module
             out = Path(folder) / str(record)
             started = time.perf_counter()
-            summary = run(SAMPLE / "log.csv", out, images=SAMPLE, progress=False,
-                          record=bool(record))  # fmt: skip
+            summary = run(
+                SAMPLE / "log.csv",
+                out,
+                RunOptions(images=SAMPLE, progress=False, record=bool(record)),
+            )
             seconds[record] = time.perf_counter() - started
         size = (Path(folder) / "True" / "run.rrd").stat().st_size
-    n = summary.frames.classified if summary.frames else 0
+    frames = summary.report.frames
+    n = frames.counts.classified if frames and frames.counts else 0
     print(f"{n} frames: run {seconds[False]:.2f} s, with --record {seconds[True]:.2f} s "
           f"(x{seconds[True] / seconds[False]:.2f}), {size / 1e6:.1f} MB")  # fmt: skip
 

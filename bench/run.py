@@ -46,7 +46,8 @@ import cv2
 import numpy as np
 
 from terrain_odom.app.frames import one_thread
-from terrain_odom.app.run import TerrainSource, run
+from terrain_odom.app.inputs import TerrainSource
+from terrain_odom.app.run import RunOptions, run
 from terrain_odom.cli.main import main as cli
 from terrain_odom.io.frames import read_frames
 
@@ -148,11 +149,13 @@ def main() -> None:
             run(
                 sim / "log.csv",
                 args.work / out,
-                images=sim,
-                model=sim / MODEL,
-                progress=False,
-                overwrite=True,
-                plots=plots,
+                RunOptions(
+                    images=sim,
+                    classifier_path=sim / MODEL,
+                    progress=False,
+                    overwrite=True,
+                    plots=plots,
+                ),
             )
 
         return timed
@@ -161,10 +164,7 @@ def main() -> None:
         run(
             sim / "log.csv",
             args.work / "out_wheels",
-            terrain=TerrainSource.NONE,
-            progress=False,
-            overwrite=True,
-            plots=False,
+            RunOptions(terrain=TerrainSource.NONE, progress=False, overwrite=True, plots=False),
         )
 
     timed = {
@@ -189,10 +189,12 @@ def main() -> None:
     run(
         sim / "log.csv",
         scored,
-        images=sim,
-        model=sim / MODEL,
-        groundtruth=sim / "groundtruth.csv",
-        overwrite=True,
+        RunOptions(
+            images=sim,
+            classifier_path=sim / MODEL,
+            groundtruth=sim / "groundtruth.csv",
+            overwrite=True,
+        ),
     )
     accuracy = json.loads((scored / "report.json").read_text())["groundtruth"]["frames"]
     overall = accuracy["accuracy"]["overall"]

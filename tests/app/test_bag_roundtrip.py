@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from terrain_odom.app.bag_import import import_bag
-from terrain_odom.app.run import run
+from terrain_odom.app.run import RunOptions, run
 from terrain_odom.config import load_config
 from terrain_odom.io.bag.contents import read_bag_log
 from terrain_odom.io.bag.options import ImportOptions
@@ -86,13 +86,20 @@ def test_run_on_the_import_is_the_csv_run(
     log = read_wheel_log(sample_dir / "log.csv")
     write_wheel_log(tmp_path / "log.csv", dataclasses.replace(log, terrain=None))
     csv_run = run(
-        tmp_path / "log.csv", tmp_path / "csv", config=cfg, images=sample_dir, progress=False
+        tmp_path / "log.csv",
+        tmp_path / "csv",
+        RunOptions(config=cfg, images=sample_dir, progress=False),
     )
     bag_run = run(
-        imported.log_csv, tmp_path / "bag", config=cfg, images=tmp_path / "imp", progress=False
+        imported.log_csv,
+        tmp_path / "bag",
+        RunOptions(config=cfg, images=tmp_path / "imp", progress=False),
     )
     a, b = (read_trajectory_csv(r.trajectory_csv) for r in (csv_run, bag_run))
-    assert a["t"].size == 2400 and csv_run.terrain_changes == bag_run.terrain_changes == 2
+    assert (
+        a["t"].size == 2400
+        and csv_run.report.counts.terrain_changes == bag_run.report.counts.terrain_changes == 2
+    )
     for column in ("t", "x", "y", "yaw", "y_l", "y_r", "x_icr"):
         np.testing.assert_allclose(b[column], a[column], atol=1e-6, err_msg=column)
     np.testing.assert_array_equal(b["terrain"], a["terrain"])

@@ -141,7 +141,7 @@ def test_evaluate_logs_pools_the_logs_and_matches_evaluate(
     sim_output: SimOutput, tmp_path: Path, scheduler: str
 ) -> None:
     logs = [sim_output.log_csv, sim_output.log_csv]
-    batch = evaluate_logs(logs, horizon=1.0, out=tmp_path / "ev")
+    batch = evaluate_logs(logs, horizon=1.0, out_dir=tmp_path / "ev")
     single = evaluate(None, sim_output.log_csv, horizon=1.0)
     assert [r.to_dict() for r in batch.logs] == [single.to_dict()] * 2
     (name,) = batch.pooled

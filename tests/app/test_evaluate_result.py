@@ -1,4 +1,4 @@
-"""Tests of :class:`terrain_odom.app.evaluate.EvaluationResult` (the typed result of ``evaluate``)."""
+"""Tests of :class:`terrain_odom.app.evaluation_results.EvaluationResult` (the typed result of ``evaluate``)."""
 
 from __future__ import annotations
 
@@ -9,7 +9,8 @@ from pathlib import Path
 
 import pytest
 
-from terrain_odom.app.evaluate import EvaluationResult, ModelErrors, evaluate
+from terrain_odom.app.evaluate import evaluate
+from terrain_odom.app.evaluation_results import EvaluationResult, ModelErrors
 from terrain_odom.app.simulate import SimOutput
 from terrain_odom.config import Config, TimeConfig
 
@@ -21,7 +22,7 @@ def written(sim_output: SimOutput, tmp_path_factory: pytest.TempPathFactory) -> 
 
 @pytest.fixture(scope="module")
 def result(sim_output: SimOutput, written: Path) -> EvaluationResult:
-    return evaluate(None, sim_output.log_csv, horizon=1.0, out=written)
+    return evaluate(None, sim_output.log_csv, horizon=1.0, out_dir=written)
 
 
 def test_to_dict_is_what_evaluation_json_holds(result: EvaluationResult, written: Path) -> None:

@@ -27,7 +27,7 @@ from terrain_odom.app.live import (
     build_live,
     twist_with_covariance,
 )
-from terrain_odom.app.run import run
+from terrain_odom.app.run import RunOptions, run
 from terrain_odom.config import Config, load_config
 from terrain_odom.errors import ConfigError
 from terrain_odom.estimation.odometry import run_odometry
@@ -251,7 +251,11 @@ def _changes_live(sample_dir: Path, frames: str) -> tuple[list, LiveOdometry]:
 @pytest.fixture(scope="module")
 def run_changes(sample_dir: Path, tmp_path_factory: pytest.TempPathFactory) -> list[dict]:
     out = tmp_path_factory.mktemp("run")
-    run(sample_dir / "log.csv", out, images=sample_dir, overwrite=True, plots=False, progress=False)
+    run(
+        sample_dir / "log.csv",
+        out,
+        RunOptions(images=sample_dir, overwrite=True, plots=False, progress=False),
+    )
     return json.loads((out / "report.json").read_text())["terrain_changes"]
 
 

@@ -89,7 +89,7 @@ def test_labels_match_the_simulated_ground(
 def test_patch_files_are_the_region_of_the_frame(by_log: PatchesResult) -> None:
     """A patch is its frame's box, pixel for pixel, at LABEL/<frame stem>.png."""
     entry = json.loads(by_log.patches_json.read_text())["patches"][5]
-    patch = read_image_rgb(by_log.out / entry["file"])
+    patch = read_image_rgb(by_log.out_dir / entry["file"])
     frame = read_image_rgb(entry["frame"])
     assert patch is not None and frame is not None
     x0, y0, x1, y1 = entry["box"]
@@ -112,7 +112,7 @@ def test_intervals_give_the_log_column_labels(
     assert by_spans.label_source == "intervals" and by_log.label_source == "log"
     assert by_spans.counts == by_log.counts
     assert sorted(p.name for p in (tmp_path / "b" / "gravel").iterdir()) == sorted(
-        p.name for p in (by_log.out / "gravel").iterdir()
+        p.name for p in (by_log.out_dir / "gravel").iterdir()
     )
 
 

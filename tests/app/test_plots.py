@@ -10,7 +10,7 @@ import pytest
 
 from terrain_odom.app import plots as app_plots
 from terrain_odom.app.evaluate import evaluate
-from terrain_odom.app.run import run
+from terrain_odom.app.run import RunOptions, run
 from terrain_odom.reporting.mosaic import MosaicPanel
 
 
@@ -49,7 +49,7 @@ def figures(monkeypatch: pytest.MonkeyPatch) -> dict:
 def test_a_wheel_log_run_and_its_evaluation_draw_their_plots(examples_dir, tmp_path, figures):
     out = tmp_path / "out"
     log = examples_dir / "demo_log.csv"
-    summary = run(log, out, config_path=examples_dir / "demo.yaml", progress=False)
+    summary = run(log, out, RunOptions(config_path=examples_dir / "demo.yaml", progress=False))
     assert _relative(summary.plots, out) == ["plots/trajectory.png", "plots/states.png"]
     markdown = summary.report_md.read_text(encoding="utf-8")
     assert "(plots/trajectory.png)" in markdown and "(plots/states.png)" in markdown
@@ -83,7 +83,7 @@ def test_a_real_warthog_log_run_and_evaluation_draw_their_plots(
 ):
     out = tmp_path / "out"
     log = drive_dir / "warthog_wheels_grass.csv"
-    summary = run(log, out, config_path=warthog_yaml, progress=False)
+    summary = run(log, out, RunOptions(config_path=warthog_yaml, progress=False))
     result = evaluate(out, log)
     names = [p.name for p in (*summary.plots, *result.plots)]
     assert names == [
@@ -103,8 +103,11 @@ def test_a_real_warthog_log_run_and_evaluation_draw_their_plots(
 
 def test_the_camera_run_draws_the_mosaic_with_roi_votes_and_truth(sample_dir, tmp_path, figures):
     out = tmp_path / "out"
-    summary = run(sample_dir / "log.csv", out, images=sample_dir, progress=False,
-                  groundtruth=sample_dir / "groundtruth.csv")  # fmt: skip
+    summary = run(
+        sample_dir / "log.csv",
+        out,
+        RunOptions(images=sample_dir, progress=False, groundtruth=sample_dir / "groundtruth.csv"),
+    )
     names = [p.name for p in summary.plots]
     assert names == ["trajectory.png", "states.png", "frames.png", "mosaic.png"]
     for path in summary.plots:

@@ -19,6 +19,7 @@ import numpy as np
 import pytest
 
 from terrain_odom.app import run as workflows
+from terrain_odom.app.inputs import DEFAULT, IN_IMAGES
 from terrain_odom.cli.main import main
 from terrain_odom.io import classifier_file
 from terrain_odom.io.classifier_file import load_classifier
@@ -173,7 +174,10 @@ def test_an_explicit_config_and_model_win_over_the_defaults(tmp_path, capsys, ex
 
 def test_the_api_takes_the_same_defaults(tmp_path):
     images = _short_copy(tmp_path, config=True)
-    summary = workflows.run(images / "log.csv", tmp_path / "out", images=images, progress=False)
+    options = workflows.RunOptions(images=images, progress=False)
+    summary = workflows.run(images / "log.csv", tmp_path / "out", options)
     inputs = json.loads(summary.report_json.read_text())["inputs"]
     assert inputs["config"] == str((images / "config.yaml").resolve())
     assert inputs["model"] == str(MODEL.resolve())
+    assert (summary.config.how, summary.config.path) == (IN_IMAGES, images / "config.yaml")
+    assert (summary.classifier.how, summary.classifier.path) == (DEFAULT, MODEL)

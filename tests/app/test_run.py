@@ -11,8 +11,10 @@ import numpy as np
 import pytest
 
 import terrain_odom.app.run as workflows
+import terrain_odom.app.run_stream as stream
 from terrain_odom.app.evaluate import evaluate
-from terrain_odom.app.run import RunSummary, TerrainSource, run
+from terrain_odom.app.inputs import TerrainSource
+from terrain_odom.app.run import RunOptions, RunSummary, run
 from terrain_odom.cli.main import main
 from terrain_odom.config import Config, load_config
 from terrain_odom.errors import ConfigError, InputFileError
@@ -57,12 +59,12 @@ def test_run_returns_summary_with_existing_paths(log_path: Path, tmp_path: Path)
     out_dir = tmp_path / "nested" / "out"  # parents are created
 
     started = time.perf_counter()
-    summary = run(log_path, out_dir, progress=False)
+    summary = run(log_path, out_dir, RunOptions(progress=False))
     wall = time.perf_counter() - started
 
     assert isinstance(summary, RunSummary)
-    assert summary.rows == N_ROWS
-    assert 0.0 < summary.seconds <= wall  # the run's own clock, inside the call
+    assert summary.report.counts.rows == N_ROWS
+    assert 0.0 < summary.report.run_time_s <= wall  # the run's own clock, inside the call
     assert summary.trajectory_csv == out_dir / "trajectory.csv"
     assert summary.trajectory_tum == out_dir / "trajectory.tum"
     assert summary.report_json == out_dir / "report.json"
@@ -85,15 +87,15 @@ def test_run_returns_summary_with_existing_paths(log_path: Path, tmp_path: Path)
     assert tum_lines[0].startswith("#")
     assert len(tum_lines) == N_ROWS + 1
     report = json.loads(summary.report_json.read_text(encoding="utf-8"))
-    assert report["counts"]["rows"] == summary.rows
-    assert report["run_time_s"] == summary.seconds  # the same float, written exactly
+    assert report["counts"]["rows"] == summary.report.counts.rows
+    assert report["run_time_s"] == summary.report.run_time_s  # the same float, written exactly
 
 
 def test_run_without_alpha_has_no_alpha_columns(log_path: Path, tmp_path: Path) -> None:
     cfg_path = tmp_path / "no_alpha.yaml"
     cfg_path.write_text("ekf:\n  estimate_alpha: false\n", encoding="utf-8")
 
-    summary = run(log_path, tmp_path / "out", config_path=cfg_path, progress=False)
+    summary = run(log_path, tmp_path / "out", RunOptions(config_path=cfg_path, progress=False))
 
     header = summary.trajectory_csv.read_text(encoding="utf-8").splitlines()[0]
     assert header == "t,x,y,yaw,y_l,y_r,x_icr,terrain,std_x,std_y,std_yaw,std_y_l,std_y_r,std_x_icr"
@@ -127,13 +129,13 @@ def test_interrupted_run_keeps_streamed_rows(
     leaves the first 100 rows, equal to those of an uninterrupted run, and
     report.json says so.
     """
-    complete = run(log_path, tmp_path / "complete", progress=False)
+    complete = run(log_path, tmp_path / "complete", RunOptions(progress=False))
     whole = read_trajectory_csv(complete.trajectory_csv)
     stretches = interrupt_second_stretch(monkeypatch)
     out_dir = tmp_path / "out"
 
     with pytest.raises(KeyboardInterrupt):
-        run(log_path, out_dir, progress=False)
+        run(log_path, out_dir, RunOptions(progress=False))
 
     assert stretches == [INTERRUPT_AFTER, N_ROWS - INTERRUPT_AFTER]
     traj = read_trajectory_csv(out_dir / "trajectory.csv")
@@ -167,19 +169,19 @@ def test_a_folder_holding_a_run_is_refused_unless_overwrite(
     when it is interrupted nothing of the first run is left to mix with it.
     """
     out_dir = tmp_path / "out"
-    first = run(log_path, out_dir, progress=False)
+    first = run(log_path, out_dir, RunOptions(progress=False))
     (out_dir / "notes.txt").write_text("mine", encoding="utf-8")
     before = {p.relative_to(out_dir): p.read_bytes() for p in out_dir.rglob("*") if p.is_file()}
 
     with pytest.raises(InputFileError, match="already holds a run .*--overwrite"):
-        run(log_path, out_dir, progress=False)
+        run(log_path, out_dir, RunOptions(progress=False))
     assert {
         p.relative_to(out_dir): p.read_bytes() for p in out_dir.rglob("*") if p.is_file()
     } == before
 
     interrupt_second_stretch(monkeypatch)
     with pytest.raises(KeyboardInterrupt):
-        run(log_path, out_dir, progress=False, overwrite=True)
+        run(log_path, out_dir, RunOptions(progress=False, overwrite=True))
 
     report = json.loads(first.report_json.read_text(encoding="utf-8"))
     assert report["status"] == "interrupted" and report["rows_written"] == INTERRUPT_AFTER
@@ -193,11 +195,11 @@ def test_a_folder_holding_a_run_is_refused_unless_overwrite(
         "trajectory.csv",
     ]
     with pytest.raises(InputFileError, match="already holds an interrupted run"):
-        run(log_path, out_dir, progress=False)
+        run(log_path, out_dir, RunOptions(progress=False))
 
 
 def test_a_completed_run_says_so(log_path: Path, tmp_path: Path) -> None:
-    summary = run(log_path, tmp_path / "out", progress=False)
+    summary = run(log_path, tmp_path / "out", RunOptions(progress=False))
     report = json.loads(summary.report_json.read_text(encoding="utf-8"))
     assert report["status"] == "complete"
 
@@ -208,7 +210,7 @@ def test_report_embeds_the_config_used(log_path: Path, tmp_path: Path) -> None:
         "ekf:\n  sigma_r: {x: 0.123, yaw: 0.031}\nterrain:\n  confirm: 3\n", encoding="utf-8"
     )
 
-    summary = run(log_path, tmp_path / "out", config_path=cfg_path, progress=False)
+    summary = run(log_path, tmp_path / "out", RunOptions(config_path=cfg_path, progress=False))
 
     report = json.loads(summary.report_json.read_text(encoding="utf-8"))
     assert report["inputs"]["config"] == str(cfg_path.resolve())
@@ -230,15 +232,19 @@ def test_config_object_takes_precedence(log_path: Path, tmp_path: Path) -> None:
     cfg_path.write_text("ekf:\n  sigma_r: {x: 0.5}\n", encoding="utf-8")
     config = Config()
 
-    summary = run(log_path, tmp_path / "out", config=config, config_path=cfg_path, progress=False)
+    summary = run(
+        log_path, tmp_path / "out", RunOptions(config=config, config_path=cfg_path, progress=False)
+    )
 
     report = json.loads(summary.report_json.read_text(encoding="utf-8"))
     assert report["config"]["ekf"]["sigma_r"]["x"] == 0.05
 
 
 def test_terrain_sources(log_path: Path, tmp_path: Path) -> None:
-    none = run(log_path, tmp_path / "none", terrain=TerrainSource.NONE, progress=False)
-    from_log = run(log_path, tmp_path / "log", terrain=TerrainSource.LOG, progress=False)
+    none = run(log_path, tmp_path / "none", RunOptions(terrain=TerrainSource.NONE, progress=False))
+    from_log = run(
+        log_path, tmp_path / "log", RunOptions(terrain=TerrainSource.LOG, progress=False)
+    )
 
     r_none = json.loads(none.report_json.read_text(encoding="utf-8"))
     r_log = json.loads(from_log.report_json.read_text(encoding="utf-8"))
@@ -251,14 +257,14 @@ def test_errors_are_package_errors(log_path: Path, tmp_path: Path) -> None:
     bad_cfg = tmp_path / "bad.yaml"
     bad_cfg.write_text("ekf:\n  sigma_p0: {x: 0}\n", encoding="utf-8")
     with pytest.raises(ConfigError, match=r"ekf\.sigma_p0\.x: must be > 0"):
-        run(log_path, tmp_path / "a", config_path=bad_cfg, progress=False)
+        run(log_path, tmp_path / "a", RunOptions(config_path=bad_cfg, progress=False))
     with pytest.raises(InputFileError, match="does not exist"):
-        run(tmp_path / "missing.csv", tmp_path / "b", progress=False)
+        run(tmp_path / "missing.csv", tmp_path / "b", RunOptions(progress=False))
     assert not (tmp_path / "a").exists() and not (tmp_path / "b").exists()
 
 
 def test_evaluate_returns_and_writes_result(log_path: Path, tmp_path: Path) -> None:
-    summary = run(log_path, tmp_path / "run", progress=False)
+    summary = run(log_path, tmp_path / "run", RunOptions(progress=False))
     params = tmp_path / "true.yaml"
     params.write_text(
         "format_version: 1\nmodel: icr\nparams: {y_l: 0.4, y_r: -0.35, x_icr: 0.1}\n",
@@ -311,9 +317,9 @@ def test_a_long_run_keeps_some_rows_in_memory_and_writes_every_row(
     log_path: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """Past 2 x KEPT_ROWS rows the result keeps every k-th row: the files are those of all rows."""
-    whole = run(log_path, tmp_path / "whole", progress=False)
+    whole = run(log_path, tmp_path / "whole", RunOptions(progress=False))
     kept_rows = []
-    real = workflows.run_odometry
+    real = stream.run_odometry
 
     def spy(*args, **kwargs):  # type: ignore[no-untyped-def]
         result = real(*args, **kwargs)
@@ -321,8 +327,8 @@ def test_a_long_run_keeps_some_rows_in_memory_and_writes_every_row(
         return result
 
     monkeypatch.setattr(workflows, "KEPT_ROWS", 40)
-    monkeypatch.setattr(workflows, "run_odometry", spy)
-    part = run(log_path, tmp_path / "part", progress=False)
+    monkeypatch.setattr(stream, "run_odometry", spy)
+    part = run(log_path, tmp_path / "part", RunOptions(progress=False))
     np.testing.assert_array_equal(kept_rows[0], np.r_[np.arange(0, N_ROWS, 5), N_ROWS - 1])
     for name in ("trajectory.csv", "trajectory.tum"):
         assert (tmp_path / "part" / name).read_bytes() == (tmp_path / "whole" / name).read_bytes()

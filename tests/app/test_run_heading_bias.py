@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from terrain_odom.app.run import run
+from terrain_odom.app.run import RunOptions, run
 from terrain_odom.errors import ConfigError
 from terrain_odom.kinematics import integrate, twist_icr, wrap_angle
 
@@ -33,7 +33,9 @@ def test_the_heading_bias_is_in_the_trajectory_and_the_report(tmp_path: Path) ->
         "robot: {track_width: 1.0}\npose_sensor: {heading_bias: true, heading_wander: 0.3}\n",
         encoding="utf-8",
     )
-    summary = run(path, tmp_path / "out", config_path=config, progress=False, plots=False)
+    summary = run(
+        path, tmp_path / "out", RunOptions(config_path=config, progress=False, plots=False)
+    )
     header = summary.trajectory_csv.read_text(encoding="utf-8").splitlines()[0].split(",")
     assert header[-1] == "std_heading_bias" and "heading_bias" in header
     report = json.loads(summary.report_json.read_text(encoding="utf-8"))
@@ -50,5 +52,5 @@ def test_headings_without_positions_refuse_the_heading_bias(tmp_path: Path) -> N
     config = tmp_path / "bias.yaml"
     config.write_text("pose_sensor: {heading_bias: true}\n", encoding="utf-8")
     with pytest.raises(ConfigError, match="headings but no positions: pose_sensor.heading_bias"):
-        run(path, tmp_path / "out", config_path=config, progress=False, plots=False)
+        run(path, tmp_path / "out", RunOptions(config_path=config, progress=False, plots=False))
     assert not (tmp_path / "out" / "trajectory.csv").exists()

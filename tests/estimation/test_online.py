@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from terrain_odom import OnlineOdometry
-from terrain_odom.app.run import read_calibrated_log
+from terrain_odom.app.inputs import read_calibrated_log
 from terrain_odom.cli.main import main
 from terrain_odom.config import Config, SlipEkfConfig, load_config
 from terrain_odom.errors import ConfigError, EstimationError

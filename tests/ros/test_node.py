@@ -21,7 +21,7 @@ import pytest
 import yaml
 
 from terrain_odom.app.bag_import import import_bag
-from terrain_odom.app.run import run
+from terrain_odom.app.run import RunOptions, run
 from terrain_odom.config import load_config
 from terrain_odom.io.bag.messages import stamp_ns, yaw_from_quaternion
 from terrain_odom.io.bag.options import ImportOptions
@@ -63,7 +63,9 @@ def jackal(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path, dict[s
         bag, out / "imp", ImportOptions(ODOM, heading_topic=IMU, track_width=0.563)
     )
     run(
-        imported.log_csv, out / "run", config_path=imported.config_yaml, plots=False, progress=False
+        imported.log_csv,
+        out / "run",
+        RunOptions(config_path=imported.config_yaml, plots=False, progress=False),
     )
     return bag, imported.config_yaml, read_trajectory_csv(out / "run" / "trajectory.csv")
 
@@ -127,7 +129,11 @@ def camera_bag(sample_dir: Path, tmp_path_factory: pytest.TempPathFactory) -> tu
     log = read_wheel_log(sample_dir / "log.csv")
     records = log_records(log, 0.1, frames=read_frames(sample_dir), camera=cfg.camera)
     bag = write_bag(out / "camera.bag", "ros1", records)
-    run(sample_dir / "log.csv", out / "run", images=sample_dir, plots=False, progress=False)
+    run(
+        sample_dir / "log.csv",
+        out / "run",
+        RunOptions(images=sample_dir, plots=False, progress=False),
+    )
     return bag, json.loads((out / "run" / "report.json").read_text())["terrain_changes"]
 
 

@@ -7,24 +7,32 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
 from terrain_odom.app.cluster import dask_cluster, run_jobs
-from terrain_odom.app.fit import format_error_stats
+from terrain_odom.app.evaluation_results import (
+    BatchEvaluation,
+    EvaluationResult,
+    ModelErrors,
+    PooledErrors,
+)
+from terrain_odom.app.inputs import (
+    GIVEN,
+    ConfigEdits,
+    choose_config,
+    read_calibrated_log,
+    run_config,
+)
 from terrain_odom.app.locate import check_out, create_folder, output_file, writing_into
 from terrain_odom.app.plots import EVALUATION_PLOTS, PLOTS_DIR, write_evaluation_plots
-from terrain_odom.app.run import read_calibrated_log, run_config
 from terrain_odom.app.run_folder import TRAJECTORY_CSV, check_complete
 from terrain_odom.config import Config, RobotConfig, load_config
 from terrain_odom.errors import ConfigError, InputFileError
 from terrain_odom.estimation.time_offset import TimeCalibration
 from terrain_odom.evaluation import (
     DEFAULT_OUTAGES,
-    OUTAGE_EVERY,
     AteResult,
-    ErrorSummary,
     ModelAt,
     OutageErrors,
     PredictionSummary,
@@ -54,136 +62,27 @@ from terrain_odom.io import read_trajectory_csv
 from terrain_odom.io.atomic import write_text_atomic
 from terrain_odom.io.params import read_params
 from terrain_odom.io.paths import check_outputs
-from terrain_odom.io.report import path_or_none, report_header, write_json
+from terrain_odom.io.report import write_json
 from terrain_odom.kinematics import get_model, twist_icr
 from terrain_odom.kinematics.slip import SlipModel, param_names
 from terrain_odom.records import WheelLog
-from terrain_odom.reporting.markdown import table
-from terrain_odom.reporting.outage import outage_section
 
 __all__ = [
     "EVALUATION_JSON",
     "EVALUATION_MD",
     "JSON_SUFFIXES",
-    "ModelErrors",
-    "EvaluationResult",
-    "PooledErrors",
-    "BatchEvaluation",
     "evaluate",
     "evaluate_logs",
 ]
 
 EVALUATION_JSON = "evaluation.json"
-"""The file :func:`evaluate` writes into its ``out`` folder (or ``run_dir``)."""
+"""The file :func:`evaluate` writes into its ``out_dir`` (or ``run_dir``)."""
 EVALUATION_MD = "evaluation.md"
 """The table :func:`evaluate_logs` writes beside its ``evaluation.json``."""
+BATCH_FILES = (EVALUATION_JSON, EVALUATION_MD)
+"""The files :func:`evaluate_logs` writes into its ``out_dir``."""
 JSON_SUFFIXES = (".json",)
-"""Suffixes by which ``out`` names the file itself (the old form)."""
-
-WINDOW_KINDS = {
-    "pose": "between full poses",
-    "position": "between position fixes, length from the wheels (start heading fitted to "
-    "the fixes; heading change from the heading rows where present)",
-    "heading": "between heading rows (length from the wheels; heading change only)",
-}
-"""What each window anchor means, as the printout and reports say it."""
-
-
-@dataclass(frozen=True)
-class ModelErrors:
-    """Model-odometry errors of one model on the log.
-
-    Attributes
-    ----------
-    errors : ErrorSummary
-        Translational (m/m) and angular (deg/m) error per metre over the windows.
-    ate : AteResult
-        ATE of the model dead-reckoned over every segment, m.
-    windows : WindowErrors or None
-        The errors window by window (what the plots draw).
-    """
-
-    errors: ErrorSummary
-    ate: AteResult
-    windows: WindowErrors | None = None
-
-    def to_dict(self) -> dict[str, Any]:
-        """Return the model's entry of ``evaluation.json``."""
-        return {**self.errors.to_dict(), "ate_dead_reckoning": self.ate.to_dict()}
-
-
-@dataclass(frozen=True)
-class EvaluationResult:
-    """What :func:`evaluate` computed (and wrote as ``evaluation.json``).
-
-    Attributes
-    ----------
-    log : Path
-        The wheel log (absolute).
-    run : Path or None
-        The run directory (absolute), when a run was evaluated.
-    time_calibration : TimeCalibration
-        The pose delay applied to the log.
-    horizon : float
-        Evaluation horizon ``h_e``, m.
-    windows : int
-        Number of ``h_e`` windows.
-    models : dict of str to ModelErrors
-        Per model, in the order evaluated: the nominal ``idd``, the run, the
-        parameter files.
-    prediction_windows : int
-        Number of 2-s prediction windows.
-    prediction : dict of str to PredictionSummary
-        2-s prediction errors of the nominal model and of the run.
-    output : Path or None
-        The JSON file written (``None``: nothing written).
-    plots : tuple of Path
-        PNG plots written beside it, in ``plots/`` (:func:`write_evaluation_plots`).
-    anchor : str
-        What the windows run between: ``"pose"``, ``"position"`` or
-        ``"heading"`` (:data:`WINDOW_KINDS`; a log of positions and headings
-        on different rows has no full pose).
-    outages : dict of float to dict of str to OutageErrors
-        Per outage duration (s), per model: dead reckoning from the run's
-        state through the outage windows (:mod:`~terrain_odom.evaluation.outage`).
-    outage_every : float
-        Time between their starts, s (:func:`~terrain_odom.evaluation.outage_spacing`).
-    """
-
-    log: Path
-    run: Path | None
-    time_calibration: TimeCalibration
-    horizon: float
-    windows: int
-    models: dict[str, ModelErrors]
-    prediction_windows: int
-    prediction: dict[str, PredictionSummary]
-    output: Path | None = None
-    plots: tuple[Path, ...] = ()
-    anchor: str = "pose"
-    outages: dict[float, dict[str, OutageErrors]] = dataclasses.field(default_factory=dict)
-    outage_every: float = OUTAGE_EVERY
-
-    def to_dict(self) -> dict[str, Any]:
-        """Return the content of ``evaluation.json``."""
-        return {
-            **report_header("evaluate"),
-            "log": str(self.log),
-            "run": path_or_none(self.run),
-            "time_calibration": self.time_calibration.to_dict(),
-            "horizon_m": self.horizon,
-            "windows": self.windows,
-            "windows_between": self.anchor,
-            "windows_note": WINDOW_KINDS[self.anchor],
-            "models": {name: entry.to_dict() for name, entry in self.models.items()},
-            "prediction_2s": {
-                "windows": self.prediction_windows,
-                "models": {name: p.to_dict() for name, p in self.prediction.items()},
-            },
-            **(
-                {"outages": outage_section(self.outages, self.outage_every)} if self.outages else {}
-            ),
-        }
+"""Suffixes by which ``out_dir`` names the file itself (the old form)."""
 
 
 def _read_run(run_dir: Path, log: WheelLog) -> dict[str, np.ndarray]:
@@ -239,9 +138,9 @@ def _model_errors(
     )
 
 
-def _evaluation_windows(log: WheelLog, h_e: float, cfg: Config) -> _Scoring:
+def _evaluation_windows(log: WheelLog, h_e: float, config: Config) -> _Scoring:
     """Windows between full poses, else between position fixes, else between heading rows."""
-    antenna = antenna_of(cfg)
+    antenna = antenna_of(config)
     anchor = log_anchor(log)
     if not log.has_yaw.any() and anchor == "heading":
         raise InputFileError(
@@ -261,7 +160,7 @@ def _evaluation_windows(log: WheelLog, h_e: float, cfg: Config) -> _Scoring:
 
 
 def _run_models(
-    traj: dict[str, np.ndarray], log: WheelLog, scoring: _Scoring, ahead: Windows, cfg: Config
+    traj: dict[str, np.ndarray], log: WheelLog, scoring: _Scoring, ahead: Windows, config: Config
 ) -> tuple[str, ModelErrors, PredictionSummary, ModelAt]:
     """Errors of the online estimate of a run (ICR EKF, or slip EKF with ``l1`` columns).
 
@@ -269,7 +168,7 @@ def _run_models(
     """
     windows = scoring.windows
     if "l1" in traj:  # a slip-ekf run: the slip model with the parameters of each row
-        slip_model = SlipModel.from_config(cfg.slip_ekf, cfg.robot.track_width)
+        slip_model = SlipModel.from_config(config.slip_ekf, config.robot.track_width)
         rows_l = np.stack([traj[n] for n in param_names("alpha" in traj)], axis=1)
 
         def slip_at(w: Windows) -> TwistFn:
@@ -309,39 +208,42 @@ def _params_model(
     return f"{mp.model} ({Path(path).name})", errors, params_at
 
 
-def _output_path(out: str | Path | None, run_dir: str | Path | None) -> Path | None:
-    if out is not None:
-        return output_file(out, EVALUATION_JSON, JSON_SUFFIXES)
+def _output_path(out_dir: str | Path | None, run_dir: str | Path | None) -> Path | None:
+    if out_dir is not None:
+        return output_file(out_dir, EVALUATION_JSON, JSON_SUFFIXES)
     return Path(run_dir) / EVALUATION_JSON if run_dir else None
 
 
 def _evaluation_config(
-    run_dir: str | Path | None, config: Config | None, config_path: str | Path | None
+    run_dir: str | Path | None,
+    config: Config | None,
+    config_path: str | Path | None,
+    edits: ConfigEdits | None,
+    imported: str | Path | None,
 ) -> Config:
     """Return the configuration to evaluate with: the run's own unless one is given.
 
-    A given configuration (``config_path``: one the user chose) must agree with
-    the run's on the robot geometry.
+    :func:`~terrain_odom.app.inputs.choose_config`. A given configuration
+    file (``config_path``: one the user chose) must agree with the run's on
+    the robot geometry.
 
     Raises
     ------
     ConfigError
         The given configuration's wheel radius or track width differs from the run's.
     """
+    chosen = choose_config(config, config_path, edits=edits, imported=imported, run_dir=run_dir)
     recorded = None if run_dir is None else run_config(run_dir)
-    if config is None and config_path is None:
-        return load_config(recorded)
-    cfg = config if config is not None else load_config(config_path)
-    if recorded is not None and config_path is not None:
+    if recorded is not None and chosen.file.how == GIVEN and chosen.path is not None:
         used = load_config(recorded).robot
         for name in ("wheel_radius", "track_width"):
-            mine, theirs = getattr(cfg.robot, name), getattr(used, name)
+            mine, theirs = getattr(chosen.config.robot, name), getattr(used, name)
             if mine != theirs:
                 raise ConfigError(
                     f"{config_path}: robot.{name} {mine:g} m, but the run was made with "
                     f"{theirs:g} m ({recorded}); leave out --config to use the run's"
                 )
-    return cfg
+    return chosen.config
 
 
 def evaluate(
@@ -350,9 +252,11 @@ def evaluate(
     *,
     config: Config | None = None,
     config_path: str | Path | None = None,
+    edits: ConfigEdits | None = None,
+    imported_config: str | Path | None = None,
     params: Sequence[str | Path] | None = None,
     horizon: float | None = None,
-    out: str | Path | None = None,
+    out_dir: str | Path | None = None,
     outage: Sequence[float] | None = None,
 ) -> EvaluationResult:
     """Model-odometry errors of the nominal model, an EKF run and parameter files.
@@ -378,12 +282,18 @@ def evaluate(
         The wheel log with pose measurements.
     config, config_path : optional
         Configuration (robot geometry, default horizon, ``time.pose_delay``:
-        give the one the run was made with).
+        give the one the run was made with), or its file; without either, the
+        run's ``config.yaml``, else ``imported_config``, else the built-in
+        defaults (:func:`~terrain_odom.app.inputs.choose_config`).
+    edits : ConfigEdits, optional
+        The command line's changes to a configuration file's values.
+    imported_config : str or Path, optional
+        The configuration written by the import of a bag (``--wheels BAG``).
     params : sequence of str or Path, optional
         Parameter files of constant models (see :mod:`terrain_odom.io.params`).
     horizon : float, optional
         Evaluation horizon ``h_e``, m; ``config.evaluation.horizon`` if omitted.
-    out : str or Path, optional
+    out_dir : str or Path, optional
         Folder (created) to write ``evaluation.json`` into; ``run_dir`` by
         default. A name ending in ``.json`` is the file itself (the old form).
         ``InputFileError`` before anything is read if it is an input.
@@ -401,25 +311,25 @@ def evaluate(
     """
     if run_dir is not None:
         check_complete(run_dir)
-    target = _output_path(out, run_dir)
-    if out is not None:
-        check_out(out, JSON_SUFFIXES)
+    target = _output_path(out_dir, run_dir)
+    if out_dir is not None:
+        check_out(out_dir, JSON_SUFFIXES)
     if target is not None:
         trajectory = None if run_dir is None else Path(run_dir) / TRAJECTORY_CSV
         plots = [target.parent / PLOTS_DIR / name for name in EVALUATION_PLOTS]
         check_outputs([wheels, config_path, trajectory, *(params or [])], [target, *plots])
-    cfg = _evaluation_config(run_dir, config, config_path)
-    log, timing = read_calibrated_log(wheels, cfg)
+    config = _evaluation_config(run_dir, config, config_path, edits, imported_config)
+    log, timing = read_calibrated_log(wheels, config)
     result = _evaluation(
-        log, timing, wheels, cfg, run_dir=run_dir, params=params, horizon=horizon, outage=outage
+        log, timing, wheels, config, run_dir=run_dir, params=params, horizon=horizon, outage=outage
     )
     result = dataclasses.replace(result, output=target)
     if target is None:
         return result
-    if out is not None:
-        create_folder(out, JSON_SUFFIXES)
+    if out_dir is not None:
+        create_folder(out_dir, JSON_SUFFIXES)
     names = [EVALUATION_JSON, *(f"{PLOTS_DIR}/{name}" for name in EVALUATION_PLOTS)]
-    with writing_into(out, target, "evaluate", names, JSON_SUFFIXES):
+    with writing_into(out_dir, target, "evaluate", names, JSON_SUFFIXES):
         write_json(target, result.to_dict())
         errors = {name: m.windows for name, m in result.models.items() if m.windows is not None}
         plots = write_evaluation_plots(
@@ -431,20 +341,20 @@ def evaluate(
 def _evaluate_log(
     wheels: str | Path,
     *,
-    cfg: Config,
+    config: Config,
     params: Sequence[str | Path] | None = None,
     horizon: float | None = None,
 ) -> EvaluationResult:
     """Read one log and evaluate it as :func:`evaluate` does, writing nothing (a batch task)."""
-    log, timing = read_calibrated_log(wheels, cfg)
-    return _evaluation(log, timing, wheels, cfg, params=params, horizon=horizon)
+    log, timing = read_calibrated_log(wheels, config)
+    return _evaluation(log, timing, wheels, config, params=params, horizon=horizon)
 
 
 def _evaluation(
     log: WheelLog,
     timing: TimeCalibration,
     wheels: str | Path,
-    cfg: Config,
+    config: Config,
     *,
     run_dir: str | Path | None = None,
     params: Sequence[str | Path] | None = None,
@@ -452,9 +362,9 @@ def _evaluation(
     outage: Sequence[float] | None = None,
 ) -> EvaluationResult:
     """Errors of the nominal model, the run and the parameter files on ``log`` (read from ``wheels``)."""
-    h_e = cfg.evaluation.horizon if horizon is None else float(horizon)
-    scoring = _evaluation_windows(log, h_e, cfg)
-    b = cfg.robot.track_width
+    h_e = config.evaluation.horizon if horizon is None else float(horizon)
+    scoring = _evaluation_windows(log, h_e, config)
+    b = config.robot.track_width
     idd = get_model("idd")
     nominal = f"idd (B={b:g} m)"
     idd_twist = model_twist(idd, [], b)
@@ -465,9 +375,11 @@ def _evaluation(
     prediction = {nominal: prediction_errors(log, ahead, idd_twist)}
     traj = None if run_dir is None else _read_run(Path(run_dir), log)
     if traj is not None:
-        name, models[name], prediction[name], at[name] = _run_models(traj, log, scoring, ahead, cfg)
+        name, models[name], prediction[name], at[name] = _run_models(
+            traj, log, scoring, ahead, config
+        )
     for path in params or []:
-        name, models[name], at[name] = _params_model(path, log, scoring, cfg.robot)
+        name, models[name], at[name] = _params_model(path, log, scoring, config.robot)
     return EvaluationResult(
         log=Path(wheels).resolve(),
         run=None if run_dir is None else Path(run_dir).resolve(),
@@ -517,116 +429,16 @@ def _outages(
     return table
 
 
-@dataclass(frozen=True)
-class PooledErrors:
-    """Errors of one model pooled over the logs of a batch.
-
-    Attributes
-    ----------
-    errors : ErrorSummary
-        Statistics of every log's windows together.
-    ate_rmse : float
-        Dead-reckoning ATE over every compared row of every log, m (each log
-        aligned on its own): ``sqrt(sum(count_i rmse_i^2) / sum(count_i))``.
-    ate_count : int
-        Rows compared.
-    """
-
-    errors: ErrorSummary
-    ate_rmse: float
-    ate_count: int
-
-    @classmethod
-    def of(cls, entries: Sequence[ModelErrors]) -> PooledErrors:
-        """Pool one model's entries of several logs."""
-        count = sum(e.ate.count for e in entries)
-        square = sum(e.ate.count * e.ate.rmse**2 for e in entries)
-        return cls(
-            summarize([e.windows for e in entries if e.windows is not None]),
-            math.sqrt(square / count) if count else math.nan,
-            count,
-        )
-
-    def to_dict(self) -> dict[str, Any]:
-        """Return the model's ``pooled`` entry of ``evaluation.json``."""
-        rmse = None if math.isnan(self.ate_rmse) else self.ate_rmse
-        return {
-            **self.errors.to_dict(),
-            "ate_dead_reckoning": {"rmse_m": rmse, "count": self.ate_count},
-        }
-
-
-@dataclass(frozen=True)
-class BatchEvaluation:
-    """What :func:`evaluate_logs` computed (and wrote as ``evaluation.json``, ``evaluation.md``).
-
-    Attributes
-    ----------
-    logs : tuple of EvaluationResult
-        Each log's evaluation, in the order given.
-    pooled : dict of str to PooledErrors
-        Per model, the errors of all the logs together.
-    outputs : tuple of Path
-        Files written (empty without ``out``).
-    """
-
-    logs: tuple[EvaluationResult, ...]
-    pooled: dict[str, PooledErrors]
-    outputs: tuple[Path, ...] = ()
-
-    @property
-    def horizon(self) -> float:
-        """Evaluation horizon ``h_e``, m."""
-        return self.logs[0].horizon
-
-    def to_dict(self) -> dict[str, Any]:
-        """Return the content of ``evaluation.json``: per log as :func:`evaluate`'s, and pooled."""
-        header = report_header("evaluate")
-        return {
-            **header,
-            "horizon_m": self.horizon,
-            "logs": [{k: v for k, v in r.to_dict().items() if k not in header} for r in self.logs],
-            "pooled": {
-                "logs": len(self.logs),
-                "windows": sum(r.windows for r in self.logs),
-                "models": {name: p.to_dict() for name, p in self.pooled.items()},
-            },
-        }
-
-    def markdown(self) -> str:
-        """Return the table of ``evaluation.md``: one row per log and model, then the pooled rows."""
-        rows = []
-        for r in self.logs:
-            for name, entry in r.models.items():
-                rows.append([r.log.name, name, r.windows, *format_error_stats(entry.errors)])
-                rows[-1].append(entry.ate.rmse)
-        for name, pooled in self.pooled.items():
-            windows = pooled.errors.translation.count
-            rows.append([f"all {len(self.logs)} logs", name, windows])
-            rows[-1] += [*format_error_stats(pooled.errors), pooled.ate_rmse]
-        head = ["log", "model", "windows", "m/m median [q25-q75]", "deg/m median [q25-q75]"]
-        notes = "".join(
-            f"- {r.log.name}: windows {WINDOW_KINDS[r.anchor]}\n"
-            for r in self.logs
-            if r.anchor != "pose"
-        )
-        return (
-            f"Model-odometry error per metre over h_e = {self.horizon:g} m windows, "
-            "and dead-reckoning ATE\n\n"
-            + table([*head, "ATE DR (m)"], rows)
-            + "\n"
-            + (f"\n{notes}" if notes else "")
-        )
-
-
 def evaluate_logs(
     wheels: Sequence[str | Path],
     *,
     config: Config | None = None,
     config_path: str | Path | None = None,
+    edits: ConfigEdits | None = None,
+    imported_config: str | Path | None = None,
     params: Sequence[str | Path] | None = None,
     horizon: float | None = None,
-    out: str | Path | None = None,
+    out_dir: str | Path | None = None,
     dask: str | None = None,
 ) -> BatchEvaluation:
     """Evaluate the nominal model and parameter files on many logs: per log and pooled.
@@ -638,9 +450,9 @@ def evaluate_logs(
     ----------
     wheels : sequence of str or Path
         Wheel logs with pose measurements (a log with no window is an error).
-    config, config_path, params, horizon
+    config, config_path, edits, imported_config, params, horizon
         As for :func:`evaluate`, the same for every log.
-    out : str or Path, optional
+    out_dir : str or Path, optional
         Folder (created) to write ``evaluation.json`` and ``evaluation.md``
         into; ``InputFileError`` before anything is read if one is an input.
     dask : str, optional
@@ -655,15 +467,15 @@ def evaluate_logs(
     """
     if not wheels:
         raise InputFileError("no wheel log given")
-    targets = [] if out is None else [Path(out) / EVALUATION_JSON, Path(out) / EVALUATION_MD]
+    targets = [] if out_dir is None else [Path(out_dir) / name for name in BATCH_FILES]
     check_outputs([*wheels, config_path, *(params or [])], targets)
-    cfg = config if config is not None else load_config(config_path)
+    chosen = choose_config(config, config_path, edits=edits, imported=imported_config)
     with dask_cluster(dask) as cluster:
         results = run_jobs(
             _evaluate_log,
             [str(path) for path in wheels],
             cluster,
-            cfg=cfg,
+            config=chosen.config,
             params=[str(path) for path in params or []],
             horizon=horizon,
         )
@@ -671,9 +483,9 @@ def evaluate_logs(
         name: PooledErrors.of([r.models[name] for r in results]) for name in results[0].models
     }
     batch = BatchEvaluation(tuple(results), pooled)
-    if out is None:
+    if out_dir is None:
         return batch
-    Path(out).mkdir(parents=True, exist_ok=True)
+    Path(out_dir).mkdir(parents=True, exist_ok=True)
     write_json(targets[0], batch.to_dict())
     write_text_atomic(targets[1], batch.markdown())
     return dataclasses.replace(batch, outputs=tuple(targets))

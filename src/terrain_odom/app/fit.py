@@ -19,20 +19,17 @@ import numpy as np
 
 from terrain_odom import __version__
 from terrain_odom.app.cluster import dask_cluster, run_jobs
+from terrain_odom.app.inputs import LogSource, choose_config, read_pose_logs
 from terrain_odom.app.locate import check_out, create_folder, output_file, writing_into
-from terrain_odom.app.run import calibrate_log
-from terrain_odom.config import Config, load_config
-from terrain_odom.errors import ConfigError, InputFileError
+from terrain_odom.app.model_fits import evaluate_params, fit_sets, group_errors
+from terrain_odom.config import Config
+from terrain_odom.errors import ConfigError
 from terrain_odom.estimation.time_offset import TimeCalibration
 from terrain_odom.evaluation import (
     ErrorSummary,
     WindowErrors,
-    Windows,
-    anchored_window_errors,
     antenna_of,
     log_anchor,
-    model_twist,
-    spatial_windows,
     summarize,
 )
 from terrain_odom.fitting import (
@@ -40,13 +37,9 @@ from terrain_odom.fitting import (
     FitOptions,
     FitResult,
     Horizon,
-    fit_model,
     parse_horizon,
-    segment_set,
-    training_windows,
 )
 from terrain_odom.fitting.params import ANY_TERRAIN, ModelParams, ParamSet, derived_quantities
-from terrain_odom.io import read_wheel_log
 from terrain_odom.io.atomic import write_atomic, write_text_atomic
 from terrain_odom.io.folder import writing_if
 from terrain_odom.io.params import write_params
@@ -55,29 +48,24 @@ from terrain_odom.io.report import write_json
 from terrain_odom.kinematics import MODELS, get_model
 from terrain_odom.records import WheelLog
 from terrain_odom.reporting.figure import save_png
-from terrain_odom.reporting.markdown import table
 from terrain_odom.reporting.model_errors import error_boxes_figure, error_values
+from terrain_odom.reporting.tables import compare_markdown, format_params
 
 __all__ = [
-    "LogSource",
     "FitEvaluation",
     "FitReport",
     "ModelComparison",
     "CompareReport",
     "fit",
-    "evaluate_params",
     "compare",
     "params_file_name",
     "YAML_SUFFIXES",
 ]
 
-LogSource = str | Path | WheelLog
-"""A wheel-log CSV path, or an already loaded :class:`WheelLog`."""
-
 COMPARE_FILES = ("compare.md", "compare.json", "compare.png")
 """Files :func:`compare` writes into its ``out_dir`` (besides ``params_MODEL.yaml``)."""
 YAML_SUFFIXES = (".yaml", ".yml")
-"""Suffixes by which :func:`fit`'s ``out`` names the parameter file itself (the old form)."""
+"""Suffixes by which :func:`fit`'s ``out_dir`` names the parameter file itself (the old form)."""
 
 
 def params_file_name(model: str) -> str:
@@ -85,7 +73,9 @@ def params_file_name(model: str) -> str:
     return f"params_{model}.yaml"
 
 
-ALL = "all"  # group name of evaluation windows when fits are not per terrain
+def group_name(group: str) -> str:
+    """Return how reports name a group of windows: its terrain, or ``all`` for :data:`ANY_TERRAIN`."""
+    return "all" if group == ANY_TERRAIN else group
 
 
 @dataclass(frozen=True)
@@ -99,7 +89,8 @@ class FitEvaluation:
     logs : tuple of str
         The evaluation logs (their ``source``).
     groups : dict of str to dict of str to ErrorSummary
-        Per group (terrain or ``"all"``), per model name: pooled error statistics.
+        Per group (terrain, or ``ANY_TERRAIN`` without per-terrain sets), per
+        model name: pooled error statistics.
     """
 
     horizon: float
@@ -112,7 +103,7 @@ class FitEvaluation:
             "horizon_m": self.horizon,
             "logs": list(self.logs),
             "groups": {
-                g: {name: s.to_dict() for name, s in models.items()}
+                group_name(g): {name: s.to_dict() for name, s in models.items()}
                 for g, models in self.groups.items()
             },
         }
@@ -132,12 +123,12 @@ class FitReport:
         Terrains left out because no training segment lies on them.
     evaluation : FitEvaluation or None
         With evaluation logs: error statistics of the fitted model and of the
-        ideal differential drive, per group (terrain or ``"all"``).
+        ideal differential drive, per group (terrain or ``ANY_TERRAIN``).
     time_calibration : dict of str to TimeCalibration
         Per log (its ``source``): the pose delay applied (see
         ``config.time.pose_delay``).
     output : Path or None
-        The parameter file written (None without ``out``).
+        The parameter file written (None without ``out_dir``).
     """
 
     params: ModelParams
@@ -164,7 +155,7 @@ class ModelComparison:
     skipped : tuple of str
         Terrains left out because no training segment lies on them.
     errors : dict of str to ErrorSummary
-        Held-out error statistics per group (terrain or ``"all"``).
+        Held-out error statistics per group (terrain or ``ANY_TERRAIN``).
     """
 
     params: ModelParams
@@ -181,7 +172,7 @@ class ModelComparison:
                 for k, v in mp.sets.items()
             },
             "skipped_terrains": list(self.skipped),
-            "errors": {g: e.to_dict() for g, e in self.errors.items()},
+            "errors": {group_name(g): e.to_dict() for g, e in self.errors.items()},
         }
 
 
@@ -250,29 +241,6 @@ def _recorded_delay(timing: dict[str, TimeCalibration]) -> float | dict[str, flo
     return values.pop() if len(values) == 1 else delays
 
 
-def _load(
-    sources: Sequence[LogSource], cfg: Config, role: str, timing: dict[str, TimeCalibration]
-) -> list[WheelLog]:
-    """Read the logs and apply ``cfg.time.pose_delay`` to each; record it in ``timing``."""
-    logs = []
-    for src in sources:
-        log = (
-            src
-            if isinstance(src, WheelLog)
-            else read_wheel_log(src, wheel_radius=cfg.robot.wheel_radius)
-        )
-        if not np.isfinite(log.pose).any():
-            raise InputFileError(
-                f"{log.source}: no pose measurements (x, y or yaw); a {role} log needs them"
-            )
-        log, calibration = calibrate_log(log, cfg)
-        timing[log.source] = calibration
-        logs.append(log)
-    if not logs:
-        raise InputFileError(f"no {role} log given")
-    return logs
-
-
 def _horizon(value: str | float | Horizon) -> Horizon:
     if isinstance(value, Horizon):
         return value
@@ -280,136 +248,6 @@ def _horizon(value: str | float | Horizon) -> Horizon:
         return parse_horizon(value)
     except ValueError as exc:
         raise ConfigError(str(exc)) from None
-
-
-def _terrains(logs: Sequence[WheelLog]) -> list[str]:
-    columns = []
-    for log in logs:
-        if log.terrain is None:
-            raise InputFileError(f"{log.source}: no terrain column; --by-terrain needs one")
-        columns.append(log.terrain)
-    return sorted({str(x) for column in columns for x in np.unique(column)})
-
-
-def _fit_sets(
-    model: str,
-    logs: Sequence[WheelLog],
-    horizon: Horizon,
-    by_terrain: bool,
-    options: FitOptions,
-    track_width: float,
-    antenna: tuple[float, float] = (0.0, 0.0),
-) -> tuple[dict[str, ParamSet], dict[str, FitResult], tuple[str, ...]]:
-    """Fit one set (``ANY_TERRAIN``) or one per terrain.
-
-    Each log's segments run between its full poses, else between its
-    position fixes, else between its heading rows (:func:`~terrain_odom.evaluation.log_anchor`).
-    """
-    groups = _terrains(logs) if by_terrain else [None]
-    anchors = [log_anchor(log) for log in logs]
-    sets: dict[str, ParamSet] = {}
-    fits: dict[str, FitResult] = {}
-    skipped = []
-    for terrain in groups:
-        windows = [
-            training_windows(log, horizon, terrain, a) for log, a in zip(logs, anchors, strict=True)
-        ]
-        segments = segment_set(logs, windows, anchor=anchors, antenna=antenna)
-        if segments.count == 0:
-            skipped.append(str(terrain))
-            continue
-        result = fit_model(model, segments, options=options, track_width=track_width)
-        key = ANY_TERRAIN if terrain is None else terrain
-        sets[key] = ParamSet(
-            result.as_dict(),
-            {
-                "loss": result.loss,
-                "segments": result.segments,
-                "length_m": result.length,
-                "duration_s": result.duration,
-                "seconds": result.seconds,
-            },
-            result.at_bounds,
-        )
-        fits[key] = result
-    if not sets:
-        where = "" if not by_terrain else " on any terrain"
-        raise InputFileError(
-            f"no training segment of {horizon}{where} in "
-            f"{', '.join(log.source for log in logs)} (pose measurements never that far apart "
-            f"within a segment; fixes or headings alone: as far as the wheels say); use a "
-            "shorter --horizon"
-        )
-    return sets, fits, tuple(skipped)
-
-
-def _group_errors(
-    mp: ModelParams,
-    logs: Sequence[WheelLog],
-    h_e: float,
-    track_width: float,
-    antenna: tuple[float, float] = (0.0, 0.0),
-) -> dict[str, list[WindowErrors]]:
-    """Window errors of a model on evaluation logs, grouped by start-row terrain."""
-    model = get_model(mp.model)
-    groups: dict[str, list[WindowErrors]] = {}
-    for log in logs:
-        anchor = log_anchor(log)
-        windows = spatial_windows(log, h_e, anchor=anchor)
-        if len(windows) == 0:
-            continue
-        values = mp.rows(log)  # per-terrain sets need (and check) the terrain column
-        labels = np.asarray(log.terrain) if mp.per_terrain else np.full(len(log), ALL)
-        b = mp.track_width or track_width
-        twist = model_twist(model, values[windows.start], b)
-        errors = anchored_window_errors(log, windows, twist, anchor=anchor, antenna=antenna)
-        start_labels = labels[windows.start]
-        for label in np.unique(start_labels):
-            keep = np.flatnonzero(start_labels == label)
-            groups.setdefault(str(label), []).append(_subset(errors, keep))
-    return groups
-
-
-def _subset(errors: WindowErrors, keep: np.ndarray) -> WindowErrors:
-    w = errors.windows
-    return WindowErrors(
-        windows=Windows(start=w.start[keep], end=w.end[keep], length=w.length[keep]),
-        predicted=errors.predicted[keep],
-        translation=errors.translation[keep],
-        rotation=errors.rotation[keep],
-    )
-
-
-def evaluate_params(
-    mp: ModelParams,
-    logs: Sequence[WheelLog],
-    h_e: float,
-    track_width: float,
-    antenna: tuple[float, float] = (0.0, 0.0),
-) -> dict[str, ErrorSummary]:
-    """Error statistics of a fitted model on evaluation logs, per terrain (or ``"all"``).
-
-    Parameters
-    ----------
-    mp : ModelParams
-        The model; per-terrain sets are applied to the windows starting on
-        their terrain.
-    logs : sequence of WheelLog
-        Evaluation logs.
-    h_e : float
-        Evaluation horizon, m.
-    track_width : float
-        Nominal ``B``, m (when ``mp`` has none).
-    antenna : tuple of 2 floats, optional
-        Where the position sensor is, m (logs of GPS fixes, :func:`~terrain_odom.evaluation.antenna_of`).
-
-    Returns
-    -------
-    dict of str to ErrorSummary
-        Pooled over the logs, per group.
-    """
-    groups = _group_errors(mp, logs, h_e, track_width, antenna)
-    return {k: summarize(v) for k, v in groups.items()}
 
 
 def _idd(mp: ModelParams, track_width: float) -> ModelParams:
@@ -421,7 +259,7 @@ def fit(
     logs: Sequence[LogSource],
     model: str,
     *,
-    out: str | Path | None = None,
+    out_dir: str | Path | None = None,
     horizon: str | float | Horizon = DEFAULT_TRAINING_HORIZON,
     eval_logs: Sequence[LogSource] = (),
     by_terrain: bool = False,
@@ -438,7 +276,7 @@ def fit(
         (so it does not matter how a run is split into files at segment breaks).
     model : str
         A name from :data:`terrain_odom.kinematics.MODELS`.
-    out : str or Path, optional
+    out_dir : str or Path, optional
         Folder (created) to write the parameter file ``params_<model>.yaml``
         into (YAML, see :mod:`terrain_odom.io.params`); a name ending in
         ``.yaml`` or ``.yml`` is the file itself (the old form).
@@ -465,20 +303,22 @@ def fit(
         m = get_model(model)
     except ValueError as exc:
         raise ConfigError(str(exc)) from None
-    target = None if out is None else output_file(out, params_file_name(m.name), YAML_SUFFIXES)
-    if out is not None and target is not None:
-        check_out(out, YAML_SUFFIXES)
+    target = (
+        None if out_dir is None else output_file(out_dir, params_file_name(m.name), YAML_SUFFIXES)
+    )
+    if out_dir is not None and target is not None:
+        check_out(out_dir, YAML_SUFFIXES)
         check_outputs(_paths(logs, eval_logs, config_path), [target])
-    cfg = config if config is not None else load_config(config_path)
+    config = choose_config(config, config_path).config
     h_t = _horizon(horizon)
     timing: dict[str, TimeCalibration] = {}
-    train = _load(logs, cfg, "training", timing)
-    evals = _load(eval_logs, cfg, "evaluation", timing) if eval_logs else []
+    train = read_pose_logs(logs, config, "training", timing)
+    evals = read_pose_logs(eval_logs, config, "evaluation", timing) if eval_logs else []
     opt = options or FitOptions()
-    b = cfg.robot.track_width
-    sets, fits, skipped = _fit_sets(m.name, train, h_t, by_terrain, opt, b, antenna_of(cfg))
+    b = config.robot.track_width
+    sets, fits, skipped = fit_sets(m.name, train, h_t, by_terrain, opt, b, antenna_of(config))
     info: dict[str, Any] = {
-        "wheel_radius": cfg.robot.wheel_radius,
+        "wheel_radius": config.robot.wheel_radius,
         "pose_delay": _recorded_delay(timing),
         "horizon": str(h_t),
         "sigma": None if opt.sigma is None else np.asarray(opt.sigma, dtype=float).tolist(),
@@ -490,54 +330,27 @@ def fit(
     if set(anchors.values()) != {"pose"}:  # a GPS and an IMU: say what the segments ran between
         info["segments_between"] = anchors
     mp = ModelParams(m.name, sets, b, info)
-    evaluation = _evaluate_fit(mp, evals, cfg, b) if evals else None
+    evaluation = _evaluate_fit(mp, evals, config, b) if evals else None
     if evaluation is not None:
         mp = ModelParams(m.name, sets, b, {**info, "evaluation": evaluation.to_dict()})
-    if out is not None and target is not None:
-        create_folder(out, YAML_SUFFIXES)
-        with writing_into(out, target, "fit", [target.name], YAML_SUFFIXES):
+    if out_dir is not None and target is not None:
+        create_folder(out_dir, YAML_SUFFIXES)
+        with writing_into(out_dir, target, "fit", [target.name], YAML_SUFFIXES):
             write_params(target, mp)
     return FitReport(mp, fits, skipped, evaluation, timing, target)
 
 
 def _evaluate_fit(
-    mp: ModelParams, evals: Sequence[WheelLog], cfg: Config, b: float
+    mp: ModelParams, evals: Sequence[WheelLog], config: Config, b: float
 ) -> FitEvaluation:
     """Held-out errors of the fitted model and of the ideal differential drive (``B = b``, m)."""
-    h_e, antenna = cfg.evaluation.horizon, antenna_of(cfg)
+    h_e, antenna = config.evaluation.horizon, antenna_of(config)
     fitted = evaluate_params(mp, evals, h_e, b, antenna)
     ideal = evaluate_params(_idd(mp, b), evals, h_e, b, antenna)
     return FitEvaluation(
         horizon=h_e,
         logs=tuple(log.source for log in evals),
         groups={g: {mp.model: fitted[g], f"idd (B={b:g} m)": ideal[g]} for g in fitted},
-    )
-
-
-def format_error_stats(s: ErrorSummary) -> tuple[str, str]:
-    """Return the per-metre errors as ``median [q25-q75]`` texts: m/m, deg/m (n/a: no window)."""
-    t, r = s.translation, s.rotation
-    if t.count == 0:
-        return "n/a", "n/a"
-    return (
-        f"{t.median:.4f} [{t.q25:.3f}-{t.q75:.3f}]",
-        f"{r.median:.3f} [{r.q25:.2f}-{r.q75:.2f}]",
-    )
-
-
-BOUND_MARK = "!"
-"""Marks a parameter at or within 1 % of a search bound in the compare tables."""
-
-
-def _fmt_params(model: str, ps: ParamSet, track_width: float) -> str:
-    values = {**ps.params, **derived_quantities(model, ps.params, track_width)}
-    short = {"steering_efficiency": "c", "eccentricity": "e"}
-    return (
-        ", ".join(
-            f"{short.get(k, k)}={v:.3f}{BOUND_MARK if k in ps.at_bounds else ''}"
-            for k, v in values.items()
-        )
-        or "-"
     )
 
 
@@ -611,14 +424,14 @@ def _compare(
     dask: str | None,
 ) -> tuple[CompareReport, dict[str, dict[str, list[WindowErrors]]]]:
     """Fit and evaluate the models of :func:`compare`: the report and the raw window errors."""
-    cfg = config if config is not None else load_config(config_path)
+    config = choose_config(config, config_path).config
     h_t = _horizon(horizon)
     timing: dict[str, TimeCalibration] = {}
-    train = _load(logs, cfg, "training", timing)
-    evals = _load(eval_logs, cfg, "evaluation", timing)
+    train = read_pose_logs(logs, config, "training", timing)
+    evals = read_pose_logs(eval_logs, config, "evaluation", timing)
     opt = options or FitOptions()
-    b = cfg.robot.track_width
-    h_e = cfg.evaluation.horizon
+    b = config.robot.track_width
+    h_e = config.evaluation.horizon
     with dask_cluster(dask) as cluster:
         compared = run_jobs(
             _compare_model,
@@ -629,7 +442,7 @@ def _compare(
             horizon=h_t,
             by_terrain=by_terrain,
             options=opt,
-            cfg=cfg,
+            config=config,
         )
     results = {name: result for name, (result, _) in zip(names, compared, strict=True)}
     raw_errors = {name: raw for name, (_, raw) in zip(names, compared, strict=True)}
@@ -672,15 +485,15 @@ def _compare_model(
     horizon: Horizon,
     by_terrain: bool,
     options: FitOptions,
-    cfg: Config,
+    config: Config,
 ) -> tuple[ModelComparison, dict[str, list[WindowErrors]]]:
     """Fit one model of :func:`compare` and its held-out window errors per group (a joblib task)."""
-    b = cfg.robot.track_width
-    sets, _, skipped = _fit_sets(name, train, horizon, by_terrain, options, b, antenna_of(cfg))
+    b = config.robot.track_width
+    sets, _, skipped = fit_sets(name, train, horizon, by_terrain, options, b, antenna_of(config))
     mp = ModelParams(
-        name, sets, b, {"wheel_radius": cfg.robot.wheel_radius, "horizon": str(horizon)}
+        name, sets, b, {"wheel_radius": config.robot.wheel_radius, "horizon": str(horizon)}
     )
-    raw = _group_errors(mp, evals, cfg.evaluation.horizon, b, antenna_of(cfg))
+    raw = group_errors(mp, evals, config.evaluation.horizon, b, antenna_of(config))
     errors = {g: summarize(e) for g, e in raw.items()}
     return ModelComparison(mp, skipped, errors), raw
 
@@ -688,31 +501,25 @@ def _compare_model(
 def _markdown(
     results: dict[str, ModelComparison], track_width: float, h_t: Horizon, h_e: float
 ) -> str:
+    """Return ``compare.md`` (:func:`~terrain_odom.reporting.tables.compare_markdown`)."""
     groups = sorted({g for r in results.values() for g in r.params.sets})
     head = [g if g != ANY_TERRAIN else "all training logs" for g in groups]
     param_rows = []
     for name, result in results.items():
-        sets = result.params.sets
-        cells = [_fmt_params(name, sets[g], track_width) if g in sets else "-" for g in groups]
+        mp = result.params
+        cells = [
+            format_params({**ps.params, **derived_quantities(name, ps.params, track_width)},
+                          ps.at_bounds)
+            if (ps := mp.sets.get(g)) is not None else "-"
+            for g in groups
+        ]  # fmt: skip
         if name == "idd":
             cells = [f"B={track_width:g} m (not fitted)"] * len(groups)
         param_rows.append([name, *cells])
     error_rows = []
     for name, result in results.items():
         for g, summary in sorted(result.errors.items()):
-            t, r = format_error_stats(summary)
             ps = result.params.sets.get(g, result.params.sets.get(ANY_TERRAIN))
             fit_s = 0.0 if ps is None else ps.fit.get("seconds", 0.0)
-            error_rows.append([name, g, summary.translation.count, t, r, f"{fit_s:.1f}"])
-    lines = [
-        f"Parameters per model and terrain (trained on h_t = {h_t} segments; "
-        f"c = (y_l - y_r) / B with B = {track_width:g} m, e = eccentricity; "
-        f"{BOUND_MARK}: at or within 1 % of a search bound)",
-        "",
-        table(["model", *head], param_rows),
-        "",
-        f"Held-out error per metre over h_e = {h_e:g} m windows: median [q25-q75]",
-        "",
-        table(["model", "terrain", "windows", "m/m", "deg/m", "fit (s)"], error_rows),
-    ]
-    return "\n".join(lines) + "\n"
+            error_rows.append((name, group_name(g), summary, fit_s))
+    return compare_markdown(head, param_rows, error_rows, track_width, str(h_t), h_e)

@@ -44,8 +44,8 @@ import cv2
 import numpy as np
 
 from terrain_odom.app.frames import read_frame
-from terrain_odom.app.run import images_config, read_calibrated_log
-from terrain_odom.config import Config, config_to_dict, load_config
+from terrain_odom.app.inputs import Chosen, ConfigEdits, choose_config, read_calibrated_log
+from terrain_odom.config import Config, config_to_dict
 from terrain_odom.errors import ConfigError, InputFileError
 from terrain_odom.estimation.odometry import run_icr_ekf
 from terrain_odom.estimation.terrain import Odometer
@@ -170,7 +170,7 @@ class PatchesResult:
 
     Attributes
     ----------
-    out : Path
+    out_dir : Path
         The training folder.
     patches_json : Path
         Its ``patches.json``.
@@ -186,9 +186,12 @@ class PatchesResult:
         Wall time, s.
     total : dict of str to int
         Patches per label in the folder (with ``append``, the earlier ones too).
+    config : Chosen or None
+        The configuration file read, and how it was chosen
+        (:func:`~terrain_odom.app.inputs.choose_config`).
     """
 
-    out: Path
+    out_dir: Path
     patches_json: Path
     counts: dict[str, int]
     skipped: dict[str, int]
@@ -196,6 +199,7 @@ class PatchesResult:
     label_source: str
     seconds: float
     total: dict[str, int] = field(default_factory=dict)
+    config: Chosen | None = None
 
 
 class _Labels:
@@ -260,12 +264,12 @@ class _Patch:
 
 
 def _plan(
-    frames: FrameList, log: WheelLog, cfg: Config, labels: _Labels, skipped: dict[str, int]
+    frames: FrameList, log: WheelLog, config: Config, labels: _Labels, skipped: dict[str, int]
 ) -> list[_Patch]:
     """Place every frame's region and label it; count the frames skipped."""
-    result = run_icr_ekf(log, cfg, labels=labels.rows())
+    result = run_icr_ekf(log, config, labels=labels.rows())
     odometer = Odometer(log, result.states)
-    camera = GroundCamera(cfg.camera)
+    camera = GroundCamera(config.camera)
     plan = []
     for index, t in enumerate(map(float, frames.t)):
         if t < log.t[0] or t > log.t[-1]:
@@ -275,7 +279,7 @@ def _plan(
             continue
         row = int(np.searchsorted(log.t, t, side="right")) - 1
         roi = region_of_interest(
-            camera, cfg.roi, log.v_l[row], log.v_r[row], result.states[row, 3:]
+            camera, config.roi, log.v_l[row], log.v_r[row], result.states[row, 3:]
         )
         if roi.status is not RoiStatus.INSIDE or roi.box is None:
             _skip(skipped, f"roi_{roi.status.value}")
@@ -305,24 +309,24 @@ class _Previous:
     files: frozenset[str]  # relative to the folder
 
 
-def _previous(out: Path, overwrite: bool, append: bool) -> _Previous:
-    """Read the patches already in ``out``; refuse them unless ``overwrite`` or ``append``.
+def _previous(out_dir: Path, overwrite: bool, append: bool) -> _Previous:
+    """Read the patches already in ``out_dir``; refuse them unless ``overwrite`` or ``append``.
 
     Raises
     ------
     InputFileError
-        ``out/patches.json`` exists and neither option is given, or it is not
+        ``out_dir/patches.json`` exists and neither option is given, or it is not
         one that ``patches`` wrote.
     ConfigError
         Both options.
     """
     if overwrite and append:
         raise ConfigError("--overwrite and --append exclude each other")
-    report = out / PATCHES_JSON
+    report = out_dir / PATCHES_JSON
     if not report.is_file():
         return _Previous([], [], frozenset())
     if not (overwrite or append):
-        raise InputFileError(_already(out))
+        raise InputFileError(_already(out_dir))
     try:
         data = json.loads(report.read_text(encoding="utf-8"))
         files = frozenset(str(entry["file"]) for entry in data["patches"])
@@ -332,15 +336,15 @@ def _previous(out: Path, overwrite: bool, append: bool) -> _Previous:
     return previous
 
 
-def _already(out: Path) -> str:
+def _already(out_dir: Path) -> str:
     return (
-        f"{out}: holds patches already ({PATCHES_JSON}); --append adds this recording's, "
+        f"{out_dir}: holds patches already ({PATCHES_JSON}); --append adds this recording's, "
         "--overwrite replaces them, or choose another --out"
     )
 
 
 def _names(
-    plan: list[_Patch], frames: FrameList, out: Path, previous: _Previous, append: bool
+    plan: list[_Patch], frames: FrameList, out_dir: Path, previous: _Previous, append: bool
 ) -> list[str]:
     """Name each patch ``label/<frame stem>.png`` (``-2``, ``-3`` ... where that is taken).
 
@@ -353,7 +357,7 @@ def _names(
     for patch in plan:
         stem, n = frames.files[patch.index].stem, 1
         name = f"{patch.label}/{stem}.png"
-        while name in taken or (name not in listed and (out / name).exists()):
+        while name in taken or (name not in listed and (out_dir / name).exists()):
             n += 1
             name = f"{patch.label}/{stem}-{n}.png"
         taken.add(name)
@@ -429,12 +433,13 @@ def _counts(entries: list[dict[str, Any]]) -> dict[str, int]:
 def make_patches(
     images: str | Path,
     wheels: str | Path,
-    out: str | Path,
+    out_dir: str | Path,
     *,
     label: str | None = None,
     intervals: str | Path | None = None,
     config: Config | None = None,
     config_path: str | Path | None = None,
+    edits: ConfigEdits | None = None,
     overwrite: bool = False,
     append: bool = False,
 ) -> PatchesResult:
@@ -446,8 +451,8 @@ def make_patches(
         Folder of camera frames (:mod:`terrain_odom.io.frames`).
     wheels : str or Path
         The wheel log; read and delayed as ``run`` reads it
-        (:func:`~terrain_odom.app.run.read_calibrated_log`).
-    out : str or Path
+        (:func:`~terrain_odom.app.inputs.read_calibrated_log`).
+    out_dir : str or Path
         Training folder (created): ``<label>/<frame stem>.png`` and
         ``patches.json``, locked and recorded in its manifest
         (:mod:`terrain_odom.io.folder`). Refused if it holds patches
@@ -460,7 +465,10 @@ def make_patches(
     config, config_path : optional
         Configuration (camera, region of interest, robot, filter); loaded from
         ``config_path``, else ``images/config.yaml`` if it exists, else the
-        built-in defaults.
+        built-in defaults (:func:`~terrain_odom.app.inputs.choose_config`).
+    edits : ConfigEdits, optional
+        The command line's changes to a configuration file's values
+        (``--horizon``: ``roi_horizon``).
     overwrite : bool
         Replace the patches already in ``out`` (those its manifest records as
         written by ``patches``; every other file is kept).
@@ -486,19 +494,12 @@ def make_patches(
     started = time.perf_counter()
     if label is not None and intervals is not None:
         raise ConfigError("--label and --labels exclude each other")
-    with writing(out, "patches") as folder:  # locked; never a file patches did not write
+    chosen = choose_config(config, config_path, edits=edits, images=images)
+    with writing(out_dir, "patches") as folder:  # locked; never a file patches did not write
         return _make_patches(
-            images,
-            wheels,
-            folder,
-            label,
-            intervals,
-            config,
-            config_path,
-            overwrite,
-            append,
-            started,
-        )
+            images, wheels, folder, label, intervals, chosen.config, chosen.file, overwrite,
+            append, started,
+        )  # fmt: skip
 
 
 def _make_patches(
@@ -507,18 +508,16 @@ def _make_patches(
     folder: OutputFolder,
     label: str | None,
     intervals: str | Path | None,
-    config: Config | None,
-    config_path: str | Path | None,
+    config: Config,
+    config_file: Chosen,
     overwrite: bool,
     append: bool,
     started: float,
 ) -> PatchesResult:
-    """:func:`make_patches` into the locked ``folder``."""
+    """:func:`make_patches` into the locked ``folder`` with ``config`` (read from ``config_file``)."""
     root = folder.path
     previous = _previous(root, overwrite, append)
-    if config is None:
-        config_path = config_path if config_path is not None else images_config(images)
-        config = load_config(config_path)
+    config_path = config_file.path
     spans = None if intervals is None else read_intervals(intervals)
     log, _ = read_calibrated_log(wheels, config)
     labels = _Labels(log, label, spans)
@@ -565,11 +564,12 @@ def _make_patches(
         labels.source,
         seconds,
         total=total,
+        config=config_file,
     )
 
 
 def _write_report(
-    out: Path, kept: _Previous, recording: dict[str, Any], written: list[dict[str, Any]]
+    out_dir: Path, kept: _Previous, recording: dict[str, Any], written: list[dict[str, Any]]
 ) -> dict[str, int]:
     """Write ``patches.json``: the kept patches and this recording's; return the counts."""
     number = len(kept.recordings)
@@ -581,5 +581,5 @@ def _write_report(
         "recordings": [*kept.recordings, recording],
         "patches": patches,
     }
-    write_json(out / PATCHES_JSON, report)
+    write_json(out_dir / PATCHES_JSON, report)
     return total

@@ -14,9 +14,9 @@ from terrain_odom.cli.options import (
     add_log_options,
     add_out_option,
     add_wheels_option,
+    config_edits,
     find_input,
     horizon_option,
-    load_config_option,
     print_pose_delay,
     print_pose_delays,
     print_written,
@@ -24,7 +24,7 @@ from terrain_odom.cli.options import (
 )
 
 if TYPE_CHECKING:
-    from terrain_odom.app.evaluate import EvaluationResult, ModelErrors
+    from terrain_odom.app.evaluation_results import EvaluationResult, ModelErrors
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -151,13 +151,6 @@ def outage_durations(values: list[str] | None) -> list[float] | None:
     return sorted(set(durations))
 
 
-def _run_config(args: argparse.Namespace) -> Path | None:
-    """Return the run's own ``config.yaml`` when ``--run`` is given without ``--config``."""
-    from terrain_odom.app.run import run_config
-
-    return run_config(args.run) if args.run is not None and args.config is None else None
-
-
 def _wheels(args: argparse.Namespace) -> tuple[list[str], str | None]:
     """Return ``--wheels``, or their imports (into OUT/bag/) and configuration if they are bags.
 
@@ -179,7 +172,8 @@ def _wheels(args: argparse.Namespace) -> tuple[list[str], str | None]:
 
 
 def _cmd_evaluate(args: argparse.Namespace) -> int:
-    from terrain_odom.app.evaluate import JSON_SUFFIXES, WINDOW_KINDS, evaluate
+    from terrain_odom.app.evaluate import JSON_SUFFIXES, evaluate
+    from terrain_odom.app.evaluation_results import WINDOW_KINDS
     from terrain_odom.errors import ConfigError
 
     horizon = horizon_option(args.horizon, durations=False)
@@ -193,11 +187,12 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
     result = evaluate(
         args.run,
         wheels[0],
-        config=load_config_option(args, _run_config(args) or bag_config),
         config_path=args.config,
+        edits=config_edits(args),
+        imported_config=bag_config,
         params=[find_input(p, "params_*.yaml", "parameter file") for p in args.params],
         horizon=None if horizon is None else horizon.value,
-        out=args.out,
+        out_dir=args.out,
         outage=outages,
     )
     print(f"{result.windows} windows of {result.horizon:g} m on {result.log}")
@@ -225,11 +220,12 @@ def _cmd_batch(args: argparse.Namespace, horizon: float | None) -> int:
     wheels, bag_config = _wheels(args)
     batch = evaluate_logs(
         wheels,
-        config=load_config_option(args, bag_config),
         config_path=args.config,
+        edits=config_edits(args),
+        imported_config=bag_config,
         params=[find_input(p, "params_*.yaml", "parameter file") for p in args.params],
         horizon=horizon,
-        out=args.out,
+        out_dir=args.out,
         dask=args.dask,
     )
     print_pose_delays({str(r.log): r.time_calibration for r in batch.logs})

@@ -37,9 +37,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def _print_sets(report: FitReport) -> None:
+    from terrain_odom.fitting.params import ANY_TERRAIN
+
     mp = report.params
     for terrain, ps in mp.sets.items():
-        where = "" if terrain == "*" else f" [{terrain}]"
+        where = "" if terrain == ANY_TERRAIN else f" [{terrain}]"
         values = ", ".join(f"{k}={v:.4f}" for k, v in ps.params.items()) or "(no parameter)"
         f = report.fits[terrain]
         print(
@@ -60,8 +62,11 @@ def _print_sets(report: FitReport) -> None:
 
 
 def _print_evaluation(ev: FitEvaluation) -> None:
+    from terrain_odom.app.fit import group_name
+
     print(f"held-out error per metre over h_e = {ev.horizon:g} m: median [q25-q75]")
-    for group, models in ev.groups.items():
+    for terrain, models in ev.groups.items():
+        group = group_name(terrain)
         for name, s in models.items():
             t, r = s.translation, s.rotation
             if t.count == 0:
@@ -95,7 +100,9 @@ def _cmd_fit(args: argparse.Namespace) -> int:
 
     warn_out_file(args.out, YAML_SUFFIXES)
     _logs_from_bags(args)
-    report = fit(args.wheels, args.model, out=args.out, eval_logs=args.eval, **fit_arguments(args))
+    report = fit(
+        args.wheels, args.model, out_dir=args.out, eval_logs=args.eval, **fit_arguments(args)
+    )
     print_pose_delays(report.time_calibration)
     _print_sets(report)
     if report.evaluation is not None:

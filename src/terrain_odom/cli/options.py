@@ -26,6 +26,7 @@ from typing import TYPE_CHECKING, Any, TypedDict, overload
 
 if TYPE_CHECKING:
     from terrain_odom.app.calibration import SensorCalibration
+    from terrain_odom.app.inputs import Chosen, ConfigEdits
     from terrain_odom.config import Config
     from terrain_odom.config.classifier import ClassifierConfig
     from terrain_odom.estimation.time_offset import TimeCalibration
@@ -232,6 +233,29 @@ def load_config_option(args: argparse.Namespace, path: str | Path | None = None)
     if getattr(args, "no_checks", False):
         cfg = dataclasses.replace(cfg, checks=ChecksConfig(enabled=False))
     return with_pose_delay(cfg, getattr(args, "pose_delay", None))
+
+
+def config_edits(args: argparse.Namespace, **edits: Any) -> ConfigEdits:
+    """Return ``--pose-delay`` and ``--no-checks`` (and ``edits``) as the app takes them.
+
+    The app chooses and loads the configuration file and applies them
+    (:func:`~terrain_odom.app.inputs.choose_config`).
+    """
+    from terrain_odom.app.inputs import ConfigEdits
+
+    return ConfigEdits(
+        pose_delay=getattr(args, "pose_delay", None),
+        checks=not getattr(args, "no_checks", False),
+        **edits,
+    )
+
+
+def print_config(chosen: Chosen | None) -> None:
+    """Print the configuration file the app found for the user (``--images``), if it did."""
+    from terrain_odom.app.inputs import IN_IMAGES
+
+    if chosen is not None and chosen.how == IN_IMAGES:
+        print(f"config:     {chosen.path} (found in the --images folder; --config to change)")
 
 
 def pose_delay_line(timing: TimeCalibration) -> str:

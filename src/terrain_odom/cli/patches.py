@@ -10,14 +10,15 @@ from terrain_odom.cli.options import (
     add_log_options,
     add_out_option,
     add_wheels_option,
+    config_edits,
     horizon_option,
-    load_config_option,
+    print_config,
     print_written,
 )
 
 if TYPE_CHECKING:
+    from terrain_odom.app.inputs import ConfigEdits
     from terrain_odom.app.patches import PatchesResult
-    from terrain_odom.config import Config
 
 _REASONS = {
     "before_first_wheel_sample": "before the first wheel sample",
@@ -84,45 +85,33 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=_cmd_patches)
 
 
-def _config(args: argparse.Namespace) -> tuple[Config, str | None]:
-    """Return the configuration (``--horizon`` applied) and its file."""
-    import dataclasses
-
-    from terrain_odom.app.run import images_config
+def _edits(args: argparse.Namespace) -> ConfigEdits:
+    """Return the command line's edits of the configuration: ``--horizon`` its ``roi.horizon``."""
     from terrain_odom.errors import ConfigError
 
-    path = args.config
-    if path is None:
-        found = images_config(args.images)
-        if found is not None:
-            path = str(found)
-            print(f"config:     {path} (found in the --images folder; --config to change)")
-    cfg = load_config_option(args, path)
     horizon = horizon_option(args.horizon, durations=True)
-    if horizon is not None:
-        if horizon.unit != "s":
-            raise ConfigError(
-                f"--horizon: the region is predicted a duration ahead, like 2s; got {args.horizon!r}"
-            )
-        cfg = dataclasses.replace(cfg, roi=dataclasses.replace(cfg.roi, horizon=horizon.value))
-    return cfg, path
+    if horizon is not None and horizon.unit != "s":
+        raise ConfigError(
+            f"--horizon: the region is predicted a duration ahead, like 2s; got {args.horizon!r}"
+        )
+    return config_edits(args, roi_horizon=None if horizon is None else horizon.value)
 
 
 def _cmd_patches(args: argparse.Namespace) -> int:
     from terrain_odom.app.patches import make_patches
 
-    cfg, path = _config(args)
     result = make_patches(
         args.images,
         args.wheels,
         args.out,
         label=args.label,
         intervals=args.labels,
-        config=cfg,
-        config_path=path,
+        config_path=args.config,
+        edits=_edits(args),
         overwrite=args.overwrite,
         append=args.append,
     )
+    print_config(result.config)
     _print_result(result)
     return 0
 
@@ -140,5 +129,5 @@ def _print_result(result: PatchesResult) -> None:
         print(f"{'skipped:' if i == 0 else '':<12}{n} {_REASONS[reason]} ({reason})")
     if result.total != result.counts:
         print(f"in --out:   {', '.join(f'{k} {v}' for k, v in result.total.items())}")
-    print_written("patches:", [result.out / label for label in result.total])
+    print_written("patches:", [result.out_dir / label for label in result.total])
     print_written("report:", [result.patches_json])

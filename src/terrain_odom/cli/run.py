@@ -12,17 +12,17 @@ from terrain_odom.cli.options import (
     add_option,
     add_out_option,
     add_wheels_option,
+    config_edits,
     find_input,
-    load_config_option,
     print_calibration,
+    print_config,
     print_pose_delay,
     print_written,
 )
 
 if TYPE_CHECKING:
-    from pathlib import Path
-
-    from terrain_odom.app.run import FrameCounts
+    from terrain_odom.app.run import RunOptions
+    from terrain_odom.reporting.run_report import FrameCounts
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -107,13 +107,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=_cmd_run)
 
 
-def _cmd_run(args: argparse.Namespace) -> int:
-    import dataclasses
-
-    from terrain_odom.app.record import require_rerun
-    from terrain_odom.app.run import TerrainSource, images_config, run
-    from terrain_odom.app.run_folder import check_folder
-    from terrain_odom.errors import ConfigError
+def _options(args: argparse.Namespace, bag_config: str | None) -> RunOptions:
+    """Return the run's options as given: nothing chosen here (the app says what it chose)."""
+    from terrain_odom.app.inputs import TerrainSource
+    from terrain_odom.app.run import RunOptions
 
     if args.no_terrain:
         source = TerrainSource.NONE
@@ -121,6 +118,30 @@ def _cmd_run(args: argparse.Namespace) -> int:
         source = TerrainSource.LOG
     else:
         source = TerrainSource.AUTO
+    return RunOptions(
+        config_path=args.config,
+        imported_config=bag_config,
+        edits=config_edits(args, reset_at=args.reset_at),
+        terrain=source,
+        images=args.images,
+        classifier_path=find_input(args.classifier, "*.npz", "classifier model"),
+        use_roi=not args.no_roi,
+        groundtruth=args.groundtruth,
+        estimator=args.estimator,
+        priors=find_input(args.priors, "params_*.yaml", "parameter file"),
+        overwrite=args.overwrite,
+        record=args.record,
+        plots=not args.no_plots,
+    )
+
+
+def _cmd_run(args: argparse.Namespace) -> int:
+    from terrain_odom.app.inputs import DEFAULT
+    from terrain_odom.app.record import require_rerun
+    from terrain_odom.app.run import run
+    from terrain_odom.app.run_folder import check_folder
+    from terrain_odom.errors import ConfigError
+
     if args.images is not None and args.terrain_from_log:
         raise ConfigError("--images and --terrain-from-log exclude each other")
     if args.record:
@@ -130,50 +151,22 @@ def _cmd_run(args: argparse.Namespace) -> int:
     ):  # a bag is imported into OUT/bag/: refuse a run's folder first
         check_folder(args.out, overwrite=args.overwrite)
     wheels, bag_config = wheels_from_bag(args, args.out)
-    config = args.config or bag_config
-    model: str | Path | None = find_input(args.classifier, "*.npz", "classifier model")
-    if args.images is not None and config is None:
-        config = images_config(args.images)
-        if config is not None:
-            print(f"config:     {config} (found in the --images folder; --config to change)")
-    if args.images is not None and not args.no_terrain and model is None:
-        from terrain_odom.io.classifier_file import default_model  # scikit-learn: with frames only
-
-        model = default_model()
-        print(f"model:      {model} (default; --classifier to change)")
-    cfg = load_config_option(args, config)
-    if args.reset_at is not None:
-        cfg = dataclasses.replace(
-            cfg, terrain=dataclasses.replace(cfg.terrain, reset_at=args.reset_at)
-        )
-    summary = run(
-        wheels,
-        args.out,
-        config=cfg,
-        config_path=config,
-        terrain=source,
-        images=args.images,
-        model=model,
-        use_roi=not args.no_roi,
-        groundtruth=args.groundtruth,
-        estimator=args.estimator,
-        priors=find_input(args.priors, "params_*.yaml", "parameter file"),
-        overwrite=args.overwrite,
-        record=args.record,
-        plots=not args.no_plots,
-    )
-    print_pose_delay(summary.time_calibration)
+    summary = run(wheels, args.out, _options(args, bag_config))
+    report = summary.report
+    print_config(summary.config)
+    if summary.classifier is not None and summary.classifier.how == DEFAULT:
+        print(f"model:      {summary.classifier.path} (default; --classifier to change)")
+    print_pose_delay(report.time_calibration)
     print_calibration(summary.calibration)
-    print(f"{summary.rows} rows in {summary.seconds:.2f} s")
-    if summary.pose_use is not None:
-        print(f"pose:       {summary.pose_use.summary()}")
+    print(f"{report.counts.rows} rows in {report.run_time_s:.2f} s")
+    print(f"pose:       {report.counts.pose_components.summary()}")
     if summary.outage_guard is not None:
         for line in summary.outage_guard.lines():
             print(f"outages:    {line}")
-    for warning in summary.warnings:
+    for warning in report.warnings:
         print(f"warning:    {warning}")
-    if summary.frames is not None:
-        _print_frames(summary.frames)
+    if report.frames is not None and report.frames.counts is not None:
+        _print_frames(report.frames.counts)
     if summary.unused_priors:
         unused = ", ".join(summary.unused_priors)
         print(f"priors never used: {unused} (no such terrain in this run)")

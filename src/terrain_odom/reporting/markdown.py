@@ -1,11 +1,17 @@
-"""``report.md``: a run's report.json rendered for people."""
+"""``report.md``: a run's report rendered for people, and the Markdown table."""
 
 from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from terrain_odom.estimation.time_offset import shows_pose_delay
+
+if TYPE_CHECKING:
+    from terrain_odom.estimation.pose_measurement import PoseUse
+    from terrain_odom.estimation.time_offset import TimeCalibration
+    from terrain_odom.records import TerrainChange
+    from terrain_odom.reporting.run_report import RunReport
 
 __all__ = ["table", "run_markdown", "OUTAGE_HEADER", "outage_rows", "outage_markdown"]
 
@@ -38,18 +44,9 @@ def _percent(value: float | None) -> float | None:
     return None if value is None else 100.0 * value
 
 
-def _changes(report: dict[str, Any]) -> str:
+def _changes(changes: Sequence[TerrainChange]) -> str:
     rows = [
-        [
-            c["t"],
-            c.get("t_confirmed"),
-            c["previous"],
-            c["label"],
-            c["reset"],
-            c["restored"],
-            c.get("prior", False),
-        ]
-        for c in report["terrain_changes"]
+        [c.t, c.t_confirmed, c.previous, c.label, c.reset, c.restored, c.prior] for c in changes
     ]
     if not rows:
         return "No terrain change was confirmed."
@@ -148,16 +145,17 @@ def _reconvergence(section: dict[str, Any]) -> list[str]:
     ]
 
 
-def _pose_use(use: dict[str, Any]) -> list[str]:
+def _pose_use(use: PoseUse) -> list[str]:
     """Return the pose components measured, used, dropped (by reason): ``counts.pose_components``."""
     dropped = {"position": 0, "heading": 0}
     reasons = []
-    for key, n in use["dropped"].items():
+    for key, n in use.dropped.items():
         component, reason = key.split(": ", 1)
         dropped[component] = dropped.get(component, 0) + n
         reasons.append([component, reason, n])
     rows = [
-        [what, use[what], use[f"used_{what}"], dropped[what]] for what in ("position", "heading")
+        ["position", use.position, use.used_position, dropped["position"]],
+        ["heading", use.heading, use.used_heading, dropped["heading"]],
     ]
     parts = [
         "## Pose measurements (per component: position x, y; heading yaw)",
@@ -219,42 +217,46 @@ def _warnings(warnings: Sequence[str]) -> list[str]:
     return ["## Warnings", "\n".join(f"- {w}" for w in warnings) if warnings else "None."]
 
 
-def run_markdown(report: dict[str, Any], plots: Sequence[str] = ()) -> str:
-    """Render a run's ``report.json`` content as Markdown.
+def _pose_delay(timing: TimeCalibration) -> str:
+    """Return the line on the pose delay applied: given, or estimated with its standard error."""
+    std = timing.position_std
+    if std is None and timing.estimate is not None:
+        std = timing.estimate.std
+    how = "given" if std is None else f"estimated, +-{std:.3f} s"
+    return f"- pose delay: {timing.pose_delay:.3f} s ({how})"
+
+
+def run_markdown(report: RunReport, plots: Sequence[str] = ()) -> str:
+    """Render a run's report as Markdown.
 
     Parameters
     ----------
-    report : dict
-        The report (see :func:`terrain_odom.app.run.run`).
+    report : RunReport
+        The report (:func:`terrain_odom.app.run.run`); its sections held as
+        JSON (ground truth, outage guard) made JSON-ready
+        (:func:`~terrain_odom.io.report.to_jsonable`).
     plots : sequence of str
         Relative paths of PNG plots to show.
     """
-    counts = report["counts"]
+    counts = report.counts
     parts = [
         "# terrain-odom run report",
-        f"- wheels: `{report['inputs']['wheels']}`",
-        f"- terrain source: {report['terrain_source']}; reset at: "
-        f"{report['config']['terrain']['reset_at']}",
-        f"- rows: {counts['rows']}, pose measurements fused: {counts['updates']}, "
-        f"run time {report['run_time_s']:.1f} s",
+        f"- wheels: `{report.inputs.wheels}`",
+        f"- terrain source: {report.terrain_source}; reset at: {report.config.terrain.reset_at}",
+        f"- rows: {counts.rows}, pose measurements fused: {counts.updates}, "
+        f"run time {report.run_time_s:.1f} s",
     ]
-    if "pose_components" in counts:
-        parts += _pose_use(counts["pose_components"])
-    if "warnings" in report:
-        parts += _warnings(report["warnings"])
-    if "outage_guard" in report:
-        parts += outage_markdown(
-            report["outage_guard"], "Outage guard: the learned model against the nominal one"
-        )
-    parts += ["## Terrain changes", _changes(report)]
-    priors = report["inputs"].get("priors")
-    if priors is not None:
-        parts.insert(2, f"- offline priors: `{priors}`")
-    timing = report.get("time_calibration")
-    if timing is not None and shows_pose_delay(timing):
-        how = f"estimated, +-{timing['std_s']:.3f} s" if timing["estimated"] else "given"
-        parts.insert(2, f"- pose delay: {timing['pose_delay_s']:.3f} s ({how})")
-    section = report.get("groundtruth")
+    parts += _pose_use(counts.pose_components)
+    parts += _warnings(report.warnings)
+    parts += outage_markdown(
+        report.outage_guard, "Outage guard: the learned model against the nominal one"
+    )
+    parts += ["## Terrain changes", _changes(report.terrain_changes)]
+    if report.inputs.priors is not None:
+        parts.insert(2, f"- offline priors: `{report.inputs.priors}`")
+    if shows_pose_delay(report.time_calibration.to_dict()):
+        parts.insert(2, _pose_delay(report.time_calibration))
+    section = report.groundtruth
     if section is not None:
         if "frames" in section:
             parts += _frames(section["frames"])

@@ -1,0 +1,101 @@
+"""reporting.run_report: the typed report of a run, its report.json, and report.md from it."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+
+import pytest
+
+from terrain_odom.app.inputs import GIVEN, Chosen
+from terrain_odom.app.run import RunOptions, run
+from terrain_odom.config import load_config
+from terrain_odom.estimation.time_offset import PoseDelayEstimate, TimeCalibration
+from terrain_odom.reporting import run_markdown
+from terrain_odom.reporting.run_report import FrameCounts, FramesReport, RunInputs, RunOutputs
+
+TOP_KEYS = [
+    "format_version", "terrain_odom_version", "command", "status", "estimator", "inputs",
+    "terrain_source", "config", "time_calibration", "counts", "terrain_changes", "final_state",
+    "final_std", "outputs", "run_time_s", "warnings", "outage_guard",
+]  # fmt: skip
+
+
+@pytest.fixture(scope="module")
+def summary(examples_dir, tmp_path_factory):
+    out = tmp_path_factory.mktemp("run")
+    config = load_config(examples_dir / "demo.yaml")
+    return run(examples_dir / "demo_log.csv", out, RunOptions(config=config, progress=False))
+
+
+def test_report_json_is_the_records_dict_key_for_key_in_order(summary):
+    written = json.loads(summary.report_json.read_text(encoding="utf-8"))
+    assert list(written) == TOP_KEYS  # no frames, ground truth or calibration on this run
+    assert written == json.loads(json.dumps(summary.report.to_dict()))
+    assert list(written["counts"]) == [
+        "rows", "pose_measurements", "updates", "segments", "terrain_changes", "pose_components",
+    ]  # fmt: skip
+    assert written["counts"]["rows"] == summary.report.counts.rows == 1800  # the demo log's rows
+    assert written["terrain_changes"][0]["label"] == summary.report.terrain_changes[0].label
+
+
+def test_report_md_is_rendered_from_the_record(summary):
+    assert summary.report_md.read_text(encoding="utf-8") == run_markdown(
+        summary.report, ["plots/trajectory.png", "plots/states.png"]
+    )
+
+
+def test_the_summary_names_the_folders_files(summary):
+    folder = summary.out_dir
+    assert summary.trajectory_csv == folder / "trajectory.csv"
+    assert summary.config_yaml == folder / "config.yaml"
+    assert summary.frames_csv is None and summary.recording is None
+    assert summary.config == Chosen(None, GIVEN) and summary.classifier is None  # an object
+
+
+@pytest.mark.parametrize(
+    ("timing", "line"),
+    [
+        (TimeCalibration(0.0), None),
+        (TimeCalibration(0.12), "- pose delay: 0.120 s (given)"),
+        (TimeCalibration(0.1, position_std=0.004), "- pose delay: 0.100 s (estimated, +-0.004 s)"),
+        (
+            TimeCalibration(0.0, estimate=PoseDelayEstimate(0.0, 0.02, 1.0, 40)),
+            "- pose delay: 0.000 s (estimated, +-0.020 s)",
+        ),
+    ],
+)
+def test_the_pose_delay_line_says_given_or_estimated(summary, timing, line):
+    text = run_markdown(dataclasses.replace(summary.report, time_calibration=timing))
+    shown = [row for row in text.splitlines() if row.startswith("- pose delay")]
+    assert shown == ([] if line is None else [line])
+
+
+def test_optional_sections_appear_only_when_set():
+    inputs = RunInputs("/w.csv", None, None)
+    assert inputs.to_dict() == {"wheels": "/w.csv", "config": None, "priors": None}
+    camera = dataclasses.replace(inputs, with_images=True, images="/i", groundtruth="/g.csv")
+    assert list(camera.to_dict()) == [
+        "wheels",
+        "config",
+        "priors",
+        "images",
+        "model",
+        "groundtruth",
+    ]
+    assert camera.to_dict()["model"] is None
+    outputs = RunOutputs("trajectory.csv", "trajectory.tum", recording="run.rrd")
+    assert list(outputs.to_dict()) == ["trajectory_csv", "trajectory_tum", "recording"]
+    skipped = FramesReport("skipped (--no-terrain: frames not read)")
+    assert skipped.to_dict() == {"classification": "skipped (--no-terrain: frames not read)"}
+    counts = FrameCounts(10, 7, 1, 1, ("a.png (unreadable)",))
+    frames = FramesReport("region of interest", counts, 2, {"too_small": 2, "inside": 7}, 1.5, 3.0)
+    section = frames.to_dict()
+    assert section["skipped"] == {
+        "before_first_wheel_sample": 1,
+        "after_last_wheel_sample": 1,
+        "missing_or_unreadable": 1,
+        "roi_outside_or_too_small": 2,
+    }
+    assert list(section["roi_status"]) == ["inside", "too_small"]  # sorted
+    assert section["ms_per_frame"] == {"mean": 1.5, "max": 3.0}
