@@ -5,11 +5,11 @@ Messages as a robot sends them (``rosbags`` objects, built by
 at 100 Hz, ``Imu`` headings at 50 Hz, ``NavSatFix`` fixes at 5 Hz and
 ``CompressedImage`` frames at 10 Hz (the shipped simulated run's 320x240
 JPEGs, classified by the packaged model on the worker thread), fed to
-:class:`~terrain_odom.app.live.LiveOdometry` on a schedule in real time,
+:class:`~terrain_odom.app.live.odometry.LiveOdometry` on a schedule in real time,
 the process pinned to one core. Printed:
 
 - per wheel message, the latency from the message's arrival
-  (:meth:`~terrain_odom.app.live.LiveOdometry.message`) to its row's
+  (:meth:`~terrain_odom.app.live.odometry.LiveOdometry.message`) to its row's
   output (what the node publishes as ``odometry``): median, p99, max, with
   the camera on and, as the baseline measured in the same run, off
   (reorder delay 0: stamps in order; a delay ``d`` adds ``d`` by design);
@@ -35,7 +35,9 @@ from typing import Any
 
 import numpy as np
 
-from terrain_odom.app.live import LiveOptions, LiveOutput, LiveTopics, build_live
+from terrain_odom.app.live.build import build_live
+from terrain_odom.app.live.options import LiveOptions, LiveTopics
+from terrain_odom.app.live.output import LiveOutput
 from terrain_odom.io.bag.messages import COMPRESSED_IMAGE, IMU, JOINT_STATE, NAV_SAT_FIX
 from terrain_odom.io.bag.writer import MessageFactory
 

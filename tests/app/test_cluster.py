@@ -215,12 +215,12 @@ def test_train_tuned_on_the_cluster_is_the_same(
     there = train(
         folder, tmp_path / "b", cfg, folds=3, progress=False, grid_path=grid, dask=scheduler
     )
-    assert there.cfg == here.cfg and there.counts == here.counts
+    assert there.config == here.config and there.counts == here.counts
     assert here.cross_validation is not None and there.cross_validation is not None
     assert np.array_equal(there.cross_validation.confusion, here.cross_validation.confusion)
-    mine, theirs = load_tuning(here.model_path), load_tuning(there.model_path)
+    mine, theirs = load_tuning(here.classifier_path), load_tuning(there.classifier_path)
     assert mine is not None and theirs == mine
-    assert dataclasses.asdict(there.cfg) == mine["chosen_config"]
+    assert dataclasses.asdict(there.config) == mine["chosen_config"]
 
 
 def test_real_logs_batch_on_the_cluster(drive_dir: Path, warthog_yaml: Path, scheduler: str):

@@ -135,7 +135,7 @@ def test_the_camera_run_draws_the_mosaic_with_roi_votes_and_truth(sample_dir, tm
 
 
 def test_simulate_draws_the_map_with_axes(sim_output):
-    assert sim_output.map_plot == sim_output.out / "plots" / "map.png"
+    assert sim_output.map_plot == sim_output.out_dir / "plots" / "map.png"
     image = _image(sim_output.map_plot)
     assert image.shape[1] == 8 * 110
     assert sim_output.to_dict()["map"]["plot"] == "plots/map.png"

@@ -53,12 +53,12 @@ def test_train_tune_chooses_colour_and_the_model_file_records_the_search(tmp_pat
     images, grid = folder
     summary = train(images, tmp_path / "m", BASE, jobs=1, progress=False, grid_path=grid)
     tuning = summary.tuning
-    assert tuning is not None and summary.cfg == tuning.chosen
+    assert tuning is not None and summary.config == tuning.chosen
     assert tuning.chosen.features == "sfta+lab" and tuning.chosen.n_t == 1  # base kept
     assert tuning.search.folds == 5 and len(tuning.search.candidates) == 4
-    model = load_classifier(summary.model_path)
+    model = load_classifier(summary.classifier_path)
     assert model.cfg == tuning.chosen and model.n_training_images == 18
-    stored = load_tuning(summary.model_path)
+    stored = load_tuning(summary.classifier_path)
     assert stored == json.loads(json.dumps(tuning.to_dict()))
     assert stored["grid"] == [{"features": ["sfta", "sfta+lab"], "k": [1, 3]}]
     assert stored["choice"] == tuning.search.choice and stored["scoring"] == "balanced_accuracy"
@@ -68,7 +68,7 @@ def test_train_tune_chooses_colour_and_the_model_file_records_the_search(tmp_pat
     assert scores["sfta+lab", 1] == scores["sfta+lab", 3] == 100.0
     assert max(scores["sfta", 1], scores["sfta", 3]) <= 75.0
     untuned = train(images, tmp_path / "plain", BASE, jobs=1, progress=False)
-    assert untuned.tuning is None and load_tuning(untuned.model_path) is None  # old layout
+    assert untuned.tuning is None and load_tuning(untuned.classifier_path) is None  # old layout
 
 
 def test_report_accuracy_tune_scores_the_tuning_by_nested_cross_validation(tmp_path, folder):

@@ -13,23 +13,23 @@ from terrain_odom.cli.main import main
 from terrain_odom.config import load_config
 from terrain_odom.io.wheel_log import write_wheel_log
 from terrain_odom.records import WheelLog
-from terrain_odom.sim import TERRAIN_TABLE, get_scenario, simulate
+from terrain_odom.sim import TERRAIN_TABLE
 from terrain_odom.sim.model_log import constant_model_log
 
 
 @pytest.fixture(scope="module")
-def logs(tmp_path_factory):
+def logs(tmp_path_factory, recording):
     """Two minutes on grass: GPS 0.5 m ahead (0.3 m, 2.5 Hz), IMU 10 deg off; and fixes alone."""
-    scenario = dataclasses.replace(
-        get_scenario("mixed"),
-        table=dict.fromkeys(TERRAIN_TABLE, TERRAIN_TABLE["grass"]),
-        duration=120.0,
+    sim = recording(
+        120.0,
+        seed=2,
+        scenario="mixed",
+        terrain="grass",
         pose_rate=2.5,
         sigma_xy=0.3,
         antenna=(0.5, 0.0),
         heading_offset=math.radians(10.0),
-    )
-    sim = simulate(scenario, seed=2)
+    ).sim
     folder = tmp_path_factory.mktemp("gps")
     segment = np.zeros(sim.motion.t.size, dtype=int)
     log = WheelLog(sim.motion.t, sim.v_l, sim.v_r, sim.measured_pose, None, segment, "<sim>")

@@ -17,6 +17,7 @@ import pytest
 from terrain_odom.cli.main import main
 from terrain_odom.io.folder import MANIFEST, writing
 from terrain_odom.io.images import MAX_IMAGE_BYTES, median_short_side
+from tests.cli.conftest import Recorder
 from tests.cli.refusal import refused
 
 
@@ -96,12 +97,11 @@ def test_calibrate_refuses_an_edited_config_of_degrade(
 
 
 @pytest.fixture(scope="module")
-def sim(tmp_path_factory: pytest.TempPathFactory) -> Path:
+def sim(recording: Recorder) -> Path:
     """Return a 12-s simulated recording with frames at 2 Hz."""
-    out = tmp_path_factory.mktemp("sim") / "sim"
-    argv = ["simulate", "--out", str(out), "--duration", "12", "--frame-rate", "2"]
-    assert main([*argv, "--seed", "1", "--no-patches"]) == 0
-    return out
+    folder = recording(12.0, seed=1, frame_rate=2.0, write=True, frames=True).folder
+    assert folder is not None
+    return folder
 
 
 def _patches(sim: Path, out: Path, *extra: str) -> list[str]:

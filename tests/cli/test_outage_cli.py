@@ -12,26 +12,25 @@ import pytest
 from terrain_odom.cli.main import main
 from terrain_odom.io.wheel_log import write_wheel_log
 from terrain_odom.records import WheelLog
-from terrain_odom.sim import TERRAIN_TABLE, get_scenario, simulate
 
 
 @pytest.fixture(scope="module")
-def logs(tmp_path_factory):
+def logs(tmp_path_factory, recording):
     """90 s on gravel: GPS fixes of an antenna 0.5 m behind (0.3 m, 2.5 Hz), IMU headings 10 deg off.
 
     ``gps_imu.csv``: positions and headings on different rows; ``gps.csv``:
     the fixes alone; ``imu.csv``: the headings alone; ``wheels.csv``: no pose.
     """
-    scenario = dataclasses.replace(
-        get_scenario("mixed"),
-        table=dict.fromkeys(TERRAIN_TABLE, TERRAIN_TABLE["gravel"]),
-        duration=90.0,
+    sim = recording(
+        90.0,
+        seed=4,
+        scenario="mixed",
+        terrain="gravel",
         pose_rate=5.0,
         sigma_xy=0.3,
         antenna=(-0.5, 0.0),
         heading_offset=math.radians(10.0),
-    )
-    sim = simulate(scenario, seed=4)
+    ).sim
     folder = tmp_path_factory.mktemp("outage")
     n = sim.motion.t.size
     pose = sim.measured_pose.copy()

@@ -8,15 +8,15 @@ from pathlib import Path
 import pytest
 
 from terrain_odom.cli.main import main
+from tests.cli.conftest import Recorder
 
 
 @pytest.fixture(scope="module")
-def sim(tmp_path_factory: pytest.TempPathFactory) -> Path:
+def sim(recording: Recorder) -> Path:
     """Return a 26-s simulated recording (grass, then gravel) with frames at 2.5 Hz."""
-    out = tmp_path_factory.mktemp("sim") / "sim"
-    argv = ["simulate", "--out", str(out), "--duration", "26", "--frame-rate", "2.5"]
-    assert main([*argv, "--seed", "2", "--no-patches"]) == 0
-    return out
+    folder = recording(26.0, seed=2, frame_rate=2.5, write=True, frames=True).folder
+    assert folder is not None
+    return folder
 
 
 def test_patches_train_run(sim: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

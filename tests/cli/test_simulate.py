@@ -172,24 +172,36 @@ def test_bad_mounting_is_a_one_line_error(tmp_path, capsys, option, values):
 
 
 @pytest.fixture(scope="module")
-def mounted(tmp_path_factory):
-    """Simulate a minute of the mixed tour: GPS 0.5 m ahead (0.3 m, 2.5 Hz), IMU turned 10 deg."""
-    out = tmp_path_factory.mktemp("mounted")
-    args = ["simulate", "--out", str(out), "--scenario", "mixed", "--duration", "60"]
-    args += ["--pose-rate", "2.5", "--pose-noise", "0.3", "0.01", "--no-frames", "--no-patches"]
-    assert main([*args, "--antenna", "0.5", "0", "--heading-offset", str(math.radians(10))]) == 0
+def mounted(tmp_path_factory, recording):
+    """Simulate a minute of the mixed tour: GPS 0.5 m ahead (0.3 m, 2.5 Hz), IMU turned 10 deg.
+
+    Return the recording's folder and its configuration without ``pose_sensor`` (beside it).
+    """
+    out = recording(
+        60.0,
+        seed=0,
+        scenario="mixed",
+        write=True,
+        pose_rate=2.5,
+        sigma_xy=0.3,
+        sigma_yaw=0.01,
+        antenna=(0.5, 0.0),
+        heading_offset=math.radians(10),
+    ).folder
     config = yaml.safe_load((out / "config.yaml").read_text())
     config.pop("pose_sensor")
-    (out / "without.yaml").write_text(yaml.safe_dump(config))
-    return out
+    without = tmp_path_factory.mktemp("mounted") / "without.yaml"
+    without.write_text(yaml.safe_dump(config))
+    return out, without
 
 
 @pytest.mark.parametrize(("estimator", "error_m"), [("icr-ekf", 0.3), ("slip-ekf", 0.45)])
 def test_run_with_the_simulated_mounting_converges_without_it_stops(
     mounted, tmp_path, capsys, estimator, error_m
 ):
+    mounted, without_yaml = mounted
     args = ["run", "--wheels", str(mounted / "log.csv"), "--estimator", estimator]
-    without = [*args, "--out", str(tmp_path / "without"), "--config", str(mounted / "without.yaml")]
+    without = [*args, "--out", str(tmp_path / "without"), "--config", str(without_yaml)]
     assert main(without) == 2
     err = capsys.readouterr().err.strip()
     assert "\n" not in err and "pose_sensor.heading_offset" in err and "+8.0 deg" in err

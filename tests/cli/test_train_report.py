@@ -108,7 +108,7 @@ def test_train_api_returns_a_summary(tmp_path):
     summary = train(root, tmp_path / "m.npz", ClassifierConfig(k=3), jobs=1, progress=False)
     assert summary.counts == {"brick": 5, "grass": 5, "gravel": 5}
     assert summary.cross_validation.confusion.sum() == 15
-    assert summary.model_path.is_file()
+    assert summary.classifier_path.is_file()
 
 
 def test_report_accuracy_writes_json_csv_png_with_the_paper_configuration(tmp_path, capsys):

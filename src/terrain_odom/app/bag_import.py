@@ -107,14 +107,16 @@ def import_bag(
 
     start = time.perf_counter()
     robot = check_options(options)
-    out = Path(out_dir)
-    paths = _output_paths(out)
+    out_dir = Path(out_dir)
+    paths = _output_paths(out_dir)
     check_outputs([bag, options.config_path], paths.values())
-    if Path(bag).is_dir() and out.resolve().is_relative_to(Path(bag).resolve()):
-        raise InputFileError(f"{out}: --out is inside the bag folder {bag}; choose another folder")
+    if Path(bag).is_dir() and out_dir.resolve().is_relative_to(Path(bag).resolve()):
+        raise InputFileError(
+            f"{out_dir}: --out is inside the bag folder {bag}; choose another folder"
+        )
     # locked; the previous import's files removed, any other file never replaced
-    with replacing(out, "import", [*(p.name for p in paths.values()), f"{FRAMES_DIR}/"]):
-        contents = read_bag(bag, options, robot, out, progress)
+    with replacing(out_dir, "import", [*(p.name for p in paths.values()), f"{FRAMES_DIR}/"]):
+        contents = read_bag(bag, options, robot, out_dir, progress)
         text = _config_text(paths["config"], contents.config, bag)
         write_wheel_log(paths["log"], contents.log)
         frames_csv = paths["frames"] if options.image_topic else None
@@ -189,12 +191,12 @@ def _bag_folders(bags: Sequence[str], root: Path) -> dict[str, Path]:
     return folders
 
 
-def _output_paths(out: Path) -> dict[str, Path]:
+def _output_paths(out_dir: Path) -> dict[str, Path]:
     return {
-        "log": out / "log.csv",
-        "frames": out / "frames.csv",
-        "config": out / "config.yaml",
-        "import": out / "import.json",
+        "log": out_dir / "log.csv",
+        "frames": out_dir / "frames.csv",
+        "config": out_dir / "config.yaml",
+        "import": out_dir / "import.json",
     }
 
 

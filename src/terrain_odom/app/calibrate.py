@@ -20,6 +20,7 @@ from pathlib import Path
 
 from terrain_odom.app.calibration import SensorCalibration, calibrate_inputs
 from terrain_odom.config import Config, dump_config, load_config
+from terrain_odom.config.sections import RobotConfig
 from terrain_odom.estimation.time_offset import TimeCalibration
 from terrain_odom.io import read_wheel_log
 from terrain_odom.io.atomic import write_text_atomic
@@ -48,6 +49,10 @@ class CalibrateSummary:
         Log rows read.
     seconds : float
         Wall time, s.
+    robot : RobotConfig
+        The geometry the log was calibrated with (the input configuration's).
+    config_path : Path or None
+        The input configuration's file; None: the built-in defaults.
     """
 
     config_yaml: Path
@@ -56,6 +61,8 @@ class CalibrateSummary:
     timing: TimeCalibration
     rows: int
     seconds: float
+    robot: RobotConfig
+    config_path: Path | None
 
 
 def calibrate(
@@ -87,12 +94,12 @@ def calibrate(
         value it cannot give: one line saying what data would.
     """
     started = time.perf_counter()
-    cfg = config if config is not None else load_config(config_path)
-    out = Path(out_dir)
-    paths = [out / "config.yaml", out / CALIBRATION_JSON]
+    config = config if config is not None else load_config(config_path)
+    out_dir = Path(out_dir)
+    paths = [out_dir / "config.yaml", out_dir / CALIBRATION_JSON]
     check_outputs([wheels, config_path], paths)
-    log = read_wheel_log(wheels, wheel_radius=cfg.robot.wheel_radius)
-    _, resolved, found, timing = calibrate_inputs(log, cfg, everything=True)
+    log = read_wheel_log(wheels, wheel_radius=config.robot.wheel_radius)
+    _, resolved, found, timing = calibrate_inputs(log, config, everything=True)
     header = (
         f"# {Path(wheels).name} calibrated by terrain-odom calibrate: each value found is "
         "commented with how and its standard error.\n"
@@ -106,10 +113,13 @@ def calibrate(
         "time_calibration": timing.to_dict(),
         **found.to_dict(),
     }
-    with replacing(out, "calibrate", [p.name for p in paths], all_previous=False):
+    with replacing(out_dir, "calibrate", [p.name for p in paths], all_previous=False):
         write_text_atomic(paths[0], header + dump_config(resolved, found.comments()))
         write_json(paths[1], report)  # its own previous files replaced, never another's
-    return CalibrateSummary(paths[0], paths[1], found, timing, len(log), seconds)
+    source = None if config_path is None else Path(config_path)
+    return CalibrateSummary(
+        paths[0], paths[1], found, timing, len(log), seconds, config.robot, source
+    )
 
 
 def _path(path: str | Path | None) -> str | None:

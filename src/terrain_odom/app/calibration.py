@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from terrain_odom.config import Config
-from terrain_odom.config.sections import PoseChangeSigmas, PoseSigmas
+from terrain_odom.config.sections import PoseChangeSigmas, PoseSigmas, RobotConfig
 from terrain_odom.errors import ConfigError, EstimationError, InputFileError
 from terrain_odom.estimation.time_offset import (
     PoseDelayEstimate,
@@ -40,6 +40,7 @@ __all__ = [
     "check_heading_bias",
     "check_plausible",
     "apply_delays",
+    "robot_geometry",
 ]
 
 
@@ -139,15 +140,15 @@ def _separate_sensors(log: WheelLog) -> bool:
 
 
 def calibrate_config(
-    log: WheelLog, cfg: Config, *, everything: bool = False
+    log: WheelLog, config: Config, *, everything: bool = False
 ) -> tuple[Config, SensorCalibration, TimeCalibration]:
-    """Resolve the ``auto`` values of ``cfg`` from ``log`` (see the module).
+    """Resolve the ``auto`` values of ``config`` from ``log`` (see the module).
 
     Parameters
     ----------
     log : WheelLog
         The log as recorded (speeds in m/s, no delay applied).
-    cfg : Config
+    config : Config
     everything : bool
         Estimate every value the log can give, not only the ``auto`` ones
         (values it cannot give keep the configuration's, unless ``auto``).
@@ -163,21 +164,21 @@ def calibrate_config(
     InputFileError
         An ``auto`` value the log cannot give (one line: what data would).
     """
-    position_cfg, heading_cfg = cfg.time.delays
-    sensor = cfg.pose_sensor
+    position_configured, heading_configured = config.time.delays
+    sensor = config.pose_sensor
     wants = {
-        "heading_delay": everything or heading_cfg == "auto",
-        "position_delay": everything or position_cfg == "auto",
+        "heading_delay": everything or heading_configured == "auto",
+        "position_delay": everything or position_configured == "auto",
         "heading_offset": everything or sensor.heading_offset == "auto",
         "antenna": everything or "auto" in (sensor.antenna_x, sensor.antenna_y),
         "noise": everything or sensor.noise == "auto",
     }
     if not any(wants.values()):
-        return cfg, SensorCalibration(), TimeCalibration(_number(position_cfg), None)
-    _require_data(log, cfg, wants)
+        return config, SensorCalibration(), TimeCalibration(_number(position_configured), None)
+    _require_data(log, config, wants)
     found: list[Found] = []
-    heading_delay, heading_est = _heading_delay(log, cfg, wants["heading_delay"], found)
-    position_given: float | None = _number(position_cfg)
+    heading_delay, heading_est = _heading_delay(log, config, wants["heading_delay"], found)
+    position_given: float | None = _number(position_configured)
     if wants["position_delay"]:
         # one clock where the rows carry positions and headings together (as the heading says)
         own = _separate_sensors(log) or int(log.has_yaw.sum()) < 2
@@ -186,18 +187,21 @@ def calibrate_config(
     fit = None
     if int(log.has_position.sum()) >= 2 and (needs_fit or position_given is None):
         fit = fit_sensors(
-            log, cfg.robot.track_width, heading_delay=heading_delay, position_delay=position_given
+            log,
+            config.robot.track_width,
+            heading_delay=heading_delay,
+            position_delay=position_given,
         )
-    position_delay = _position_delay(fit, position_given, position_cfg, wants, found, log)
+    position_delay = _position_delay(fit, position_given, position_configured, wants, found, log)
     if int(log.has_yaw.sum()) < 2:
         heading_delay = position_delay  # no headings: one delay
-    cfg = _with_delays(cfg, position_delay, heading_delay)
+    config = _with_delays(config, position_delay, heading_delay)
     notes: list[str] = []
     if fit is not None:
         delayed = delay_sensors(log, position_delay, heading_delay)
-        cfg = _mounting(cfg, fit, wants, found, delayed)
+        config = _mounting(config, fit, wants, found, delayed)
         if wants["noise"]:
-            cfg = _noise(cfg, fit, found, notes)
+            config = _noise(config, fit, found, notes)
     elif wants["noise"]:
         notes.append(
             "noise not estimated: the log has no positions to compare the sensors with the "
@@ -208,7 +212,7 @@ def calibrate_config(
     )
     timing = TimeCalibration(position_delay, heading_est, heading_delay, position_std)
     scale = fit.yaw_scale if fit is not None else float("nan")
-    return cfg, SensorCalibration(tuple(found), tuple(notes), scale), timing
+    return config, SensorCalibration(tuple(found), tuple(notes), scale), timing
 
 
 def apply_delays(log: WheelLog, timing: TimeCalibration) -> WheelLog:
@@ -220,9 +224,9 @@ def _number(value: float | str | None) -> float:
     return float(value) if value not in (None, "auto") else 0.0
 
 
-def _require_data(log: WheelLog, cfg: Config, wants: dict[str, bool]) -> None:
+def _require_data(log: WheelLog, config: Config, wants: dict[str, bool]) -> None:
     """Stop with one line when an ``auto`` needs rows the log does not have."""
-    sensor = cfg.pose_sensor
+    sensor = config.pose_sensor
     has_pos, has_yaw = int(log.has_position.sum()) >= 2, int(log.has_yaw.sum()) >= 2
     if not (has_pos or has_yaw):
         raise InputFileError(
@@ -240,7 +244,7 @@ def _require_data(log: WheelLog, cfg: Config, wants: dict[str, bool]) -> None:
             f"{log.source}: pose_sensor.antenna auto needs positions (a GPS) while turning; "
             "the log has none: give the antenna in metres"
         )
-    if cfg.time.heading_delay == "auto" and not has_yaw:
+    if config.time.heading_delay == "auto" and not has_yaw:
         raise InputFileError(
             f"{log.source}: time.heading_delay auto needs heading rows (an IMU's yaw); the log "
             "has none: give seconds, or leave it null"
@@ -259,14 +263,14 @@ def _still(log: WheelLog) -> bool:
 
 
 def _heading_delay(
-    log: WheelLog, cfg: Config, want: bool, found: list[Found]
+    log: WheelLog, config: Config, want: bool, found: list[Found]
 ) -> tuple[float, PoseDelayEstimate | None]:
     """Return the heading delay: estimated from the heading changes, or as configured."""
-    _, configured = cfg.time.delays
+    _, configured = config.time.delays
     if not want or int(log.has_yaw.sum()) < 2:
         return _number(configured), None
     try:
-        est = estimate_pose_delay(log, cfg.robot.track_width)
+        est = estimate_pose_delay(log, config.robot.track_width)
     except EstimationError as exc:
         if configured == "auto":
             raise InputFileError(
@@ -301,30 +305,30 @@ def _position_delay(
     return est.value
 
 
-def _with_delays(cfg: Config, position: float, heading: float) -> Config:
-    """``cfg`` with its delays as numbers (one ``pose_delay`` when they are equal)."""
+def _with_delays(config: Config, position: float, heading: float) -> Config:
+    """``config`` with its delays as numbers (one ``pose_delay`` when they are equal)."""
     if position == heading:
         time = dataclasses.replace(
-            cfg.time, pose_delay=position, position_delay=None, heading_delay=None
+            config.time, pose_delay=position, position_delay=None, heading_delay=None
         )
     else:
         time = dataclasses.replace(
-            cfg.time, pose_delay=position, position_delay=position, heading_delay=heading
+            config.time, pose_delay=position, position_delay=position, heading_delay=heading
         )
-    return dataclasses.replace(cfg, time=time)
+    return dataclasses.replace(config, time=time)
 
 
 def _mounting(
-    cfg: Config, fit: SensorFit, wants: dict[str, bool], found: list[Found], log: WheelLog
+    config: Config, fit: SensorFit, wants: dict[str, bool], found: list[Found], log: WheelLog
 ) -> Config:
     """Heading offset and antenna from the fit (``auto`` ones required)."""
-    sensor = cfg.pose_sensor
+    sensor = config.pose_sensor
     changes: dict[str, Any] = {}
     picks = []
     if wants["heading_offset"] and int(log.has_yaw.sum()) >= 2:
         offset = fit.heading_offset
         if not offset.observable:  # too few windows: the straight chords, as the check
-            offset = _chord_offset(log, cfg.robot.track_width, offset)
+            offset = _chord_offset(log, config.robot.track_width, offset)
         picks.append(("heading_offset", offset, "rad"))
     if wants["antenna"]:
         picks += [("antenna_x", fit.antenna_x, "m"), ("antenna_y", fit.antenna_y, "m")]
@@ -335,7 +339,7 @@ def _mounting(
         )
         if est.observable:
             changes[name] = float(est.value)
-    return dataclasses.replace(cfg, pose_sensor=dataclasses.replace(sensor, **changes))
+    return dataclasses.replace(config, pose_sensor=dataclasses.replace(sensor, **changes))
 
 
 def _chord_offset(log: WheelLog, track_width: float, windows: Estimate) -> Estimate:
@@ -363,9 +367,9 @@ def _check_auto(configured: float | str, est: Estimate, key: str, log: WheelLog)
         raise InputFileError(f"{log.source}: {key} auto: {est.how}")
 
 
-def _noise(cfg: Config, fit: SensorFit, found: list[Found], notes: list[str]) -> Config:
+def _noise(config: Config, fit: SensorFit, found: list[Found], notes: list[str]) -> Config:
     """Raise ``ekf.sigma_r`` (and ``slip_ekf.sigma_r``) to the noise found where it claims less."""
-    sigma = cfg.ekf.sigma_r
+    sigma = config.ekf.sigma_r
     x, yaw = sigma.x, sigma.yaw
     pos = fit.position_noise
     if pos.observable:
@@ -391,23 +395,27 @@ def _noise(cfg: Config, fit: SensorFit, found: list[Found], notes: list[str]) ->
         )
         found.append(Found("ekf.sigma_r.yaw", total, white.std, "rad", how, use))
         yaw = float(max(total, sigma.yaw))
-    ekf = dataclasses.replace(cfg.ekf, sigma_r=PoseSigmas(x, max(x, sigma.y), yaw))
+    ekf = dataclasses.replace(config.ekf, sigma_r=PoseSigmas(x, max(x, sigma.y), yaw))
     change = PoseChangeSigmas(
         *(
             float(max(a, np.sqrt(2.0) * b))
             for a, b in zip(
-                (cfg.slip_ekf.sigma_r.dx, cfg.slip_ekf.sigma_r.dy, cfg.slip_ekf.sigma_r.dyaw),
+                (
+                    config.slip_ekf.sigma_r.dx,
+                    config.slip_ekf.sigma_r.dy,
+                    config.slip_ekf.sigma_r.dyaw,
+                ),
                 (x, max(x, sigma.y), yaw),
                 strict=True,
             )
         )
     )
-    slip = dataclasses.replace(cfg.slip_ekf, sigma_r=change)
-    sensor = dataclasses.replace(cfg.pose_sensor, noise="config")
-    return dataclasses.replace(cfg, ekf=ekf, slip_ekf=slip, pose_sensor=sensor)
+    slip = dataclasses.replace(config.slip_ekf, sigma_r=change)
+    sensor = dataclasses.replace(config.pose_sensor, noise="config")
+    return dataclasses.replace(config, ekf=ekf, slip_ekf=slip, pose_sensor=sensor)
 
 
-def check_heading_bias(cfg: Config, has_positions: bool, source: str) -> None:
+def check_heading_bias(config: Config, has_positions: bool, source: str) -> None:
     """Refuse the ICR EKF's heading-bias state where no positions come (one line).
 
     Only the positions' course tells a heading's slow bias from the yaw:
@@ -420,7 +428,7 @@ def check_heading_bias(cfg: Config, has_positions: bool, source: str) -> None:
         ``pose_sensor.heading_bias`` is on and ``has_positions`` is false;
         ``source`` names the log or the topics.
     """
-    if cfg.pose_sensor.heading_bias and not has_positions:
+    if config.pose_sensor.heading_bias and not has_positions:
         raise ConfigError(
             f"{source}: headings but no positions: pose_sensor.heading_bias needs both (only "
             "the positions' course tells a heading's slow bias from the yaw); set it false"
@@ -428,9 +436,9 @@ def check_heading_bias(cfg: Config, has_positions: bool, source: str) -> None:
 
 
 def calibrate_inputs(
-    log: WheelLog, cfg: Config, *, everything: bool = False
+    log: WheelLog, config: Config, *, everything: bool = False
 ) -> tuple[WheelLog, Config, SensorCalibration, TimeCalibration]:
-    """Resolve ``cfg``'s ``auto`` values from ``log``, apply its delays, then check it.
+    """Resolve ``config``'s ``auto`` values from ``log``, apply its delays, then check it.
 
     The checks (:func:`check_plausible`) judge the log with the values
     found applied, so they never refuse what ``auto`` produced; where the
@@ -441,7 +449,7 @@ def calibrate_inputs(
     ----------
     log : WheelLog
         As read (speeds in m/s).
-    cfg : Config
+    config : Config
     everything : bool
         Estimate every value the log gives (``terrain-odom calibrate``).
 
@@ -457,14 +465,14 @@ def calibrate_inputs(
         ``pose_sensor.heading_bias`` on a log without positions
         (:func:`check_heading_bias`).
     """
-    check_heading_bias(cfg, bool(log.has_position.any()), log.source)
+    check_heading_bias(config, bool(log.has_position.any()), log.source)
     try:
-        resolved, found, timing = calibrate_config(log, cfg, everything=everything)
+        resolved, found, timing = calibrate_config(log, config, everything=everything)
     except (InputFileError, EstimationError):
         unjudged = Found("pose_sensor.heading_offset", np.nan, np.nan, "rad", "", False)
         lever = dataclasses.replace(unjudged, key="pose_sensor.antenna_x")
         # a unit mistake explains the failure better (the mounting is not judged)
-        check_plausible(log, _numbers(cfg), SensorCalibration((unjudged, lever)))
+        check_plausible(log, _numbers(config), SensorCalibration((unjudged, lever)))
         raise
     delayed = apply_delays(log, timing)
     notes = check_plausible(delayed, resolved, found)
@@ -472,19 +480,19 @@ def calibrate_inputs(
     return delayed, resolved, found, timing
 
 
-def _numbers(cfg: Config) -> Config:
-    """``cfg`` with its ``auto`` mounting as 0 (for the checks of an uncalibrated log)."""
-    sensor = cfg.pose_sensor
+def _numbers(config: Config) -> Config:
+    """``config`` with its ``auto`` mounting as 0 (for the checks of an uncalibrated log)."""
+    sensor = config.pose_sensor
     numbers: dict[str, Any] = {
         k: 0.0 for k in ("antenna_x", "antenna_y", "heading_offset") if getattr(sensor, k) == "auto"
     }
-    return dataclasses.replace(cfg, pose_sensor=dataclasses.replace(sensor, **numbers))
+    return dataclasses.replace(config, pose_sensor=dataclasses.replace(sensor, **numbers))
 
 
 def check_plausible(
-    log: WheelLog, cfg: Config, found: SensorCalibration | None = None
+    log: WheelLog, config: Config, found: SensorCalibration | None = None
 ) -> list[str]:
-    """Stop on the first finding of :func:`~terrain_odom.evaluation.check_log` (if ``cfg.checks``).
+    """Stop on the first finding of :func:`~terrain_odom.evaluation.check_log` (if ``config.checks``).
 
     ``found``: what a calibration found. A mounting it looked at is not
     judged again (it is measured, or reported not observable, by a finer
@@ -497,14 +505,14 @@ def check_plausible(
     InputFileError
         One line: the finding, the robot geometry it was judged with, and the way out.
     """
-    if not cfg.checks.enabled:
+    if not config.checks.enabled:
         return []
-    sensor = cfg.pose_sensor
+    sensor = config.pose_sensor
     looked = {f.key for f in found.found} if found is not None else set()
-    noise = cfg.ekf.sigma_r.x if "ekf.sigma_r.x" in looked else 0.0
+    noise = config.ekf.sigma_r.x if "ekf.sigma_r.x" in looked else 0.0
     result = check_log(
         log,
-        cfg.robot.track_width,
+        config.robot.track_width,
         antenna=(float(sensor.antenna_x), float(sensor.antenna_y)),
         heading_offset=float(sensor.heading_offset),
         position_noise=noise,
@@ -517,7 +525,18 @@ def check_plausible(
     refused = [f for f in result.findings if f.check not in skip]
     if refused:
         raise InputFileError(
-            f"{log.source}: {refused[0].message} (wheel radius {cfg.robot.wheel_radius:g} m, "
-            f"track width {cfg.robot.track_width:g} m); --no-checks runs anyway"
+            f"{log.source}: {refused[0].message} ({robot_geometry(config.robot)}); "
+            "--no-checks runs anyway"
         )
     return [f"check {f.check}: {f.message}" for f in result.findings if f.check in skip]
+
+
+def robot_geometry(robot: RobotConfig) -> str:
+    """Return the geometry a log is judged and calibrated with, as the messages name it.
+
+    Examples
+    --------
+    >>> robot_geometry(RobotConfig())
+    'wheel radius 0.1 m, track width 0.5 m'
+    """
+    return f"wheel radius {robot.wheel_radius:g} m, track width {robot.track_width:g} m"

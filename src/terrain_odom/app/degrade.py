@@ -45,48 +45,48 @@ class DegradeOutput:
     ----------
     degraded : DegradedLog
         The recording and its truth.
-    out : Path
+    out_dir : Path
         The output folder.
     fixes, headings, rows : int
         GPS rows, IMU rows and all rows of ``log.csv``.
     """
 
     degraded: DegradedLog
-    out: Path
+    out_dir: Path
     fixes: int
     headings: int
     rows: int
 
     def path(self, name: str) -> Path:
         """Return the path of one of :data:`DEGRADE_FILES` in the folder."""
-        return self.out / name
+        return self.out_dir / name
 
 
 def write_degraded(
     wheels: str | Path,
-    cfg: Config,
+    config: Config,
     degradation: Degradation,
-    out: str | Path,
+    out_dir: str | Path,
     *,
     config_path: str | Path | None = None,
     overwrite: bool = False,
 ) -> DegradeOutput:
-    """Degrade the log ``wheels`` and write the folder ``out``.
+    """Degrade the log ``wheels`` and write the folder ``out_dir``.
 
     Parameters
     ----------
     wheels : str or Path
         Wheel log with true poses (rad/s columns are converted with
-        ``cfg.robot.wheel_radius``).
-    cfg : Config
+        ``config.robot.wheel_radius``).
+    config : Config
         The robot's configuration; written back with the claimed noise.
     degradation : Degradation
-    out : str or Path
+    out_dir : str or Path
         Output folder (created).
     config_path : str or Path, optional
         The configuration file read, which no output may overwrite.
     overwrite : bool
-        Replace this command's files in ``out``; otherwise a folder that
+        Replace this command's files in ``out_dir``; otherwise a folder that
         holds any of them is refused.
 
     Raises
@@ -95,40 +95,40 @@ def write_degraded(
         An output exists (without ``overwrite``) or is an input, or the log
         has no run with two full poses.
     """
-    out = Path(out)
-    targets = [out / name for name in DEGRADE_FILES]
+    out_dir = Path(out_dir)
+    targets = [out_dir / name for name in DEGRADE_FILES]
     check_outputs((wheels, config_path), targets)
     existing = [p.name for p in targets if p.exists()]
     if existing and not overwrite:
         raise InputFileError(
-            f"{out} already holds {', '.join(existing)}: choose another --out, or --overwrite"
+            f"{out_dir} already holds {', '.join(existing)}: choose another --out, or --overwrite"
         )
-    clean = read_wheel_log(wheels, wheel_radius=cfg.robot.wheel_radius)
+    clean = read_wheel_log(wheels, wheel_radius=config.robot.wheel_radius)
     degraded = degrade_log(clean, degradation)
-    with replacing(out, "degrade", DEGRADE_FILES, overwrite=overwrite):  # never another's file
-        write_wheel_log(out / "log.csv", degraded.log)
-        write_wheel_log(out / "truth.csv", degraded.truth)
-        write_text_atomic(out / "config.yaml", _claimed_config(cfg, degradation, wheels))
-        write_text_atomic(out / "degrade.yaml", _injected_yaml(degraded, wheels))
+    with replacing(out_dir, "degrade", DEGRADE_FILES, overwrite=overwrite):  # never another's file
+        write_wheel_log(out_dir / "log.csv", degraded.log)
+        write_wheel_log(out_dir / "truth.csv", degraded.truth)
+        write_text_atomic(out_dir / "config.yaml", _claimed_config(config, degradation, wheels))
+        write_text_atomic(out_dir / "degrade.yaml", _injected_yaml(degraded, wheels))
     log = degraded.log
     return DegradeOutput(
-        degraded, out, int(log.has_position.sum()), int(log.has_yaw.sum()), len(log)
+        degraded, out_dir, int(log.has_position.sum()), int(log.has_yaw.sum()), len(log)
     )
 
 
-def _claimed_config(cfg: Config, d: Degradation, wheels: str | Path) -> str:
+def _claimed_config(config: Config, d: Degradation, wheels: str | Path) -> str:
     """Return the configuration with the noise a driver's covariances would claim, as YAML."""
     injected = d.injected()
     claimed = PoseSigmas(
         x=injected["gps_claimed"], y=injected["gps_claimed"], yaw=d.heading_claimed
     )
-    cfg = dataclasses.replace(cfg, ekf=dataclasses.replace(cfg.ekf, sigma_r=claimed))
+    config = dataclasses.replace(config, ekf=dataclasses.replace(config.ekf, sigma_r=claimed))
     header = (
         f"# configuration of the degraded recording of {Path(wheels).name}: the pose noise\n"
         "# (ekf.sigma_r) is what the sensors' messages would claim; the mounting, latency\n"
         "# and real noise are unknown here (degrade.yaml has them)\n"
     )
-    return header + dump_config(cfg)
+    return header + dump_config(config)
 
 
 def _injected_yaml(degraded: DegradedLog, wheels: str | Path) -> str:

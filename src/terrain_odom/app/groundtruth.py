@@ -106,22 +106,22 @@ def _icr_model(result: OdometryResult) -> Any:
 
 
 def _frames_section(
-    gt: GroundTruth, records: list[FrameRecord]
+    truth: GroundTruth, records: list[FrameRecord]
 ) -> tuple[dict[str, Any], np.ndarray]:
     t = np.array([r.t for r in records], dtype=float)
-    truth = frame_truth(gt, t, [r.ahead for r in records])
+    true_labels = frame_truth(truth, t, [r.ahead for r in records])
     return {
         "truth": "terrain under the true robot once it has travelled the frame's ahead_m",
-        "accuracy": frame_accuracy(truth, [r.label for r in records]),
+        "accuracy": frame_accuracy(true_labels, [r.label for r in records]),
         "feature_time": feature_times(
-            truth, [r.ms_features for r in records], [r.ms_features_full for r in records]
+            true_labels, [r.ms_features for r in records], [r.ms_features_full for r in records]
         ),
         "classification_time": feature_times(
-            truth,
+            true_labels,
             [r.ms_features + r.ms_knn for r in records],
             [r.ms_features_full + r.ms_knn_full for r in records],
         ),
-    }, truth
+    }, true_labels
 
 
 @dataclass(frozen=True)
@@ -146,7 +146,7 @@ class GroundTruthReport:
 def groundtruth_section(
     log: WheelLog,
     config: Config,
-    gt: GroundTruth,
+    truth: GroundTruth,
     *,
     labels: Sequence[str] | np.ndarray | None = None,
     records: list[FrameRecord] | None = None,
@@ -161,7 +161,7 @@ def groundtruth_section(
         The run's wheel log.
     config : Config
         The run's configuration.
-    gt : GroundTruth
+    truth : GroundTruth
         True pose, ICRs and terrain covering the log.
     labels, records : optional
         The run's terrain labels per row, or its frame records.
@@ -177,8 +177,8 @@ def groundtruth_section(
         model), ``reconvergence`` and ``resets`` (per variant), and with
         records ``frames`` (accuracy and feature time per true terrain).
     """
-    true_log = groundtruth_log(log, gt)
-    true_terrain = gt.terrain[np.clip(np.searchsorted(gt.t, log.t - 1e-9), 0, len(gt) - 1)]
+    true_log = groundtruth_log(log, truth)
+    true_terrain = truth.terrain[np.clip(np.searchsorted(truth.t, log.t - 1e-9), 0, len(truth) - 1)]
     results = run_variants(log, config, labels=labels, records=records, priors=priors)
     b = config.robot.track_width
     idd = get_model("idd")
@@ -186,7 +186,7 @@ def groundtruth_section(
     models.update((name, _icr_model(result)) for name, result in results.items())
     horizon = config.evaluation.horizon
     tolerance = config.evaluation.icr_tolerance * b
-    changes = [c for c in gt.changes() if log.t[0] < c[0] <= log.t[-1]]
+    changes = [c for c in truth.changes() if log.t[0] < c[0] <= log.t[-1]]
     section: dict[str, Any] = {
         "settings": {
             "horizon_m": horizon,
@@ -198,7 +198,7 @@ def groundtruth_section(
         "odometry": model_odometry_error(true_log, true_terrain, models, horizon),
         "reconvergence": {
             name: reconvergence(
-                gt,
+                truth,
                 log.t,
                 _icr_columns(result),
                 tolerance,
@@ -212,10 +212,10 @@ def groundtruth_section(
             for name, result in results.items()
         },
     }
-    truth = None
+    frame_labels = None
     if records is not None:
-        section["frames"], truth = _frames_section(gt, records)
-    return GroundTruthReport(section, results, truth)
+        section["frames"], frame_labels = _frames_section(truth, records)
+    return GroundTruthReport(section, results, frame_labels)
 
 
 def _icr_columns(result: OdometryResult) -> np.ndarray:

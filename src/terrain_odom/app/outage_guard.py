@@ -111,7 +111,7 @@ class OutageGuard:
     ----------
     log : WheelLog
         The log the run streams (pose delay applied).
-    cfg : Config
+    config : Config
         The run's configuration (track width, ``pose_sensor`` antenna).
     names : tuple of str
         The estimator's state names (the columns of its blocks).
@@ -119,9 +119,11 @@ class OutageGuard:
         ``"icr-ekf"`` or ``"slip-ekf"`` (skipped: its model is not an ICR state).
     """
 
-    def __init__(self, log: WheelLog, cfg: Config, names: tuple[str, ...], estimator: str) -> None:
+    def __init__(
+        self, log: WheelLog, config: Config, names: tuple[str, ...], estimator: str
+    ) -> None:
         started = time.perf_counter()
-        self.log, self.cfg = log, cfg
+        self.log, self.config = log, config
         self.durations = DEFAULT_OUTAGES
         self.skipped = self._why_not(log, names, estimator)
         self.starts = np.zeros(0, dtype=int) if self.skipped else outage_starts(log, self.durations)
@@ -176,8 +178,8 @@ class OutageGuard:
             self.starts,
             self.states,
             self.first[1:5],
-            track_width=self.cfg.robot.track_width,
-            antenna=antenna_of(self.cfg),
+            track_width=self.config.robot.track_width,
+            antenna=antenna_of(self.config),
         )
         seconds = self.seconds + time.perf_counter() - started
         return GuardResult(table, seconds=seconds, every=outage_spacing(self.log))

@@ -91,10 +91,10 @@ def write_figures(folder: Path, jobs: dict[str, Draw]) -> list[Path]:
 
 
 def write_run_plots(
-    out: Path,
+    out_dir: Path,
     log: WheelLog,
     result: OdometryResult,
-    cfg: Config,
+    config: Config,
     *,
     truth: GroundTruth | None = None,
     scored: GroundTruthReport | None = None,
@@ -102,13 +102,13 @@ def write_run_plots(
     images: Path | None = None,
     classifier: TerrainClassifier | None = None,
 ) -> list[str]:
-    """Write the plots of a run into ``out/plots``; return their paths relative to ``out``.
+    """Write the plots of a run into ``out_dir/plots``; return their paths relative to ``out_dir``.
 
     Parameters
     ----------
-    out : Path
+    out_dir : Path
         The run's output folder.
-    log, result, cfg
+    log, result, config
         The run's (calibrated) log, its result and configuration.
     truth, scored : optional
         Ground truth and the run scored against it (its filter variants and
@@ -134,11 +134,11 @@ def write_run_plots(
             t, [r.label for r in records], [str(v) for v in frame_truth]
         )
     if records and images is not None and classifier is not None:
-        panels = mosaic_panels(records, result, log, cfg, classifier, images, frame_truth)
+        panels = mosaic_panels(records, result, log, config, classifier, images, frame_truth)
         if panels:
             jobs["mosaic.png"] = lambda: mosaic_figure(panels)
-    written = write_figures(out / PLOTS_DIR, jobs)
-    return [path.relative_to(out).as_posix() for path in written]
+    written = write_figures(out_dir / PLOTS_DIR, jobs)
+    return [path.relative_to(out_dir).as_posix() for path in written]
 
 
 def _picks(records: Sequence[FrameRecord], result: OdometryResult) -> list[tuple[int, str]]:
@@ -165,7 +165,7 @@ def mosaic_panels(
     records: Sequence[FrameRecord],
     result: OdometryResult,
     log: WheelLog,
-    cfg: Config,
+    config: Config,
     classifier: TerrainClassifier,
     images: Path,
     frame_truth: np.ndarray | None = None,
@@ -187,7 +187,7 @@ def mosaic_panels(
         truth = "" if frame_truth is None else str(frame_truth[index])
         panel = MosaicPanel(record.t, image, record.label, record.confidence, truth, title,
                             box=record.box)  # fmt: skip
-        panels.append(with_votes(panel, record, result, log, cfg, classifier))
+        panels.append(with_votes(panel, record, result, log, config, classifier))
     return panels
 
 
@@ -196,7 +196,7 @@ def with_votes(
     record: FrameRecord,
     result: OdometryResult,
     log: WheelLog,
-    cfg: Config,
+    config: Config,
     classifier: TerrainClassifier,
 ) -> MosaicPanel:
     """Add the footprint polygon and the tiles' votes to a panel (see :func:`mosaic_panels`)."""
@@ -213,7 +213,7 @@ def with_votes(
         params = result.states[row, [names.index(n) for n in ("y_l", "y_r", "x_icr")]]
         if "alpha" in names:
             params = np.append(params, result.states[row, names.index("alpha")])
-        roi = region_of_interest(GroundCamera(cfg.camera), cfg.roi, log.v_l[row], log.v_r[row],
+        roi = region_of_interest(GroundCamera(config.camera), config.roi, log.v_l[row], log.v_r[row],
                                  params)  # fmt: skip
         if roi.box != record.box:
             return panel

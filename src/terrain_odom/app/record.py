@@ -54,7 +54,7 @@ def _recorded(
     images: Path,
     result: OdometryResult,
     log: WheelLog,
-    cfg: Config,
+    config: Config,
     classifier: TerrainClassifier,
 ) -> Iterator[RecordedFrame]:
     """Yield each readable frame of ``records`` with its region of interest and votes."""
@@ -74,28 +74,28 @@ def _recorded(
             media_type = "image/jpeg"
         panel = MosaicPanel(record.t, image, record.label, record.confidence, "", "",
                             box=record.box)  # fmt: skip
-        panel = with_votes(panel, record, result, log, cfg, classifier)
+        panel = with_votes(panel, record, result, log, config, classifier)
         yield RecordedFrame(panel.t, data, media_type, panel.label, panel.confidence,
                             panel.box, panel.polygon, panel.tiles, panel.votes)  # fmt: skip
 
 
 def write_recording(
-    out: Path,
+    out_dir: Path,
     log: WheelLog,
     result: OdometryResult,
-    cfg: Config,
+    config: Config,
     *,
     records: Sequence[FrameRecord] = (),
     images: Path | None = None,
     classifier: TerrainClassifier | None = None,
 ) -> Path:
-    """Write ``out/run.rrd`` (atomically): the run on one timeline, for the Rerun viewer.
+    """Write ``out_dir/run.rrd`` (atomically): the run on one timeline, for the Rerun viewer.
 
     Parameters
     ----------
-    out : Path
+    out_dir : Path
         The run's output folder.
-    log, result, cfg
+    log, result, config
         The run's (calibrated) log, its result and configuration.
     records, images, classifier : optional
         The frames of a camera run, their folder and the classifier.
@@ -116,12 +116,12 @@ def write_recording(
     frames: Iterable[RecordedFrame] = ()
     classes: Sequence[str] = ()
     if records and images is not None and classifier is not None:
-        frames = _recorded(records, images, result, log, cfg, classifier)
+        frames = _recorded(records, images, result, log, config, classifier)
         classes = [str(c) for c in classifier.classes]
-    path = out / RECORDING
+    path = out_dir / RECORDING
     write = functools.partial(
         record_run, log=log, result=result, frames=frames, labels=classes,
-        arrow=cfg.robot.track_width,
+        arrow=config.robot.track_width,
     )  # fmt: skip
     with one_thread():  # the votes' features, as in the run (see one_thread)
         write_atomic(path, write)

@@ -125,24 +125,24 @@ def run_folder(out_dir: str | Path, *, overwrite: bool = False) -> Iterator[Path
             raise
 
 
-def _mark_stopped(out: Path, exc: BaseException) -> None:
+def _mark_stopped(out_dir: Path, exc: BaseException) -> None:
     """Mark a run that stopped after its stream (drawing, reporting) interrupted.
 
     A run stopped while streaming has said so already (with the rows
     written); any later stop leaves ``report.json`` saying ``running``.
     """
     try:
-        report = _report(out / REPORT_JSON)
+        report = _report(out_dir / REPORT_JSON)
     except (OSError, ValueError, AttributeError):
         return
     if report.get("status") != RUNNING:
         return
     try:
-        with open(out / TRAJECTORY_CSV, "rb") as handle:
+        with open(out_dir / TRAJECTORY_CSV, "rb") as handle:
             rows = sum(block.count(b"\n") for block in iter(lambda: handle.read(1 << 20), b"")) - 1
     except OSError:
         rows = 0
-    mark_interrupted(out, report.get("inputs", {}), max(rows, 0), exc)
+    mark_interrupted(out_dir, report.get("inputs", {}), max(rows, 0), exc)
 
 
 _HELD: contextvars.ContextVar[contextlib.ExitStack | None] = contextvars.ContextVar(
@@ -199,13 +199,13 @@ def _prepare(folder: OutputFolder, *, overwrite: bool, remove: bool = True) -> N
     )
 
 
-def _which_run(out: Path) -> str:
-    """Return "a run", or "an interrupted run" etc. as ``out/report.json`` says.
+def _which_run(out_dir: Path) -> str:
+    """Return "a run", or "an interrupted run" etc. as ``out_dir/report.json`` says.
 
     Called with the folder locked: a run still marked running is gone.
     """
     try:
-        report = _report(out / REPORT_JSON)
+        report = _report(out_dir / REPORT_JSON)
     except (OSError, ValueError, AttributeError):
         return "a run"
     status = report.get("status", COMPLETE)
@@ -230,15 +230,15 @@ def _report(path: Path) -> dict[str, Any]:
     return report
 
 
-def mark_running(out: Path, inputs: dict[str, Any]) -> None:
-    """Write ``report.json`` saying the run in ``out`` has started (with its ``inputs``)."""
+def mark_running(out_dir: Path, inputs: dict[str, Any]) -> None:
+    """Write ``report.json`` saying the run in ``out_dir`` has started (with its ``inputs``)."""
     write_json(
-        out / REPORT_JSON,
+        out_dir / REPORT_JSON,
         {**report_header("run"), "status": RUNNING, "pid": os.getpid(), "inputs": inputs},
     )
 
 
-def mark_interrupted(out: Path, inputs: dict[str, Any], rows: int, exc: BaseException) -> None:
+def mark_interrupted(out_dir: Path, inputs: dict[str, Any], rows: int, exc: BaseException) -> None:
     """Rewrite ``report.json``: the run stopped after ``rows`` rows because of ``exc``.
 
     The reason is the exception's one line (``interrupted by the user`` for
@@ -255,7 +255,7 @@ def mark_interrupted(out: Path, inputs: dict[str, Any], rows: int, exc: BaseExce
         "rows_written": rows,
     }
     with contextlib.suppress(OSError):  # the error at hand (e.g. a full disk) says more
-        write_json(out / REPORT_JSON, report)
+        write_json(out_dir / REPORT_JSON, report)
 
 
 def interruption_reason(exc: BaseException) -> str:

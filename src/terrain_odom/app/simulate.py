@@ -66,7 +66,7 @@ class SimOutput:
     ----------
     simulation : Simulation
         The run written.
-    out : Path
+    out_dir : Path
         The output folder.
     log_csv, groundtruth_csv, metadata_json : Path
     frames_csv : Path or None
@@ -88,7 +88,7 @@ class SimOutput:
     """
 
     simulation: Simulation = field(repr=False, compare=False)
-    out: Path
+    out_dir: Path
     log_csv: Path
     groundtruth_csv: Path
     frames_csv: Path | None
@@ -189,26 +189,26 @@ def _write_image(path: Path, rgb: np.ndarray) -> None:
         raise OSError(f"cannot write {path}")
 
 
-def _write_frames(sim: Simulation, out: Path, frame_format: str = "png") -> int:
-    (out / "frames").mkdir(exist_ok=True)
+def _write_frames(sim: Simulation, out_dir: Path, frame_format: str = "png") -> int:
+    (out_dir / "frames").mkdir(exist_ok=True)
     count = 0
-    with TrajectoryWriter(out / "frames.csv", ("t", "file")) as writer:
+    with TrajectoryWriter(out_dir / "frames.csv", ("t", "file")) as writer:
         for count, (t, frame) in enumerate(iter_frames(sim), start=1):
             name = f"frames/{count - 1:06d}.{frame_format}"
-            _write_image(out / name, frame)
+            _write_image(out_dir / name, frame)
             writer.write({"t": round(t, 6), "file": name})
     return count
 
 
-def _write_patches(sim: Simulation, out: Path) -> dict[str, int]:
+def _write_patches(sim: Simulation, out_dir: Path) -> dict[str, int]:
     counts = dict.fromkeys(sim.ground.terrains, 0)
     columns = ("file", "terrain", "x", "y", "yaw", "u0", "v0")
-    with TrajectoryWriter(out / "patches.csv", columns) as writer:
+    with TrajectoryWriter(out_dir / "patches.csv", columns) as writer:
         for patch in sample_patches(sim):
-            folder = out / "patches" / patch.terrain
+            folder = out_dir / "patches" / patch.terrain
             folder.mkdir(parents=True, exist_ok=True)
             name = f"patches/{patch.terrain}/{counts[patch.terrain]:04d}.png"
-            _write_image(out / name, patch.image)
+            _write_image(out_dir / name, patch.image)
             counts[patch.terrain] += 1
             x, y, yaw = (float(a) for a in patch.pose)
             u0, v0 = patch.corner
@@ -294,19 +294,19 @@ def _write_map_preview(sim: Simulation, path: Path, max_side: int = 2000) -> flo
 
 def write_simulation(
     sim: Simulation,
-    out: str | Path,
+    out_dir: str | Path,
     *,
     frames: bool = True,
     patches: bool = True,
     frame_format: str = "png",
     inputs: Iterable[str | Path | None] = (),
 ) -> SimOutput:
-    """Write a simulated run to ``out`` (created if needed; its own previous files replaced).
+    """Write a simulated run to ``out_dir`` (created if needed; its own previous files replaced).
 
     Parameters
     ----------
     sim : Simulation
-    out : str or Path
+    out_dir : str or Path
         Output folder.
     frames, patches : bool
         Render the camera frames / the training patches.
@@ -329,34 +329,34 @@ def write_simulation(
     """
     if frame_format not in FRAME_FORMATS:
         raise ValueError(f"frame_format must be one of {FRAME_FORMATS}, got {frame_format!r}")
-    out = Path(out)
+    out_dir = Path(out_dir)
     files = ("log.csv", "groundtruth.csv", "frames.csv", "config.yaml", "simulation.json")
-    check_outputs(inputs, [out / name for name in (*files, f"map.{frame_format}", MAP_PLOT)])
+    check_outputs(inputs, [out_dir / name for name in (*files, f"map.{frame_format}", MAP_PLOT)])
     names = [*files, f"map.{frame_format}", MAP_PLOT, "frames/", "patches/"]
-    with replacing(out, "simulate", names):  # its previous files replaced, never another's
-        _write_log(sim, out / "log.csv")
-        _write_truth(sim, out / "groundtruth.csv")
-        frame_count = _write_frames(sim, out, frame_format) if frames else 0
-        patch_counts = _write_patches(sim, out) if patches else {}
-        _write_config(sim, out / "config.yaml")
-        preview = out / f"map.{frame_format}"
+    with replacing(out_dir, "simulate", names):  # its previous files replaced, never another's
+        _write_log(sim, out_dir / "log.csv")
+        _write_truth(sim, out_dir / "groundtruth.csv")
+        frame_count = _write_frames(sim, out_dir, frame_format) if frames else 0
+        patch_counts = _write_patches(sim, out_dir) if patches else {}
+        _write_config(sim, out_dir / "config.yaml")
+        preview = out_dir / f"map.{frame_format}"
         preview_resolution = _write_map_preview(sim, preview)
         output = SimOutput(
             simulation=sim,
-            out=out,
-            log_csv=out / "log.csv",
-            groundtruth_csv=out / "groundtruth.csv",
-            frames_csv=out / "frames.csv" if frames else None,
-            patches_dir=out / "patches" if patches else None,
-            metadata_json=out / "simulation.json",
+            out_dir=out_dir,
+            log_csv=out_dir / "log.csv",
+            groundtruth_csv=out_dir / "groundtruth.csv",
+            frames_csv=out_dir / "frames.csv" if frames else None,
+            patches_dir=out_dir / "patches" if patches else None,
+            metadata_json=out_dir / "simulation.json",
             map_preview=preview,
             map_preview_resolution=preview_resolution,
             rows=int(sim.motion.t.size),
             pose_rows=int(np.isfinite(sim.measured_pose[:, 0]).sum()),
             frames=frame_count,
             patches=patch_counts,
-            config_yaml=out / "config.yaml",
-            map_plot=_write_map_plot(sim, out / MAP_PLOT),
+            config_yaml=out_dir / "config.yaml",
+            map_plot=_write_map_plot(sim, out_dir / MAP_PLOT),
         )
         write_json(output.metadata_json, output.to_dict())
     return output

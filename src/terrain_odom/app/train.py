@@ -60,9 +60,9 @@ __all__ = [
 ]
 
 MODEL_FILE = "classifier.npz"
-"""The model file :func:`train` writes into its ``out`` folder."""
+"""The model file :func:`train` writes into its ``out_dir`` folder."""
 MODEL_SUFFIXES = (".npz",)
-"""Suffixes by which :func:`train`'s ``out`` names the model file itself (the old form)."""
+"""Suffixes by which :func:`train`'s ``out_dir`` names the model file itself (the old form)."""
 
 ACCURACY_FILES = ("accuracy.json", "accuracy.csv", "confusion.png")
 """Files :func:`report_accuracy` writes into its ``out_dir``."""
@@ -74,8 +74,8 @@ class TrainSummary:
 
     Attributes
     ----------
-    model_path : Path
-    cfg : ClassifierConfig
+    classifier_path : Path
+    config : ClassifierConfig
     counts : dict of str to int
         Images used per class.
     skipped : tuple of SkippedImage
@@ -85,11 +85,11 @@ class TrainSummary:
         :meth:`~CrossValidation.threshold` is the model's ``min_confidence``
         (0 without cross-validation).
     tuning : Tuning or None
-        The search of ``train(tune=True)`` (``cfg`` is its choice).
+        The search of ``train(tune=True)`` (``config`` is its choice).
     """
 
-    model_path: Path
-    cfg: ClassifierConfig
+    classifier_path: Path
+    config: ClassifierConfig
     counts: dict[str, int]
     skipped: tuple[SkippedImage, ...]
     cross_validation: CrossValidation | None
@@ -98,8 +98,8 @@ class TrainSummary:
 
 def train(
     images: str | Path,
-    out: str | Path,
-    cfg: ClassifierConfig | None = None,
+    out_dir: str | Path,
+    config: ClassifierConfig | None = None,
     *,
     folds: int = 5,
     jobs: int | None = None,
@@ -115,11 +115,11 @@ def train(
     ----------
     images : str or Path
         Folder with one sub-folder of images per terrain class.
-    out : str or Path
+    out_dir : str or Path
         Folder (created) to write the model file :data:`MODEL_FILE` into (see
         :func:`~terrain_odom.io.classifier_file.save_classifier`); a name
         ending in ``.npz`` is the model file itself (the old form).
-    cfg : ClassifierConfig, optional
+    config : ClassifierConfig, optional
         Default: :class:`ClassifierConfig`.
     folds : int
         Cross-validation folds, reduced to the smallest class's image count.
@@ -128,9 +128,9 @@ def train(
     progress : bool, optional
         Progress bar (default: on a terminal only).
     config_path : str or Path, optional
-        The file ``cfg`` was read from, an input ``out`` must not overwrite.
+        The file ``config`` was read from, an input ``out_dir`` must not overwrite.
     tune : bool
-        Choose the settings of a grid around ``cfg`` by stratified
+        Choose the settings of a grid around ``config`` by stratified
         ``folds``-fold cross-validation (:func:`~terrain_odom.app.tune.tune_settings`)
         and train with the choice; the model file records the grid, the
         scores and the choice.
@@ -151,47 +151,49 @@ def train(
     ------
     InputFileError
         Missing folder, fewer than 2 classes, a class without usable images;
-        ``out`` is one of the images or ``config_path`` (checked first).
+        ``out_dir`` is one of the images or ``config_path`` (checked first).
     ConfigError
         ``k`` larger than the number of training samples; an invalid grid.
     """
-    cfg = ClassifierConfig() if cfg is None else cfg
-    target = output_file(out, MODEL_FILE, MODEL_SUFFIXES)
-    check_out(out, MODEL_SUFFIXES)
+    config = ClassifierConfig() if config is None else config
+    target = output_file(out_dir, MODEL_FILE, MODEL_SUFFIXES)
+    check_out(out_dir, MODEL_SUFFIXES)
     tune = tune or grid_path is not None
     scan = scan_image_folder(images)
-    cfg, grid = _scaled(cfg, scan, tune, grid_path)
+    config, grid = _scaled(config, scan, tune, grid_path)
     check_outputs([*scan.paths, config_path, grid_path], [target])
     with dask_cluster(dask) as cluster:
         jobs = jobs if cluster is None else cluster.jobs
         cache = feature_cache(scan, jobs, progress)
-        tuning = None if grid is None else tune_settings(cache, cfg, grid, folds=folds, jobs=jobs)
-        cfg = cfg if tuning is None else tuning.chosen
-        data = cache.features(cfg)
-    model = TerrainClassifier(cfg).fit(data.features, data.labels, data.region)
+        tuning = (
+            None if grid is None else tune_settings(cache, config, grid, folds=folds, jobs=jobs)
+        )
+        config = config if tuning is None else tuning.chosen
+        data = cache.features(config)
+    classifier = TerrainClassifier(config).fit(data.features, data.labels, data.region)
     folds = min(folds, *data.counts().values())
     validation = cross_validate_images(data, folds=folds) if folds >= 2 else None
-    model.calibrate_novelty()
+    classifier.calibrate_novelty()
     threshold = None if validation is None else validation.threshold()
-    model.min_confidence = 0.0 if threshold is None else threshold
-    create_folder(out, MODEL_SUFFIXES)
-    with writing_into(out, target, "train", [target.name], MODEL_SUFFIXES):
-        save_classifier(model, target, tuning=None if tuning is None else tuning.to_dict())
-    return TrainSummary(target, cfg, data.counts(), data.skipped, validation, tuning)
+    classifier.min_confidence = 0.0 if threshold is None else threshold
+    create_folder(out_dir, MODEL_SUFFIXES)
+    with writing_into(out_dir, target, "train", [target.name], MODEL_SUFFIXES):
+        save_classifier(classifier, target, tuning=None if tuning is None else tuning.to_dict())
+    return TrainSummary(target, config, data.counts(), data.skipped, validation, tuning)
 
 
 def _scaled(
-    cfg: ClassifierConfig, scan: LabelledImages, tune: bool, grid_path: str | Path | None
+    config: ClassifierConfig, scan: LabelledImages, tune: bool, grid_path: str | Path | None
 ) -> tuple[ClassifierConfig, Grid | None]:
-    """``cfg`` with its ``auto`` settings chosen from the images' size, and the grid if ``tune``.
+    """``config`` with its ``auto`` settings chosen from the images' size, and the grid if ``tune``.
 
     The size is the images' median shorter side (:func:`~terrain_odom.io.images.median_short_side`);
     the default grid is built around it (:func:`~terrain_odom.app.tune.load_grid`).
     """
     short_side = median_short_side(scan.paths)
     if short_side is not None:
-        cfg = resolve_scale(cfg, short_side)
-    return cfg, load_grid(grid_path, cfg, short_side) if tune else None
+        config = resolve_scale(config, short_side)
+    return config, load_grid(grid_path, config, short_side) if tune else None
 
 
 @dataclass(frozen=True)
@@ -250,7 +252,7 @@ class AccuracyReport:
 
 def report_accuracy(
     images: str | Path,
-    cfg: ClassifierConfig | None = None,
+    config: ClassifierConfig | None = None,
     *,
     folds: int = 5,
     out_dir: str | Path | None = None,
@@ -261,7 +263,7 @@ def report_accuracy(
     grid_path: str | Path | None = None,
     dask: str | None = None,
 ) -> AccuracyReport:
-    """Cross-validated confusion matrices of ``cfg`` and of Chen's recipe.
+    """Cross-validated confusion matrices of ``config`` and of Chen's recipe.
 
     Both are scored on the same stratified folds (seed :data:`~terrain_odom.vision.cross_validation.CV_SEED`).
 
@@ -269,7 +271,7 @@ def report_accuracy(
     ----------
     images : str or Path
         Labelled image folder.
-    cfg : ClassifierConfig, optional
+    config : ClassifierConfig, optional
         Configuration to score (default :class:`ClassifierConfig`).
     folds : int
     out_dir : str or Path, optional
@@ -279,7 +281,7 @@ def report_accuracy(
     jobs, progress, config_path, tune, grid_path, dask
         As in :func:`train`; with ``tune``, the tuned classifier is scored
         by nested cross-validation (:func:`~terrain_odom.app.tune.nested_tuning`)
-        on the same outer folds, beside ``cfg`` untuned.
+        on the same outer folds, beside ``config`` untuned.
 
     Returns
     -------
@@ -292,12 +294,12 @@ def report_accuracy(
         class with fewer images than ``folds``; a file in ``out_dir`` it did
         not write (:mod:`terrain_odom.io.folder`).
     """
-    cfg = ClassifierConfig() if cfg is None else cfg
+    config = ClassifierConfig() if config is None else config
     if folds < 2:
         raise ConfigError(f"folds: must be >= 2, got {folds}")
     out_dir = None if out_dir is None else Path(out_dir)
     scan = scan_image_folder(images)
-    cfg, grid = _scaled(cfg, scan, tune or grid_path is not None, grid_path)
+    config, grid = _scaled(config, scan, tune or grid_path is not None, grid_path)
     if out_dir is not None:
         check_outputs(
             [*scan.paths, config_path, grid_path], [out_dir / name for name in ACCURACY_FILES]
@@ -305,7 +307,7 @@ def report_accuracy(
     with writing_if(out_dir, "report accuracy") as folder:  # locked; its own files replaced
         if folder is not None:
             folder.prepare(ACCURACY_FILES, overwrite=True, remove=False)
-        report = _accuracy(Path(images), scan, cfg, grid, folds, jobs, dask, progress)
+        report = _accuracy(Path(images), scan, config, grid, folds, jobs, dask, progress)
         if folder is None:
             return report
         folder.prepare(ACCURACY_FILES, overwrite=True)
@@ -319,21 +321,21 @@ def report_accuracy(
 def _accuracy(
     images: Path,
     scan: LabelledImages,
-    cfg: ClassifierConfig,
+    config: ClassifierConfig,
     grid: Grid | None,
     folds: int,
     jobs: int | None,
     dask: str | None,
     progress: bool | None,
 ) -> AccuracyReport:
-    """Cross-validate ``cfg`` and Chen et al.'s recipe (and tune, with a grid) on ``images``."""
+    """Cross-validate ``config`` and Chen et al.'s recipe (and tune, with a grid) on ``images``."""
     paper = paper_config()
     with dask_cluster(dask) as cluster:
         jobs = jobs if cluster is None else cluster.jobs
         cache = feature_cache(scan, jobs, progress)
-        cache.prepare([cfg, paper, *([] if grid is None else grid_configs(grid, cfg))])
-        tuned = None if grid is None else nested_tuning(cache, cfg, grid, folds=folds, jobs=jobs)
-    chosen_data, paper_data = cache.features(cfg), cache.features(paper)
+        cache.prepare([config, paper, *([] if grid is None else grid_configs(grid, config))])
+        tuned = None if grid is None else nested_tuning(cache, config, grid, folds=folds, jobs=jobs)
+    chosen_data, paper_data = cache.features(config), cache.features(paper)
     report = AccuracyReport(
         images=images,
         chosen=cross_validate_images(chosen_data, folds=folds),

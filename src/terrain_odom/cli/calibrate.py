@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
+from terrain_odom.app.calibration import robot_geometry
 from terrain_odom.cli.bag_import import add_bag_topic_options, wheels_from_bag
 from terrain_odom.cli.options import (
     add_config_option,
@@ -39,13 +41,21 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
     from terrain_odom.app.calibrate import calibrate
 
     wheels, bag_config = wheels_from_bag(args, args.out)
-    config = args.config or bag_config
+    config_path = args.config or bag_config
     summary = calibrate(
-        wheels, args.out, config=load_config_option(args, config), config_path=config
+        wheels, args.out, config=load_config_option(args, config_path), config_path=config_path
     )
+    print(f"robot:      {robot_geometry(summary.robot)} ({_source(summary.config_path)})")
     print_pose_delay(summary.timing)
     print_calibration(summary.calibration)
     print(f"{summary.rows} rows in {summary.seconds:.2f} s")
     print_written("config:", [summary.config_yaml])
     print_written("report:", [summary.report_json])
     return 0
+
+
+def _source(config_path: Path | None) -> str:
+    """Where the robot's geometry came from, for the console (the built-in defaults: say so)."""
+    if config_path is None:
+        return "the built-in defaults: --config gives the robot's"
+    return f"from {config_path}"

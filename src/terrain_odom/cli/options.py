@@ -215,7 +215,7 @@ def add_log_options(p: argparse.ArgumentParser) -> None:
     )
 
 
-def load_config_option(args: argparse.Namespace, path: str | Path | None = None) -> Config:
+def load_config_option(args: argparse.Namespace, config_path: str | Path | None = None) -> Config:
     """Return the configuration of ``--config`` with ``--pose-delay`` and ``--no-checks`` applied.
 
     Parameters
@@ -223,16 +223,16 @@ def load_config_option(args: argparse.Namespace, path: str | Path | None = None)
     args : argparse.Namespace
         Parsed arguments with ``config`` and, for subcommands that have them,
         ``pose_delay`` and ``no_checks``.
-    path : str or Path, optional
+    config_path : str or Path, optional
         The configuration file to load instead of ``--config`` (e.g. one found
         beside the input); built-in defaults when neither is given.
     """
     from terrain_odom.config import ChecksConfig, load_config, with_pose_delay
 
-    cfg = load_config(args.config if path is None else path)
+    config = load_config(args.config if config_path is None else config_path)
     if getattr(args, "no_checks", False):
-        cfg = dataclasses.replace(cfg, checks=ChecksConfig(enabled=False))
-    return with_pose_delay(cfg, getattr(args, "pose_delay", None))
+        config = dataclasses.replace(config, checks=ChecksConfig(enabled=False))
+    return with_pose_delay(config, getattr(args, "pose_delay", None))
 
 
 def config_edits(args: argparse.Namespace, **edits: Any) -> ConfigEdits:

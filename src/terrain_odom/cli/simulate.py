@@ -107,8 +107,8 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     scenario = dataclasses.replace(get_scenario(args.scenario), **_scenario_changes(args))
     robot = camera = None
     if args.config is not None:
-        cfg = load_config_option(args)
-        robot, camera = cfg.robot, cfg.camera
+        config = load_config_option(args)
+        robot, camera = config.robot, config.camera
     sim = simulate(scenario, seed, robot=robot, camera=camera)
     out = write_simulation(
         sim,

@@ -19,16 +19,16 @@ if TYPE_CHECKING:
     from terrain_odom.vision.tuning import Search
 
 
-def describe(cfg: ClassifierConfig) -> str:
+def describe(config: ClassifierConfig) -> str:
     """Return a one-line summary of a classifier configuration."""
     return (
-        f"features={cfg.features} n_t={cfg.n_t} relative_counts={cfg.relative_counts} "
-        f"pyramid_levels={cfg.pyramid_levels} scale={cfg.scale} k={cfg.k} "
-        f"weights={cfg.weights} "
+        f"features={config.features} n_t={config.n_t} relative_counts={config.relative_counts} "
+        f"pyramid_levels={config.pyramid_levels} scale={config.scale} k={config.k} "
+        f"weights={config.weights} "
         + (
-            f"tile_size={cfg.tile_size}"
-            if cfg.tile_size is not None
-            else f"tiles={cfg.tiles} min_tile_size={cfg.min_tile_size}"
+            f"tile_size={config.tile_size}"
+            if config.tile_size is not None
+            else f"tiles={config.tiles} min_tile_size={config.min_tile_size}"
         )
     )
 
@@ -95,7 +95,7 @@ def _cmd_train(args: argparse.Namespace) -> int:
     )
     if summary.tuning is not None:
         print_search(summary.tuning.search)
-    print(describe(summary.cfg))
+    print(describe(summary.config))
     total = sum(summary.counts.values())
     print(f"{total} images: " + ", ".join(f"{k} {v}" for k, v in summary.counts.items()))
     print_skipped(summary.skipped)
@@ -114,5 +114,5 @@ def _cmd_train(args: argparse.Namespace) -> int:
                 "'report accuracy --tune' scores the tuning by nested cross-validation)"
             )
         print(describe_threshold(cv))
-    print(f"model: {summary.model_path}")
+    print(f"model: {summary.classifier_path}")
     return 0

@@ -3,7 +3,7 @@
 Subscribes to the topics named with ``import``'s flags (any message class:
 the type is read from each connection, so a topic of a wrong type is
 counted, not fatal), hands every message to
-:class:`~terrain_odom.app.live.LiveOdometry` and publishes each row's
+:class:`~terrain_odom.app.live.odometry.LiveOdometry` and publishes each row's
 estimate (docs/ros.md: topics, parameters, the layout of ``icr``):
 
 - ``odometry`` (``nav_msgs/Odometry``), the TF ``odom -> base_link`` with
@@ -32,14 +32,10 @@ import time
 from collections.abc import Callable, Sequence
 from typing import Any
 
-from terrain_odom.app.live import (
-    FRAME_POLICIES,
-    LiveOdometry,
-    LiveOptions,
-    LiveOutput,
-    LiveTopics,
-    build_live,
-)
+from terrain_odom.app.live.build import build_live
+from terrain_odom.app.live.odometry import LiveOdometry
+from terrain_odom.app.live.options import FRAME_POLICIES, ROLES, LiveOptions, LiveTopics
+from terrain_odom.app.live.output import LiveOutput
 from terrain_odom.cli.bag_import import add_bag_topic_options
 from terrain_odom.cli.options import add_config_option
 from terrain_odom.errors import TerrainOdomError
@@ -49,7 +45,6 @@ __all__ = ["build_parser", "main"]
 EXIT_USAGE = 2
 UNKNOWN_VARIANCE = 1e6
 """Variance published for what a planar estimate does not know (z, roll, pitch): m^2, rad^2."""
-ROLES = ("wheels", "pose", "heading", "images")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -322,7 +317,7 @@ def run_node(args: argparse.Namespace) -> LiveOdometry:
         args.config,
         _topics(args),
         LiveOptions(args.delay, args.max_gap, args.jump_back, args.frames, args.idle),
-        classifier=args.classifier,
+        classifier_path=args.classifier,
         estimator=args.estimator,
         robot={"track_width": args.track_width, "wheel_radius": args.wheel_radius},
         on_output=lambda out: holder["pubs"].publish(out),

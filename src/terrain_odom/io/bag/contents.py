@@ -166,7 +166,7 @@ def _read(
     out_dir: Path | None,
     progress: bool | None,
 ) -> tuple[BagStreams, MergedLog]:
-    """Read the bag's selected topics in one pass (frames written into ``out``); merge the log."""
+    """Read the bag's selected topics in one pass (frames written into ``out_dir``); merge the log."""
     with open_bag(bag) as reader:
         connections, streams = _plan(reader, bag, options, robot)
         if out_dir is not None and options.image_topic is not None:

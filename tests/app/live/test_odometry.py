@@ -19,17 +19,12 @@ from typing import Any
 import numpy as np
 import pytest
 
-from terrain_odom.app.live import (
-    LiveOdometry,
-    LiveOptions,
-    LiveOutput,
-    LiveTopics,
-    build_live,
-    twist_with_covariance,
-)
+from terrain_odom.app.live.build import build_live
+from terrain_odom.app.live.odometry import LiveOdometry
+from terrain_odom.app.live.options import LiveOptions, LiveTopics
+from terrain_odom.app.live.output import LiveOutput
 from terrain_odom.app.run import RunOptions, run
 from terrain_odom.config import Config, load_config
-from terrain_odom.errors import ConfigError
 from terrain_odom.estimation.odometry import run_odometry
 from terrain_odom.estimation.online import OnlineOdometry
 from terrain_odom.io.bag.contents import read_bag_log
@@ -209,20 +204,6 @@ def test_poll_releases_the_buffer_of_a_paused_stream(jackal_messages: list[Any])
     assert len(out) == 49
 
 
-def test_twist_covariance_matches_sampling() -> None:
-    names = ("x", "y", "yaw", "y_l", "y_r", "x_icr", "alpha")
-    state = np.array([0.0, 0.0, 0.0, 0.6, -0.55, 0.1, 0.9])
-    std = np.array([0.0, 0.0, 0.0, 0.02, 0.03, 0.05, 0.02])
-    twist, cov = twist_with_covariance(0.4, 1.2, names, state, std)
-    rng = np.random.default_rng(0)
-    params = state[3:] + std[3:] * rng.standard_normal((200_000, 4))
-    from terrain_odom.kinematics.models import twist_icr
-
-    samples = np.array(twist_icr(0.4, 1.2, *params.T)).T
-    np.testing.assert_allclose(twist, samples.mean(axis=0), atol=2e-3)
-    np.testing.assert_allclose(cov, np.cov(samples.T), rtol=0.05, atol=1e-6)
-
-
 # ------------------------------------------------------------ frames
 def _sample_records(sample_dir: Path) -> list[Any]:
     cfg = load_config(sample_dir / "config.yaml")
@@ -367,11 +348,3 @@ def test_frames_faster_than_the_classifier_are_skipped_not_queued(sample_dir: Pa
     skipped = live.dropped["images: the classifier is behind (frames skipped to keep up)"]
     assert max(waiting) <= 3 and skipped > 0
     assert live.counts["frames_classified"] + skipped == live.counts["images"]
-
-
-def test_the_heading_bias_without_a_pose_topic_is_refused(tmp_path: Path) -> None:
-    """As ``run`` on a log without positions: nothing would observe the bias (one line)."""
-    config = tmp_path / "bias.yaml"
-    config.write_text("pose_sensor: {heading_bias: true}\n", encoding="utf-8")
-    with pytest.raises(ConfigError, match="no --pose-topic: headings but no positions"):
-        build_live(config, LiveTopics(ODOM, heading=IMU_TOPIC))
