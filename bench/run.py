@@ -26,11 +26,14 @@ Prints the frame rates and times per frame as ratios of the pure decoding
 time, the mean per-frame times the run itself recorded in ``frames.csv``,
 and the machine's load average before and after (other jobs slow all of
 them); then, untimed, the frame accuracy of one more run scored with
-``--groundtruth``.
+``--groundtruth``. With ``--parts``, where a frame's time goes: the run's
+frame work replayed step by step on the same frames (with the speeds of the
+log and the ICRs of the run's trajectory), CPU time per frame of each step,
+best of ``--repeat`` passes.
 
 Usage::
 
-    python bench/run.py [--work /tmp/bench_run] [--duration 60] [--repeat 3] [--reuse]
+    python bench/run.py [--work /tmp/bench_run] [--duration 60] [--repeat 3] [--reuse] [--parts]
 """
 
 from __future__ import annotations
@@ -49,7 +52,15 @@ from terrain_odom.app.frames import one_thread
 from terrain_odom.app.inputs import TerrainSource
 from terrain_odom.app.run import RunOptions, run
 from terrain_odom.cli.main import main as cli
+from terrain_odom.config import load_config
+from terrain_odom.io.classifier_file import load_classifier
 from terrain_odom.io.frames import read_frames
+from terrain_odom.io.images import decode_image_rgb
+from terrain_odom.io.trajectory import read_trajectory_csv
+from terrain_odom.io.wheel_log import read_wheel_log
+from terrain_odom.vision import features
+from terrain_odom.vision.camera import GroundCamera, crop, region_of_interest
+from terrain_odom.vision.sfta import to_grey
 
 CAMERA_640 = """\
 robot:
@@ -127,12 +138,78 @@ def _print_times(wall: dict[str, float], cpu: dict[str, float], n_frames: int) -
     print(f"with its plots     {figures('plots')} (plots {plots[0]:.2f} [{plots[1]:.2f}] s a run)")
 
 
+PARTS = ("read", "decode", "roi", "tiles", "grey", "sfta", "lbp", "lab", "vote")
+"""The steps of a frame's classification that ``--parts`` times."""
+
+
+def frame_parts(sim: Path, out: Path, repeat: int) -> dict[str, float]:
+    """CPU time per frame of each step of the frames' classification, s (best of ``repeat``).
+
+    The steps of ``terrain-odom run``'s frame work with the default
+    features (SFTA, LBP, CIELAB), called one by one on the run's frames:
+    the region of interest at the log's held speeds and the ICRs the run
+    estimated (``out``'s ``trajectory.csv``) at each frame's time.
+    """
+    config = load_config(sim / "config.yaml")
+    camera, classifier = GroundCamera(config.camera), load_classifier(sim / MODEL)
+    frames, log = read_frames(sim), read_wheel_log(sim / "log.csv")
+    states = read_trajectory_csv(out / "trajectory.csv")
+    row = np.clip(np.searchsorted(log.t, frames.t, side="right") - 1, 0, len(log) - 1)
+    icrs = np.column_stack([states[name] for name in ("y_l", "y_r", "x_icr")])[row]
+    best = dict.fromkeys(PARTS, float("inf"))
+    for _ in range(repeat):
+        spent = dict.fromkeys(PARTS, 0.0)
+        for i, path in enumerate(frames.files):
+            step = _Steps(spent)
+            data = path.read_bytes()
+            step("read")
+            image = decode_image_rgb(data)
+            step("decode")
+            roi = region_of_interest(camera, config.roi, log.v_l[row[i]], log.v_r[row[i]], icrs[i])
+            step("roi")
+            if roi.box is None:
+                continue
+            region = crop(image, roi)
+            height, width = region.shape[:2]
+            footprint = roi.image_polygon - np.array(roi.box[:2], dtype=float)
+            boxes = features.tile_boxes(height, width, classifier.config)
+            boxes = boxes[features.tiles_within(height, width, classifier.config, footprint)]
+            tiles = [(slice(y0, y1), slice(x0, x1)) for x0, y0, x1, y1 in boxes.tolist()]
+            step("tiles")
+            grey = to_grey(region)
+            step("grey")
+            sfta = np.stack([features._sfta(grey[t], grey[t], classifier.config) for t in tiles])
+            step("sfta")
+            lbp = features.lbp_histograms(grey, boxes)
+            step("lbp")
+            lab = np.stack([features.colour_statistics(region[t], "lab") for t in tiles])
+            step("lab")
+            classifier.vote(np.hstack([sfta, lbp, lab]))
+            step("vote")
+        best = {name: min(best[name], spent[name] / len(frames.files)) for name in PARTS}
+    return best
+
+
+class _Steps:
+    """Adds the CPU time since the previous call to the named step."""
+
+    def __init__(self, spent: dict[str, float]) -> None:
+        self.spent = spent
+        self.started = time.process_time()
+
+    def __call__(self, name: str) -> None:
+        now = time.process_time()
+        self.spent[name] += now - self.started
+        self.started = now
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--work", type=Path, default=Path("/tmp/bench_run"))
     parser.add_argument("--duration", type=float, default=60.0, help="simulated seconds")
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--reuse", action="store_true", help="reuse the simulated run and model")
+    parser.add_argument("--parts", action="store_true", help="also time each step of a frame")
     args = parser.parse_args()
     sim = prepare(args.work, args.duration, args.reuse)
     os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
@@ -184,6 +261,13 @@ def main() -> None:
         f"{np.nanmean(frames['ms_knn']):.2f} ms mean, frame total "
         f"(decode + ROI + features + KNN) {np.nanmean(frames['ms_total']):.2f} ms mean"
     )
+    if args.parts:
+        with one_thread():
+            parts = frame_parts(sim, args.work / "out", args.repeat)
+        listed = ", ".join(f"{name} {1e3 * parts[name]:.2f}" for name in PARTS)
+        print(
+            f"a frame's steps replayed, CPU ms/frame: {listed}; sum {1e3 * sum(parts.values()):.2f}"
+        )
     print(f"load average after: {os.getloadavg()}")
     scored = args.work / "out_scored"
     run(

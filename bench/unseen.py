@@ -49,7 +49,7 @@ CONFIRM = 2
 
 def trained(data: LabelledFeatures, calibrated: bool) -> TerrainClassifier:
     """Return a classifier fitted on ``data`` as ``train`` fits it (or as before: no threshold, no novelty)."""
-    model = TerrainClassifier(data.cfg).fit(data.features, data.labels, data.region)
+    model = TerrainClassifier(data.config).fit(data.features, data.labels, data.region)
     if calibrated:
         model.calibrate_novelty()
         threshold = cross_validate_images(data, folds=min(5, *data.counts().values())).threshold()

@@ -57,7 +57,7 @@ def test_train_tune_chooses_colour_and_the_model_file_records_the_search(tmp_pat
     assert tuning.chosen.features == "sfta+lab" and tuning.chosen.n_t == 1  # base kept
     assert tuning.search.folds == 5 and len(tuning.search.candidates) == 4
     model = load_classifier(summary.classifier_path)
-    assert model.cfg == tuning.chosen and model.n_training_images == 18
+    assert model.config == tuning.chosen and model.n_training_images == 18
     stored = load_tuning(summary.classifier_path)
     assert stored == json.loads(json.dumps(tuning.to_dict()))
     assert stored["grid"] == [{"features": ["sfta", "sfta+lab"], "k": [1, 3]}]

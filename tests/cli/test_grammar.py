@@ -257,7 +257,7 @@ def test_train_out_npz_name_is_the_old_form(images, tmp_path, capsys):
     code, text, err = _main(capsys, "train", "--images", images, "--config", config,
                             "--jobs", "1", "--out", old)  # fmt: skip
     assert code == 0 and err == [_deprecation("--out m.npz", "--out DIR (a folder)")]
-    assert text.splitlines()[-1] == f"model: {old}" and load_classifier(old).cfg.k == 1
+    assert text.splitlines()[-1] == f"model: {old}" and load_classifier(old).config.k == 1
 
 
 def test_classifier_section_drives_train_and_a_flat_file_still_does(images, tmp_path, capsys):
@@ -273,7 +273,7 @@ def test_classifier_section_drives_train_and_a_flat_file_still_does(images, tmp_
                                 "--jobs", "1", "--out", out)  # fmt: skip
         assert code == 0, err
         assert "features=sfta " in text and " k=1 " in text and "tiles=1 " in text
-        models[config.stem] = load_classifier(out / "classifier.npz").cfg
+        models[config.stem] = load_classifier(out / "classifier.npz").config
         expected = [] if config == section else [
             _deprecation(
                 f"a flat classifier YAML ({flat})",

@@ -62,7 +62,7 @@ def test_train_prints_counts_and_accuracy_and_writes_a_model(tmp_path, capsys):
     assert model.n_training_images == 18
     # min_tile_size auto: the median shorter side (48 px) / 4 tiles = 12 px, recorded in the
     # model; 48 px and 96 px images both 4x4 tiles (with 32 px they were 1 and 3x3)
-    assert model.cfg.min_tile_size == 12 and len(model.training_labels) == 18 * 16
+    assert model.config.min_tile_size == 12 and len(model.training_labels) == 18 * 16
     assert 0.0 <= model.min_confidence <= 1.0 and model.novelty_distance is not None
     label, confidence = model.classify(read_image_rgb(root / "brick" / "0.png"))
     assert label == "brick" and confidence > 0.5
@@ -91,7 +91,7 @@ def test_train_options_override_the_config_file(tmp_path, capsys):
     assert "4-fold cross-validated" in out  # fewer images than 5 folds
     assert "tiles=2 min_tile_size=24" in out
     model = load_classifier(tmp_path / "m" / "classifier.npz")
-    cfg = model.cfg
+    cfg = model.config
     assert (cfg.features, cfg.scale, cfg.k, cfg.tiles, cfg.min_tile_size, cfg.weights) == (
         "sfta",
         False,
@@ -155,7 +155,7 @@ def test_report_without_out_writes_nothing(tmp_path, capsys):
     report = report_accuracy(root, folds=3, jobs=1, progress=False)
     assert report.outputs == ()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["images"]
-    assert report.paper.cfg == paper_config()
+    assert report.paper.config == paper_config()
 
 
 def run_process(*argv: str | Path) -> subprocess.CompletedProcess[str]:

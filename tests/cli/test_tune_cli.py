@@ -43,8 +43,8 @@ def test_train_tune_prints_the_search_and_writes_a_tuned_model(tmp_path, capsys)
         {"k": 1},
         {"k": 3},
     ]
-    assert load_classifier(out).cfg.k == tuning["choice"]["k"]
-    assert load_classifier(out).cfg.features == "sfta"  # the options are the grid's base
+    assert load_classifier(out).config.k == tuning["choice"]["k"]
+    assert load_classifier(out).config.features == "sfta"  # the options are the grid's base
     assert f"k={tuning['choice']['k']} " in text
 
 

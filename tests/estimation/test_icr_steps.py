@@ -22,7 +22,7 @@ def test_a_batch_is_offered_once_heading_and_position_are_anchored() -> None:
     assert batch is not None
     t = np.arange(0.2, 1.0, 0.1)
     pose = np.column_stack([0.5 * t, 0.01 * t, np.full(t.size, 0.1)])
-    states, _, updates = batch((0.1, 0.5, 0.6), t, (np.full(t.size, 0.5), np.full(t.size, 0.6)),
+    states, _, _, updates = batch((0.1, 0.5, 0.6), t, (np.full(t.size, 0.5), np.full(t.size, 0.6)),
                                pose, odo.pose_use)  # fmt: skip
     for k, t_k in enumerate(t):
         calls.wheels(float(t_k), 0.5, 0.6)

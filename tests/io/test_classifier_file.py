@@ -33,7 +33,7 @@ def test_model_round_trip_gives_identical_predictions(tmp_path):
     path = save_classifier(model, tmp_path / "model")  # written as given, no suffix added
     assert [p.name for p in tmp_path.iterdir()] == ["model"]
     loaded = load_classifier(path, expected=ClassifierConfig())
-    assert loaded.cfg == model.cfg and loaded.classes == ["a", "b"]
+    assert loaded.config == model.config and loaded.classes == ["a", "b"]
     query = rng.normal(size=(12, 5))
     for ours, theirs in zip(
         loaded.predict_with_confidence(query, np.arange(12) // 3),
@@ -63,7 +63,7 @@ def test_default_model_is_package_data_and_loads():
     assert default_model() == path and path.stat().st_size < 2e6
     model = load_classifier(path)
     assert {"grass", "gravel"} <= set(model.classes)
-    assert model.cfg.tile_size == 32
+    assert model.config.tile_size == 32
 
 
 def test_missing_default_model_is_an_input_error(tmp_path):
@@ -163,6 +163,6 @@ def test_fixed_tile_size_is_saved_with_the_model_and_checked(tmp_path):
     region = np.repeat(np.arange(4), [len(f) for f in features])
     clf = TerrainClassifier(cfg).fit(np.vstack(features), ["a", "a", "b", "b"], region)
     loaded = load_classifier(save_classifier(clf, tmp_path / "m.npz"))
-    assert loaded.cfg.tile_size == 32
+    assert loaded.config.tile_size == 32
     with pytest.raises(InputFileError, match="tile_size=32.*tile_size=None"):
         load_classifier(tmp_path / "m.npz", expected=ClassifierConfig(k=1))

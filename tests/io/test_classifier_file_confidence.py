@@ -37,7 +37,7 @@ def test_threshold_and_distance_round_trip(saved):
     model, path = saved
     loaded = load_classifier(path)
     assert loaded.min_confidence == 0.7 and loaded.novelty_distance == model.novelty_distance
-    assert loaded.cfg.min_tile_size == 16  # the resolved tile size, not auto
+    assert loaded.config.min_tile_size == 16  # the resolved tile size, not auto
 
 
 def test_a_model_saved_before_them_loads_as_before(saved, tmp_path):
@@ -50,7 +50,7 @@ def test_a_model_saved_before_them_loads_as_before(saved, tmp_path):
 
     loaded = load_classifier(_rewritten(path, tmp_path, older))
     assert loaded.min_confidence == 0.0 and loaded.novelty_distance is None
-    assert loaded.cfg.features == "sfta+lab"
+    assert loaded.config.features == "sfta+lab"
 
 
 @pytest.mark.parametrize(

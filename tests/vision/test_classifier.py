@@ -93,7 +93,7 @@ def test_arrays_round_trip_gives_identical_predictions(texture_features):
         novelty_distance=meta["novelty_distance"],
         min_confidence=meta["min_confidence"],
     )
-    assert loaded.cfg == model.cfg
+    assert loaded.config == model.config
     assert (loaded.novelty_distance, loaded.min_confidence) == (model.novelty_distance, 0.6)
     assert loaded.classes == sorted(TEXTURES)
     np.testing.assert_array_equal(loaded.training_region, r_train)

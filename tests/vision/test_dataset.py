@@ -81,7 +81,7 @@ def test_select_keeps_all_tiles_of_the_chosen_images(tmp_path):
         np.testing.assert_array_equal(
             part.features[part.region == new], data.features[data.region == old]
         )
-    assert part.cfg == data.cfg and part.classes == data.classes
+    assert part.config == data.config and part.classes == data.classes
     with pytest.raises(ValueError, match="distinct"):
         data.select([1, 1])
 
@@ -137,7 +137,7 @@ def test_parallel_extraction_equals_serial_and_shares_equal_feature_settings(tmp
         np.testing.assert_array_equal(ours.region, theirs.region)
         assert ours.paths == theirs.paths
     assert serial[2].features.shape[0] == 15
-    assert serial[1].cfg == knn_only_change
+    assert serial[1].config == knn_only_change
     np.testing.assert_array_equal(serial[1].features, serial[0].features)
     with pytest.raises(ConfigError, match="jobs"):
         extract_features(images, paper, read=read_image_rgb, jobs=0)

@@ -25,14 +25,14 @@ def _odometry(sample_dir, classifier):
 
 def test_a_grey_frame_and_a_colour_model_is_an_error_naming_the_features(sample_dir):
     model = load_classifier(default_model())
-    assert model.cfg.features != "sfta"
+    assert model.config.features != "sfta"
     image = read_image_rgb(sample_dir / "frames" / "000000.jpg")
     assert image is not None
     odo = _odometry(sample_dir, model)
     assert odo.frame(0.0, image).label  # the colour frame is classified
     grey = np.repeat(cv2.cvtColor(image, cv2.COLOR_RGB2GRAY)[..., None], 3, axis=2)
     with pytest.raises(
-        InputFileError, match=f"grey .* uses {re.escape(model.cfg.features)} features"
+        InputFileError, match=f"grey .* uses {re.escape(model.config.features)} features"
     ):
         odo.frame(0.0, grey)
 

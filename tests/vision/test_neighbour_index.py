@@ -11,8 +11,9 @@ from threadpoolctl import threadpool_limits
 from terrain_odom.config.classifier import ClassifierConfig
 from terrain_odom.errors import ConfigError
 from terrain_odom.io.images import read_image_rgb
-from terrain_odom.vision.classifier import SMALL_QUERY, TerrainClassifier, _NeighbourIndex
+from terrain_odom.vision.classifier import TerrainClassifier
 from terrain_odom.vision.features import image_features
+from terrain_odom.vision.neighbours import SMALL_QUERY, NeighbourIndex
 
 BATCHES = (1, 2, 3, 4, 5, 16, SMALL_QUERY)
 
@@ -82,7 +83,7 @@ def test_vote_of_a_region_is_predict_with_confidence_of_it(floor_tiles):
 
 def test_ties_go_to_the_lower_training_index_and_bad_queries_are_refused():
     samples = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 0.0], [-1.0, 0.0]])
-    index = _NeighbourIndex(samples, k=2)
+    index = NeighbourIndex(samples, k=2)
     distance, nearest = index.kneighbors(np.array([[0.0, 0.0], [1.0, 0.0]]))
     assert nearest.tolist() == [[0, 1], [1, 3]]  # 1, 2, 3, 4 tie at 1 from the origin
     np.testing.assert_array_equal(distance, [[0.0, 1.0], [0.0, 0.0]])
@@ -91,7 +92,7 @@ def test_ties_go_to_the_lower_training_index_and_bad_queries_are_refused():
     with pytest.raises(ValueError, match="the model has 2 columns"):
         index.kneighbors(np.zeros((1, 3)))
     with pytest.raises(ConfigError, match="k: 6 neighbours but 5 training samples"):
-        _NeighbourIndex(samples, k=6)
+        NeighbourIndex(samples, k=6)
     model = TerrainClassifier(ClassifierConfig(k=1)).fit(samples, np.array(list("abcab")))
     with pytest.raises(ValueError, match="one row of features per tile"):
         model.vote(np.empty((0, 2)))

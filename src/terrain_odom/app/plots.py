@@ -222,10 +222,10 @@ def with_votes(
     x0, y0 = record.box[:2]
     footprint = None if polygon is None else polygon - np.array([x0, y0], dtype=float)
     height, width = region.shape[:2]
-    boxes = tile_boxes(height, width, classifier.cfg)
+    boxes = tile_boxes(height, width, classifier.config)
     if footprint is not None:
-        boxes = boxes[tiles_within(height, width, classifier.cfg, footprint)]
-    votes = classifier.predict(image_features(region, classifier.cfg, footprint))
+        boxes = boxes[tiles_within(height, width, classifier.config, footprint)]
+    votes = classifier.predict(image_features(region, classifier.config, footprint))
     offset = np.array([x0, y0, x0, y0])
     return replace(panel, polygon=polygon, tiles=boxes + offset, votes=[str(v) for v in votes])
 

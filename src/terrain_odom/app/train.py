@@ -212,7 +212,7 @@ class AccuracyReport:
         Files written (empty without ``out_dir``).
     tuned : NestedTuning or None
         With ``tune``: the nested cross-validation of the settings tuned
-        around ``chosen.cfg``, on the same outer folds.
+        around ``chosen.config``, on the same outer folds.
     """
 
     images: Path

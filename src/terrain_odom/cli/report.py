@@ -101,7 +101,7 @@ def _cmd_accuracy(args: argparse.Namespace) -> int:
         ("chosen", report.chosen, "chosen"),
         ("paper (Chen et al.)", report.paper, "paper"),
     ):
-        print(f"\n{title}: {describe(cv.cfg)}")
+        print(f"\n{title}: {describe(cv.config)}")
         print("\n".join(format_table(cv, report.feature_ms[key])))
         print(describe_threshold(cv))
     if report.tuned is not None:

@@ -159,11 +159,14 @@ class IcrSteps:
         speeds: tuple[np.ndarray, np.ndarray],
         pose: np.ndarray,
         use: PoseUse,
-    ) -> tuple[np.ndarray, np.ndarray, int]:
-        """Run rows through :meth:`~terrain_odom.estimation.icr_ekf.IcrEkf.run_rows`."""
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+        """Run rows through :meth:`~terrain_odom.estimation.icr_ekf.IcrEkf.run_rows`.
+
+        The ICR parameters after each row are the states' columns after the pose's.
+        """
         ekf = self.filter
         counted = ekf.gating[4:].copy()
         states, stds, updates = ekf.run_rows(since, t, speeds, pose)
         use.fused(pose)
         use.gated(ekf.gating[4:] - counted)
-        return states, stds, updates
+        return states, stds, states[:, YAW + 1 : YAW + 1 + ekf.params.size], updates

@@ -284,7 +284,8 @@ class OnlineOdometry:
         and the terrain is steady (no change being confirmed or pending),
         the rest of the stretch runs in one compiled call
         (:meth:`~terrain_odom.estimation.icr_ekf.IcrEkf.run_rows`), ~10x
-        faster than the calls one by one.
+        faster than the calls one by one; the arrival odometer, once on, is
+        advanced over those rows from their states (the same sums).
 
         Parameters
         ----------
@@ -327,14 +328,38 @@ class OnlineOdometry:
             k += 1
         terrain[k:] = self.current_terrain
         if k < n_rows:
-            batch = self._steps.batch()
-            assert batch is not None and self._t is not None  # _steady()
-            states[k:], stds[k:], updates = batch(
-                (self._t, *self._speeds), t[k:], (v_l[k:], v_r[k:]), pose[k:], self.pose_use
-            )
-            self.n_updates += updates
-            self._t, self._speeds = float(t[-1]), (float(v_l[-1]), float(v_r[-1]))
+            self._batch(t[k:], (v_l[k:], v_r[k:]), pose[k:], states[k:], stds[k:])
         return states, stds, terrain
+
+    def _batch(
+        self,
+        t: np.ndarray,
+        speeds: tuple[np.ndarray, np.ndarray],
+        pose: np.ndarray,
+        states: np.ndarray,
+        stds: np.ndarray,
+    ) -> None:
+        """Run rows in one call (the terrain steady), the odometer advanced over them.
+
+        Writes the estimate and its standard deviation after each row into
+        ``states`` and ``stds``.
+        """
+        batch = self._steps.batch()
+        assert batch is not None and self._t is not None  # _steady()
+        held = self._speeds
+        before = self._steps.icr_params(*held)
+        states[:], stds[:], params, updates = batch(
+            (self._t, *held), t, speeds, pose, self.pose_use
+        )
+        self.n_updates += updates
+        # Step i predicts with row i-1's speeds held and the model after row i-1.
+        if self._flow.odometer_on:
+            self._flow.travel_rows(
+                t - _after(self._t, t),
+                (_after(held[0], speeds[0]), _after(held[1], speeds[1])),
+                np.vstack([before, params[:-1]]),
+            )
+        self._t, self._speeds = float(t[-1]), (float(speeds[0][-1]), float(speeds[1][-1]))
 
     def _steady(self) -> bool:
         """Whether rows can run in one call: the estimator's batch ready, the terrain steady."""
@@ -493,6 +518,11 @@ def _mounting(config: Config) -> Mounting:
             "run or calibrate, app.calibration.calibrate_config); give OnlineOdometry numbers"
         )
     return Mounting(*(float(v) for v in values.values()))
+
+
+def _after(first: float, values: np.ndarray) -> np.ndarray:
+    """``first``, then ``values`` but the last: each row's predecessor."""
+    return np.concatenate(([first], values[:-1]))
 
 
 def _valid_from(t: np.ndarray, v_l: np.ndarray, v_r: np.ndarray) -> np.ndarray:

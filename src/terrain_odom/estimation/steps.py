@@ -34,13 +34,15 @@ class RowBatch(Protocol):
         speeds: tuple[np.ndarray, np.ndarray],
         pose: np.ndarray,
         use: PoseUse,
-    ) -> tuple[np.ndarray, np.ndarray, int]:
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
         """Predict and update over rows ``t``; count the poses in ``use``.
 
         ``since`` is the time (s) and track speeds (m/s) of the wheel sample
         before ``t[0]``; ``pose`` the measured ``x, y, yaw`` of each row (NaN
         where not measured). Returns the estimate and its standard deviation
-        after each row, and the number of poses that updated the filter.
+        after each row, the ICR parameters after each row (what
+        :meth:`FilterSteps.icr_params` returns then, shape (B, 3) or (B, 4)),
+        and the number of poses that updated the filter.
         """
         ...  # pragma: no cover
 

@@ -134,14 +134,36 @@ class TerrainFlow:
         return self.tracker.current
 
     def steady(self, label: Sighting | None) -> bool:
-        """Whether observing ``label`` (None: no label) at every row would change nothing."""
-        if self.odometer_on or self.pending:
+        """Whether observing ``label`` (None: no label) at every row would change nothing.
+
+        Nothing but the odometer, which :meth:`travel_rows` advances over rows run in one call.
+        """
+        if self.pending:
             return False
         return label is None or (self.ekf.terrain is not None and self.tracker.steady(label.label))
 
     def travel(self, distance: float) -> None:
         """Advance the odometer by ``distance`` m."""
         self.travelled += distance
+
+    def travel_rows(
+        self, dt: np.ndarray, speeds: tuple[np.ndarray, np.ndarray], params: np.ndarray
+    ) -> None:
+        """Advance the odometer over steps predicted in one call, as :meth:`travel` step by step.
+
+        Parameters
+        ----------
+        dt : ndarray, shape (B,)
+            Length of each step, s.
+        speeds : tuple of ndarray, each of shape (B,)
+            Track speeds ``v_l, v_r`` held over each step, m/s.
+        params : ndarray, shape (B, 3) to (B, 4)
+            ``y_l, y_r, x_icr(, alpha)`` of the model at the start of each step.
+        """
+        if not self.odometer_on:
+            return
+        steps = np.asarray(model_speed(*speeds, params.T)) * dt  # m, the same floats per step
+        self.travelled = float(np.concatenate(([self.travelled], steps)).cumsum()[-1])  # in order
 
     def apply_reached(self) -> None:
         """Apply the pending changes whose ground the robot has reached."""

@@ -8,6 +8,7 @@ arithmetic costs:
 - :func:`grey_levels`: the exact grey image of eq. 18,
   ``(30 R + 59 G + 11 B + 50) // 100`` in integers (vectorised);
 - :func:`byte_histogram`: a 256-bin histogram;
+- :func:`channel_sums`: each channel's sum and sum of squares (colour statistics);
 - :func:`box_counts`: the occupied boxes of side 1, 2, 4, ... of 8 bit
   planes (OR-pooling 2x2 blocks);
 - :func:`lbp_uniform`: scikit-image's uniform local binary patterns, the
@@ -29,6 +30,7 @@ import numpy as np
 __all__ = [
     "grey_levels",
     "byte_histogram",
+    "channel_sums",
     "box_counts",
     "lbp_uniform",
     "lbp_tile_counts",
@@ -77,6 +79,32 @@ def byte_histogram(values: np.ndarray) -> np.ndarray:
     for i in range(whole, n):
         sub[0, values[i]] += 1
     return sub[0] + sub[1] + sub[2] + sub[3]
+
+
+@numba.njit(cache=True, nogil=True)
+def channel_sums(values: np.ndarray) -> tuple[int, int, int, int, int, int]:
+    """Sum and sum of squares of each channel of interleaved 3-channel bytes, exact integers.
+
+    Parameters
+    ----------
+    values : ndarray of uint8, shape (3 n,)
+        Pixels' channels after each other (a C-contiguous (H, W, 3) image, flat).
+
+    Returns
+    -------
+    tuple of int
+        ``sum_0, sum_1, sum_2, squares_0, squares_1, squares_2``.
+    """
+    s0 = s1 = s2 = q0 = q1 = q2 = np.int64(0)
+    for i in range(values.size // 3):
+        a, b, c = np.int64(values[3 * i]), np.int64(values[3 * i + 1]), np.int64(values[3 * i + 2])
+        s0 += a
+        s1 += b
+        s2 += c
+        q0 += a * a
+        q1 += b * b
+        q2 += c * c
+    return s0, s1, s2, q0, q1, q2
 
 
 @numba.njit(cache=True, nogil=True)

@@ -54,13 +54,13 @@ from sklearn.preprocessing import StandardScaler
 from terrain_odom.config.classifier import ClassifierConfig
 from terrain_odom.errors import ConfigError
 from terrain_odom.vision.features import FEATURE_VERSION, image_features
+from terrain_odom.vision.neighbours import SMALL_QUERY, NeighbourIndex
 
 __all__ = [
     "MODEL_ARRAYS",
     "NOVELTY_QUANTILE",
     "NOVELTY_MARGIN",
     "MAJORITY",
-    "SMALL_QUERY",
     "make_pipeline",
     "check_regions",
     "TerrainClassifier",
@@ -89,114 +89,15 @@ twice it keeps them all.
 """
 
 
-SMALL_QUERY = 32
-"""Most query rows searched by the classifier's own neighbour search (a frame's tiles).
-
-Larger batches (cross-validation) go to scikit-learn's ``kneighbors``; both
-give the same neighbours and distances to the last bit
-(:class:`_NeighbourIndex`).
-"""
-
-_CHUNK = 256  # training rows per matrix product: scikit-learn's pairwise_dist_chunk_size
-
-
-class _NeighbourIndex:
-    """Brute-force k nearest training rows of a few queries, as scikit-learn finds them.
-
-    ``KNeighborsClassifier.kneighbors`` on dense data (brute force,
-    Euclidean) validates its input, then computes squared distances as
-    ``|x|**2 + (-2 x . y) + |y|**2``: the norms by BLAS ``ddot``, the middle
-    term by a matrix product over blocks of :data:`_CHUNK` training rows,
-    then keeps the ``k`` smallest and takes their square roots. Its checks
-    cost ~0.5 ms a call, more than the search of a frame's few tiles; this
-    is the same arithmetic in the same order without them (numpy's matrix
-    product, a single query padded to two rows as scikit-learn's product
-    takes it), so that distances and indices are bit for bit scikit-learn's
-    (tested on real tiles for 1 to :data:`SMALL_QUERY` queries). Ties in
-    distance go to the lower training index, as scikit-learn's heap keeps
-    the first of equal candidates.
-
-    Parameters
-    ----------
-    samples : ndarray of float64, shape (n_samples, n_features)
-        Training rows as the search sees them (standardised when the model scales).
-    k : int
-        Neighbours per query, <= n_samples.
-    """
-
-    def __init__(self, samples: NDArray[np.float64], k: int) -> None:
-        from scipy.linalg.blas import ddot  # the BLAS scikit-learn's norms call
-
-        self._ddot = ddot
-        self.samples = np.ascontiguousarray(samples, dtype=np.float64)
-        if not 1 <= k <= self.samples.shape[0]:
-            raise ConfigError(f"k: {k} neighbours but {self.samples.shape[0]} training samples")
-        self.norms = self._row_norms(self.samples)
-        self.k = k
-
-    def _row_norms(self, rows: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Squared norm of each row by BLAS ``ddot``, as scikit-learn's ``_sqeuclidean_row_norms``."""
-        return np.array([self._ddot(row, row) for row in rows], dtype=np.float64)
-
-    def kneighbors(self, queries: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
-        """Distances (ascending) and indices of the ``k`` nearest training rows of each query.
-
-        Parameters
-        ----------
-        queries : ndarray of float64, shape (n_queries, n_features), C-contiguous
-
-        Returns
-        -------
-        distance : ndarray of float64, shape (n_queries, k)
-        index : ndarray of intp, shape (n_queries, k)
-
-        Raises
-        ------
-        ValueError
-            A query holds NaN or infinity (as scikit-learn's check raises),
-            or has another number of columns than the training rows.
-        """
-        if queries.ndim != 2 or queries.shape[1] != self.samples.shape[1]:
-            raise ValueError(
-                f"features of shape {queries.shape}, the model has {self.samples.shape[1]} columns"
-            )
-        if not np.isfinite(queries).all():
-            raise ValueError("Input X contains NaN or infinity: the features are not finite")
-        n = queries.shape[0]
-        padded = queries if n > 1 else np.vstack((queries, np.zeros_like(queries)))
-        middle = np.concatenate(
-            [
-                -2.0 * (padded @ self.samples[start : start + _CHUNK].T)
-                for start in range(0, self.samples.shape[0], _CHUNK)
-            ],
-            axis=1,
-        )[:n]
-        squared = self._row_norms(queries)[:, None] + middle + self.norms
-        np.maximum(squared, 0.0, out=squared)
-        k = self.k
-        kth = np.partition(squared, k - 1, axis=1)[:, k - 1 : k]
-        within = squared <= kth  # the k nearest and any tied with the k-th
-        if np.count_nonzero(within) == n * k:  # no ties at the k-th: k a row, by index
-            candidates = np.nonzero(within)[1].reshape(n, k)
-            order = np.argsort(np.take_along_axis(squared, candidates, 1), axis=1, kind="stable")
-            index: NDArray[np.intp] = np.take_along_axis(candidates, order, axis=1)
-        else:
-            index = np.empty((n, k), dtype=np.intp)
-            for row, (values, near) in enumerate(zip(squared, within, strict=True)):
-                tied = np.flatnonzero(near)
-                index[row] = tied[np.argsort(values[tied], kind="stable")[:k]]
-        return np.sqrt(np.take_along_axis(squared, index, axis=1)), index
-
-
-def make_pipeline(cfg: ClassifierConfig) -> Pipeline:
+def make_pipeline(config: ClassifierConfig) -> Pipeline:
     """Return the unfitted scikit-learn pipeline of a configuration.
 
     ``StandardScaler`` then ``KNeighborsClassifier(k, weights)`` with
-    Euclidean distance; without the scaler when ``cfg.scale`` is False (the
+    Euclidean distance; without the scaler when ``config.scale`` is False (the
     raw distance of eq. 24).
     """
-    steps: list[tuple[str, Any]] = [("scaler", StandardScaler())] if cfg.scale else []
-    steps.append(("knn", KNeighborsClassifier(n_neighbors=cfg.k, weights=cfg.weights)))
+    steps: list[tuple[str, Any]] = [("scaler", StandardScaler())] if config.scale else []
+    steps.append(("knn", KNeighborsClassifier(n_neighbors=config.k, weights=config.weights)))
     return Pipeline(steps)
 
 
@@ -263,7 +164,7 @@ class TerrainClassifier:
 
     Parameters
     ----------
-    cfg : ClassifierConfig, optional
+    config : ClassifierConfig, optional
         Features and KNN settings (default: :class:`ClassifierConfig`).
 
     Examples
@@ -276,15 +177,15 @@ class TerrainClassifier:
     ['grass', 'gravel']
     """
 
-    def __init__(self, cfg: ClassifierConfig | None = None) -> None:
-        self.cfg = cfg if cfg is not None else ClassifierConfig()
-        self.pipeline = make_pipeline(self.cfg)
+    def __init__(self, config: ClassifierConfig | None = None) -> None:
+        self.config = config if config is not None else ClassifierConfig()
+        self.pipeline = make_pipeline(self.config)
         self.training_features = np.empty((0, 0))
         self.training_labels = np.empty(0, dtype=str)
         self.training_region = np.empty(0, dtype=np.intp)
         self.novelty_distance: float | None = None
         self.min_confidence = 0.0
-        self._index: _NeighbourIndex | None = None  # built at the first small query
+        self._index: NeighbourIndex | None = None  # built at the first small query
         self._encoded_labels: NDArray[np.intp] | None = None
         self._n_classes = 0  # set with _encoded_labels
 
@@ -294,7 +195,7 @@ class TerrainClassifier:
         """Set :attr:`novelty_distance` from the training tiles themselves.
 
         For each of up to ``max_queries`` training tiles (a seeded sample),
-        the distance (standardised when ``cfg.scale``) to the nearest
+        the distance (standardised when ``config.scale``) to the nearest
         training tile of *another* training image; :data:`NOVELTY_MARGIN`
         times the ``quantile`` of these is the distance beyond which a tile
         counts as unknown ground (:meth:`predict_with_confidence`).
@@ -325,13 +226,13 @@ class TerrainClassifier:
         return self.novelty_distance
 
     def _transformed(self, features: NDArray) -> NDArray:
-        """Features as the neighbour search sees them (standardised when ``cfg.scale``).
+        """Features as the neighbour search sees them (standardised when ``config.scale``).
 
         ``(x - mean) / scale`` with the fitted scaler's arrays: what its
         ``transform`` computes (subtract, then divide), without its checks.
         """
         features = np.asarray(features, dtype=np.float64)
-        if not self.cfg.scale:
+        if not self.config.scale:
             return features
         scaler = self.pipeline["scaler"]
         if features.shape[-1:] != scaler.mean_.shape:
@@ -343,13 +244,13 @@ class TerrainClassifier:
     def _neighbours(self, queries: NDArray) -> tuple[NDArray, NDArray]:
         """Distances and indices of the ``k`` nearest training tiles of each query row.
 
-        Up to :data:`SMALL_QUERY` rows by :class:`_NeighbourIndex`, more by
+        Up to :data:`SMALL_QUERY` rows by :class:`NeighbourIndex`, more by
         scikit-learn's ``kneighbors``: the same values either way.
         """
         if queries.shape[0] > SMALL_QUERY:
             return self.pipeline["knn"].kneighbors(queries)
         if self._index is None:
-            self._index = _NeighbourIndex(self._transformed(self.training_features), self.cfg.k)
+            self._index = NeighbourIndex(self._transformed(self.training_features), self.config.k)
         return self._index.kneighbors(np.ascontiguousarray(queries))
 
     @property
@@ -393,9 +294,9 @@ class TerrainClassifier:
         if labels.ndim != 1:
             raise ValueError(f"labels must have shape (n_regions,), got {labels.shape}")
         features, region, _ = check_regions(features, region, labels.size)
-        if self.cfg.k > features.shape[0]:
+        if self.config.k > features.shape[0]:
             raise ConfigError(
-                f"k: {self.cfg.k} neighbours but only {features.shape[0]} training samples"
+                f"k: {self.config.k} neighbours but only {features.shape[0]} training samples"
             )
         self.training_features = features
         self.training_labels = labels[region]
@@ -440,7 +341,7 @@ class TerrainClassifier:
     def _votes(self, features: NDArray) -> NDArray:
         """:meth:`predict_proba` from one neighbour search (the shares and the nearest distance)."""
         distance, index = self._neighbours(self._transformed(features))
-        if self.cfg.weights == "uniform":
+        if self.config.weights == "uniform":
             weight = np.ones_like(distance)
         else:  # scikit-learn's rule: a neighbour at distance 0 takes the whole vote
             with np.errstate(divide="ignore"):
@@ -517,7 +418,7 @@ class TerrainClassifier:
         confidence : float
             Vote share in [0, 1] (of the tiles with several, else of the neighbours).
         """
-        return self.vote(image_features(image_rgb, self.cfg, within))
+        return self.vote(image_features(image_rgb, self.config, within))
 
     def vote(self, features: NDArray) -> tuple[str, float]:
         """Label and confidence of one region from its tiles' features.
@@ -570,7 +471,7 @@ class TerrainClassifier:
         """
         if not self.n_training_images:
             raise ValueError("fit the classifier before saving it")
-        if self.cfg.scale:
+        if self.config.scale:
             scaler = self.pipeline["scaler"]
             mean, scale = scaler.mean_, scaler.scale_
         else:
@@ -584,7 +485,7 @@ class TerrainClassifier:
         }
         metadata = {
             "feature_version": FEATURE_VERSION,
-            "config": dataclasses.asdict(self.cfg),
+            "config": dataclasses.asdict(self.config),
             "classes": self.classes,
             "n_training_images": self.n_training_images,
             "n_training_samples": len(self.training_labels),
@@ -596,7 +497,7 @@ class TerrainClassifier:
     @classmethod
     def from_arrays(
         cls,
-        cfg: ClassifierConfig,
+        config: ClassifierConfig,
         arrays: Mapping[str, NDArray],
         *,
         novelty_distance: float | None = None,
@@ -606,7 +507,7 @@ class TerrainClassifier:
 
         Parameters
         ----------
-        cfg : ClassifierConfig
+        config : ClassifierConfig
             The model's configuration (its metadata's ``config``).
         arrays : mapping of str to ndarray
             At least :data:`MODEL_ARRAYS`.
@@ -626,17 +527,17 @@ class TerrainClassifier:
         features, region, _ = check_regions(arrays["features"], arrays["region"])
         if labels.shape != region.shape:
             raise ValueError(f"{labels.size} labels for {region.size} feature rows")
-        model = cls(cfg)
-        model.training_features = samples = features
-        model.training_labels = labels
-        model.training_region = region
-        if cfg.scale:  # the stored scaler, not one refitted
-            scaler = model.pipeline["scaler"]
+        classifier = cls(config)
+        classifier.training_features = samples = features
+        classifier.training_labels = labels
+        classifier.training_region = region
+        if config.scale:  # the stored scaler, not one refitted
+            scaler = classifier.pipeline["scaler"]
             scaler.mean_, scaler.scale_ = arrays["scaler_mean"], arrays["scaler_scale"]
             scaler.var_ = scaler.scale_**2
             scaler.n_features_in_ = samples.shape[1]
             scaler.n_samples_seen_ = samples.shape[0]
             samples = scaler.transform(samples)
-        model.pipeline["knn"].fit(samples, model.training_labels)
-        model.novelty_distance, model.min_confidence = novelty_distance, min_confidence
-        return model
+        classifier.pipeline["knn"].fit(samples, classifier.training_labels)
+        classifier.novelty_distance, classifier.min_confidence = novelty_distance, min_confidence
+        return classifier

@@ -72,7 +72,7 @@ class CrossValidation:
 
     Attributes
     ----------
-    cfg : ClassifierConfig
+    config : ClassifierConfig
     classes : tuple of str
     folds : int
     confusion : ndarray of int, shape (n_classes, n_classes)
@@ -82,7 +82,7 @@ class CrossValidation:
         (in image order; for :meth:`reliability`).
     """
 
-    cfg: ClassifierConfig
+    config: ClassifierConfig
     classes: tuple[str, ...]
     folds: int
     confusion: NDArray[np.int64]
@@ -130,7 +130,7 @@ class CrossValidation:
         """Plain data for reports (with the reliability and threshold when known)."""
         table = self.reliability()
         return {
-            "config": dataclasses.asdict(self.cfg),
+            "config": dataclasses.asdict(self.config),
             "confusion_counts": self.confusion,
             "confusion_percent": self.percent,
             "per_class_accuracy_percent": self.per_class_accuracy,
@@ -146,7 +146,7 @@ class CrossValidation:
 
 def cross_validate_images(
     data: LabelledFeatures,
-    cfg: ClassifierConfig | None = None,
+    config: ClassifierConfig | None = None,
     *,
     folds: int = 5,
     seed: int = CV_SEED,
@@ -157,8 +157,8 @@ def cross_validate_images(
     ----------
     data : LabelledFeatures
         Features of every image; all tiles of an image go to the same fold.
-    cfg : ClassifierConfig, optional
-        Classifier settings (default ``data.cfg``); its feature settings must
+    config : ClassifierConfig, optional
+        Classifier settings (default ``data.config``); its feature settings must
         be those ``data`` was computed with, while ``scale``, ``k`` and
         ``weights`` may differ.
     folds : int
@@ -174,9 +174,11 @@ def cross_validate_images(
     InputFileError
         A class has fewer images than ``folds``.
     """
-    cfg = data.cfg if cfg is None else cfg
-    if cfg.feature_key() != data.cfg.feature_key():
-        raise ValueError("cfg's feature settings differ from those the features were computed with")
+    config = data.config if config is None else config
+    if config.feature_key() != data.config.feature_key():
+        raise ValueError(
+            "config's feature settings differ from those the features were computed with"
+        )
     check_folds(data.counts(), folds, "cross-validate")
     confusion = np.zeros((len(data.classes), len(data.classes)), dtype=np.int64)
     index = {name: i for i, name in enumerate(data.classes)}
@@ -185,12 +187,14 @@ def cross_validate_images(
     splits = stratified_folds(folds, seed).split(np.zeros((data.labels.size, 1)), data.labels)
     for train_idx, test_idx in splits:
         train, test = data.select(train_idx), data.select(test_idx)  # all tiles of an image
-        model = TerrainClassifier(cfg).fit(train.features, train.labels, train.region)
-        predicted, confidence[test_idx] = model.predict_with_confidence(test.features, test.region)
+        classifier = TerrainClassifier(config).fit(train.features, train.labels, train.region)
+        predicted, confidence[test_idx] = classifier.predict_with_confidence(
+            test.features, test.region
+        )
         correct[test_idx] = predicted == test.labels
         for true, pred in zip(test.labels, predicted, strict=True):
             confusion[index[true], index[pred]] += 1
-    return CrossValidation(cfg, data.classes, folds, confusion, confidence, correct)
+    return CrossValidation(config, data.classes, folds, confusion, confidence, correct)
 
 
 def feature_times_ms(data: LabelledFeatures) -> dict[str, dict[str, float]]:

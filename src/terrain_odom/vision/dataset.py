@@ -88,7 +88,7 @@ class LabelledFeatures:
 
     Attributes
     ----------
-    cfg : ClassifierConfig
+    config : ClassifierConfig
         Configuration the features were computed with.
     features : ndarray of float64, shape (n_tiles, n_features)
         :func:`~terrain_odom.vision.features.image_features` of every
@@ -106,7 +106,7 @@ class LabelledFeatures:
         Images that could not be read or used.
     """
 
-    cfg: ClassifierConfig
+    config: ClassifierConfig
     features: NDArray[np.float64]
     region: NDArray[np.intp]
     labels: NDArray[np.str_]
@@ -160,9 +160,9 @@ def _extract_one(
     if image is None:
         return "cannot be read as an image"
     features, seconds = [], []
-    for cfg in configs:
+    for config in configs:
         start = time.perf_counter()
-        features.append(image_features(image, cfg))
+        features.append(image_features(image, config))
         seconds.append(time.perf_counter() - start)
     return features, seconds
 
@@ -233,7 +233,7 @@ def extract_feature_sets(
     jobs = _default_jobs() if jobs is None else jobs
     if jobs < 1:
         raise ConfigError(f"jobs: must be a whole number >= 1, got {jobs!r}")
-    keys = [tuple(cfg.feature_key().items()) for cfg in configs]
+    keys = [tuple(config.feature_key().items()) for config in configs]
     unique_keys = list(dict.fromkeys(keys))
     unique = [configs[keys.index(key)] for key in unique_keys]
     results = _run_all(images.paths, unique, read, jobs, progress)
@@ -290,12 +290,12 @@ def _collect(
     if empty:
         raise InputFileError(f"{images.root}: no readable image in class(es) {empty}")
     out = []
-    for cfg, slot in zip(configs, slots, strict=True):
+    for config, slot in zip(configs, slots, strict=True):
         per_image = [results[i][0][slot] for i in good]
         tile_counts = [len(rows) for rows in per_image]
         out.append(
             LabelledFeatures(
-                cfg=cfg,
+                config=config,
                 features=np.concatenate(per_image),
                 region=np.repeat(np.arange(len(per_image)), tile_counts),
                 labels=labels,
@@ -310,7 +310,7 @@ def _collect(
 
 def extract_features(
     images: LabelledImages,
-    cfg: ClassifierConfig,
+    config: ClassifierConfig,
     *,
     read: ImageReader,
     jobs: int | None = None,
@@ -320,4 +320,4 @@ def extract_features(
 
     See :func:`extract_feature_sets` for the parameters and errors.
     """
-    return extract_feature_sets(images, [cfg], read=read, jobs=jobs, progress=progress)[0]
+    return extract_feature_sets(images, [config], read=read, jobs=jobs, progress=progress)[0]

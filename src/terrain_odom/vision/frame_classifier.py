@@ -194,7 +194,7 @@ class FrameClassifier:
 
     def _check_colour(self, t: float, image: np.ndarray) -> None:
         """Refuse a grey frame for a colour model: its colour features would be constant."""
-        features = self.classifier.cfg.features
+        features = self.classifier.config.features
         if feature_parts(features)[1] is None:  # no colour statistics
             return
         sample = image[::8, ::8]
@@ -214,7 +214,7 @@ class FrameClassifier:
         from terrain_odom.vision.features import image_features
 
         started = time.perf_counter()
-        features = image_features(region, self.classifier.cfg, footprint)
+        features = image_features(region, self.classifier.config, footprint)
         extracted = time.perf_counter()
         result = self.classifier.vote(features)
         return result, 1e3 * (extracted - started), 1e3 * (time.perf_counter() - extracted)
@@ -243,14 +243,14 @@ def _check_feature_width(classifier: TerrainClassifier) -> None:
     """
     from terrain_odom.vision.features import image_features
 
-    cfg = classifier.cfg
+    config = classifier.config
     probe = np.random.default_rng(0).integers(0, 256, (64, 64, 3), dtype=np.uint8)
-    expected = image_features(probe, cfg).shape[1]
+    expected = image_features(probe, config).shape[1]
     width = classifier.training_features.shape[1]
     if width != expected:
         raise InputFileError(
             f"the model's training features have {width} columns, but its settings "
-            f"(features {cfg.features}, n_t {cfg.n_t}, pyramid_levels {cfg.pyramid_levels}) "
+            f"(features {config.features}, n_t {config.n_t}, pyramid_levels {config.pyramid_levels}) "
             f"compute {expected}: a damaged or hand-made model file; retrain it with "
             "'terrain-odom train'"
         )

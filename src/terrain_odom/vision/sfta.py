@@ -181,7 +181,7 @@ def to_grey(image: NDArray, *, colour_order: ColourOrder = "rgb") -> NDArray[np.
     [[141]]
     """
     image = _checked(image, colour_order)
-    return image if image.ndim == 2 else _grey_and_histogram(image, colour_order)[0]
+    return image if image.ndim == 2 else _grey(image, colour_order)
 
 
 def _checked(image: NDArray, colour_order: ColourOrder) -> NDArray:
@@ -199,15 +199,23 @@ def _checked(image: NDArray, colour_order: ColourOrder) -> NDArray:
     return image
 
 
-def _grey_and_histogram(image: NDArray, colour_order: ColourOrder) -> tuple[NDArray, NDArray]:
-    """:func:`to_grey` of a checked image and its 256-bin histogram, in one pass for colour."""
-    if image.ndim == 2:
-        return image, _histogram(image)
-    from terrain_odom.vision._kernels import byte_histogram, grey_levels
+def _grey(image: NDArray, colour_order: ColourOrder) -> NDArray[np.uint8]:
+    """:func:`to_grey` of a checked colour image."""
+    from terrain_odom.vision._kernels import grey_levels
 
     rgb = image if colour_order == "rgb" else image[..., ::-1]
     grey = np.empty(image.shape[:2], dtype=np.uint8)
     grey_levels(np.ascontiguousarray(rgb).ravel(), grey.ravel())
+    return grey
+
+
+def _grey_and_histogram(image: NDArray, colour_order: ColourOrder) -> tuple[NDArray, NDArray]:
+    """:func:`to_grey` of a checked image and its 256-bin histogram."""
+    if image.ndim == 2:
+        return image, _histogram(image)
+    from terrain_odom.vision._kernels import byte_histogram
+
+    grey = _grey(image, colour_order)
     return grey, byte_histogram(grey.ravel()).astype(np.float64)
 
 

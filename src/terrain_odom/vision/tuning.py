@@ -158,10 +158,10 @@ def grid_configs(grid: Grid, base: ClassifierConfig) -> list[ClassifierConfig]:
     return [build_section(base, params, "grid") for params in ParameterGrid(grid)]
 
 
-def _cache_key(cfg: ClassifierConfig) -> tuple[tuple[str, Any], ...]:
-    """Return the feature settings of ``cfg`` that change features (tiles unused with a tile size)."""
-    key = cfg.feature_key()
-    if cfg.tile_size is not None:
+def _cache_key(config: ClassifierConfig) -> tuple[tuple[str, Any], ...]:
+    """Return the feature settings of ``config`` that change features (tiles unused with a tile size)."""
+    key = config.feature_key()
+    if config.tile_size is not None:
         del key["tiles"], key["min_tile_size"]
     return tuple(key.items())
 
@@ -206,9 +206,9 @@ class FeatureCache:
     def prepare(self, configs: Sequence[ClassifierConfig]) -> None:
         """Compute, in one call of ``extract``, the features of the settings not yet held."""
         todo: dict[tuple[tuple[str, Any], ...], ClassifierConfig] = {}
-        for cfg in configs:
-            if _cache_key(cfg) not in self._sets:
-                todo.setdefault(_cache_key(cfg), cfg)
+        for config in configs:
+            if _cache_key(config) not in self._sets:
+                todo.setdefault(_cache_key(config), config)
         if not todo:
             return
         if self._extract is None:
@@ -218,10 +218,10 @@ class FeatureCache:
                 raise ValueError("the extraction returned another image set")
             self._sets[key] = data
 
-    def features(self, cfg: ClassifierConfig) -> LabelledFeatures:
-        """Return the features of every image for ``cfg``'s feature settings."""
-        self.prepare([cfg])
-        return self._sets[_cache_key(cfg)]
+    def features(self, config: ClassifierConfig) -> LabelledFeatures:
+        """Return the features of every image for ``config``'s feature settings."""
+        self.prepare([config])
+        return self._sets[_cache_key(config)]
 
 
 def image_index(n_images: int) -> NDArray[np.intp]:
@@ -270,9 +270,9 @@ class ImageKNN(ClassifierMixin, BaseEstimator):
         self.tile_size = tile_size
 
     @classmethod
-    def of(cls, cache: FeatureCache, cfg: ClassifierConfig) -> ImageKNN:
+    def of(cls, cache: FeatureCache, config: ClassifierConfig) -> ImageKNN:
         """Return the estimator of a configuration."""
-        return cls(cache, **dataclasses.asdict(cfg))
+        return cls(cache, **dataclasses.asdict(config))
 
     def config(self) -> ClassifierConfig:
         """Return the parameters as a :class:`ClassifierConfig` (validated)."""
@@ -289,14 +289,14 @@ class ImageKNN(ClassifierMixin, BaseEstimator):
     def fit(self, X: NDArray, y: NDArray) -> ImageKNN:
         """Fit on the images ``X[:, 0]`` of the cache, labelled ``y``."""
         data = self._data(X)
-        self.model_ = TerrainClassifier(self.config()).fit(data.features, y, data.region)
-        self.classes_ = np.asarray(self.model_.classes)
+        self.classifier_ = TerrainClassifier(self.config()).fit(data.features, y, data.region)
+        self.classes_ = np.asarray(self.classifier_.classes)
         return self
 
     def predict(self, X: NDArray) -> NDArray:
         """Label of each image ``X[:, 0]`` of the cache (its tiles' vote)."""
         data = self._data(X)
-        return self.model_.predict(data.features, data.region)
+        return self.classifier_.predict(data.features, data.region)
 
 
 @dataclass(frozen=True)
