@@ -40,7 +40,7 @@ from terrain_odom.app.fit import CompareReport, compare
 from terrain_odom.app.train import AccuracyReport, report_accuracy
 from terrain_odom.config import load_config
 from terrain_odom.fitting import FitOptions
-from terrain_odom.io.params import ANY_TERRAIN
+from terrain_odom.fitting.params import ANY_TERRAIN
 
 REPO = Path(__file__).resolve().parents[1]
 WORKERS = (1, 2)

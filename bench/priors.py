@@ -40,9 +40,9 @@ from terrain_odom.config import Config, load_config
 from terrain_odom.estimation import IcrPriors
 from terrain_odom.estimation.odometry import run_icr_ekf
 from terrain_odom.evaluation import icr_twist_from_rows, spatial_windows, window_errors
+from terrain_odom.fitting.params import icr_priors
 from terrain_odom.io import read_wheel_log
 from terrain_odom.io.groundtruth import read_groundtruth
-from terrain_odom.io.params import icr_priors
 from terrain_odom.records import WheelLog
 from terrain_odom.sim import get_scenario, simulate
 

@@ -13,7 +13,8 @@ from terrain_odom.app.simulate import SimOutput
 from terrain_odom.estimation.time_offset import TimeCalibration
 from terrain_odom.evaluation import ErrorSummary
 from terrain_odom.fitting import FitOptions, FitResult
-from terrain_odom.io.params import ANY_TERRAIN, read_params
+from terrain_odom.fitting.params import ANY_TERRAIN
+from terrain_odom.io.params import read_params
 
 FAST = FitOptions(popsize=5, maxiter=3, seed=0)
 

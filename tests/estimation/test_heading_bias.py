@@ -16,12 +16,13 @@ import pytest
 from terrain_odom.config import Config, EkfConfig, PoseSensorConfig, PoseSigmas, load_config
 from terrain_odom.errors import ConfigError, EstimationError
 from terrain_odom.estimation import _kernels, odometry, online
-from terrain_odom.estimation.icr_ekf import HeadingBias, IcrEkf, icr_step_with_jacobian
+from terrain_odom.estimation.icr_ekf import IcrEkf
 from terrain_odom.estimation.icr_ekf_reference import FilterpyIcrEkf
+from terrain_odom.estimation.icr_model import HeadingBias, icr_step_with_jacobian
 from terrain_odom.estimation.online import OnlineOdometry
-from terrain_odom.estimation.pose_measurement import Mounting
 from terrain_odom.io import read_wheel_log
 from terrain_odom.kinematics import wrap_angle
+from terrain_odom.kinematics.mounting import Mounting
 from terrain_odom.sim.degrade import Degradation, degrade_log
 
 from .conftest import assert_equal_runs

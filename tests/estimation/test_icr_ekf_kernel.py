@@ -24,8 +24,8 @@ from terrain_odom.estimation import (
 )
 from terrain_odom.estimation._kernels import icr_predict
 from terrain_odom.estimation.icr_ekf_reference import FilterpyIcrEkf
-from terrain_odom.estimation.pose_measurement import Mounting
 from terrain_odom.io import read_wheel_log
+from terrain_odom.kinematics.mounting import Mounting
 
 from .conftest import TOLERANCE, assert_equal_runs, python_kernels
 

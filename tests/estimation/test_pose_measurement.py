@@ -1,4 +1,4 @@
-"""The pose sensors' measurement model: lever arm, heading offset, Jacobian, counts."""
+"""The filters' pose measurement model: prediction, Jacobian, chords, counts."""
 
 from __future__ import annotations
 
@@ -8,15 +8,13 @@ import pytest
 from terrain_odom.config import EkfConfig
 from terrain_odom.estimation.icr_ekf import IcrEkf
 from terrain_odom.estimation.pose_measurement import (
-    Mounting,
     PoseUse,
     chord_turn,
     measured_rows,
     measurement,
-    robot_pose,
-    sensor_pose,
 )
 from terrain_odom.kinematics import wrap_angle
+from terrain_odom.kinematics.mounting import Mounting, sensor_pose
 
 MOUNT = Mounting(0.5, -0.2, np.radians(10.0))
 
@@ -43,18 +41,11 @@ def test_jacobian_matches_finite_differences(rows, yaw):
     assert h.shape == (len(rows),)
 
 
-def test_antenna_ahead_of_a_robot_facing_left_is_left_of_it():
-    # robot at (1, 2) facing +y: an antenna 0.5 m ahead, 0.2 m to the right is at (1.2, 2.5)
-    z = sensor_pose([1.0, 2.0, np.pi / 2], MOUNT)
-    np.testing.assert_allclose(z, [1.2, 2.5, np.pi / 2 + np.radians(10.0)], atol=1e-12)
-    np.testing.assert_allclose(robot_pose(z, MOUNT), [1.0, 2.0, np.pi / 2], atol=1e-12)
-
-
-def test_robot_pose_of_a_position_alone_takes_the_given_yaw():
-    z = np.array([1.2, 2.5, np.nan])
-    np.testing.assert_allclose(robot_pose(z, MOUNT, yaw=np.pi / 2), [1.0, 2.0, np.pi / 2])
-    with pytest.raises(ValueError, match="needs a heading"):
-        robot_pose(z, MOUNT)
+def test_the_prediction_is_what_the_sensors_measure_at_the_filters_pose():
+    state = np.array([1.0, -2.0, 3.1, 0.4, -0.4, 0.05])
+    h, _ = measurement(state, [0, 1, 2], MOUNT)
+    np.testing.assert_array_equal(h, sensor_pose(state[:3], MOUNT))
+    np.testing.assert_array_equal(measurement(state, [2], MOUNT)[0], h[2:])
 
 
 def test_a_position_needs_both_coordinates():

@@ -14,7 +14,8 @@ import math
 import numpy as np
 import pytest
 
-from terrain_odom.evaluation.calibration import circular_median, fit_sensors
+from terrain_odom.evaluation.calibration import fit_sensors
+from terrain_odom.evaluation.robust import circular_median
 from terrain_odom.records import WheelLog
 from terrain_odom.sim.degrade import Degradation, degrade_log
 from terrain_odom.sim.model_log import constant_model_log

@@ -14,7 +14,8 @@ import numpy as np
 import pytest
 
 from terrain_odom.evaluation import spatial_windows
-from terrain_odom.evaluation.metrics import absolute_trajectory_error, align_se2, window_errors
+from terrain_odom.evaluation.ate import absolute_trajectory_error, align_se2
+from terrain_odom.evaluation.metrics import window_errors
 from terrain_odom.kinematics import integrate, wrap_angle
 from terrain_odom.records import WheelLog
 

@@ -10,7 +10,8 @@ import yaml
 
 from terrain_odom.cli.main import main
 from terrain_odom.errors import InputFileError
-from terrain_odom.io.params import ModelParams, ParamSet, read_params, write_params
+from terrain_odom.fitting.params import ModelParams, ParamSet
+from terrain_odom.io.params import read_params, write_params
 from terrain_odom.io.wheel_log import write_wheel_log
 from terrain_odom.sim.model_log import constant_model_log
 

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from terrain_odom.errors import ConfigError, InputFileError
-from terrain_odom.estimation.pose_measurement import sensor_pose
 from terrain_odom.io.wheel_log import read_wheel_log
 from terrain_odom.kinematics.integration import wrap_angle
+from terrain_odom.kinematics.mounting import sensor_pose
 from terrain_odom.records import WheelLog
 from terrain_odom.sim.degrade import Degradation, degrade_log
 

@@ -57,9 +57,10 @@ from terrain_odom.evaluation import (
     spatial_windows,
     summarize,
 )
+from terrain_odom.fitting.params import check_geometry
 from terrain_odom.io import read_trajectory_csv
 from terrain_odom.io.atomic import write_text_atomic
-from terrain_odom.io.params import check_geometry, read_params
+from terrain_odom.io.params import read_params
 from terrain_odom.io.paths import check_outputs
 from terrain_odom.io.report import write_json
 from terrain_odom.kinematics import get_model, twist_icr

@@ -39,15 +39,10 @@ from terrain_odom.fitting import (
     Horizon,
     parse_horizon,
 )
+from terrain_odom.fitting.params import ANY_TERRAIN, ModelParams, ParamSet, derived_quantities
 from terrain_odom.io.atomic import write_atomic, write_text_atomic
 from terrain_odom.io.folder import writing_if
-from terrain_odom.io.params import (
-    ANY_TERRAIN,
-    ModelParams,
-    ParamSet,
-    derived_quantities,
-    write_params,
-)
+from terrain_odom.io.params import write_params
 from terrain_odom.io.paths import check_outputs
 from terrain_odom.io.report import write_json
 from terrain_odom.kinematics import MODELS, get_model

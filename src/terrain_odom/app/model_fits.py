@@ -31,7 +31,7 @@ from terrain_odom.fitting import (
     segment_set,
     training_windows,
 )
-from terrain_odom.io.params import ANY_TERRAIN, ModelParams, ParamSet
+from terrain_odom.fitting.params import ANY_TERRAIN, ModelParams, ParamSet
 from terrain_odom.kinematics import get_model
 from terrain_odom.records import WheelLog
 

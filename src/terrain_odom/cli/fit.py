@@ -37,7 +37,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def _print_sets(report: FitReport) -> None:
-    from terrain_odom.io.params import ANY_TERRAIN
+    from terrain_odom.fitting.params import ANY_TERRAIN
 
     mp = report.params
     for terrain, ps in mp.sets.items():

@@ -140,7 +140,7 @@ class ClassifierConfig:
         Smallest tile side, px; ``auto`` (default): the training images'
         median shorter side divided by ``tiles`` (at least :data:`MIN_TILE_SIZE`),
         so that a training image is ``tiles x tiles`` tiles whatever its size;
-        ``train`` records the number it chose in the model, and a region
+        ``train`` records the number it chose in the classifier file, and a region
         described without that choice (:func:`~terrain_odom.vision.features.image_features`
         on an ``auto`` configuration) uses its own shorter side. A number: a region is cut into fewer tiles per side
         when ``tiles`` would make them smaller (:func:`~terrain_odom.vision.features.tiles_per_side`), and

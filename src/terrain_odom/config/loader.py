@@ -12,7 +12,7 @@ from typing import Any, Literal
 import yaml
 
 from terrain_odom.config.classifier import ClassifierConfig, is_flat_classifier
-from terrain_odom.config.fields import _build, build_section
+from terrain_odom.config.fields import build_section
 from terrain_odom.config.sections import (
     FORMAT_VERSION,
     MAX_ANTENNA_OFFSET,
@@ -42,15 +42,15 @@ def _check_pose_delay(delay: float | Literal["auto"], where: str) -> None:
         )
 
 
-def with_pose_delay(cfg: Config, text: str | None, where: str = "--pose-delay") -> Config:
-    """Return ``cfg`` with ``time.pose_delay`` from a command-line value.
+def with_pose_delay(config: Config, text: str | None, where: str = "--pose-delay") -> Config:
+    """Return ``config`` with ``time.pose_delay`` from a command-line value.
 
     Parameters
     ----------
-    cfg : Config
+    config : Config
         The configuration loaded.
     text : str or None
-        ``"auto"`` or a number of seconds; None keeps ``cfg``'s value.
+        ``"auto"`` or a number of seconds; None keeps ``config``'s value.
     where : str
         Name of the option, for messages.
 
@@ -61,7 +61,7 @@ def with_pose_delay(cfg: Config, text: str | None, where: str = "--pose-delay") 
         :data:`MAX_POSE_DELAY`.
     """
     if text is None:
-        return cfg
+        return config
     value: float | Literal["auto"]
     if text.strip() == "auto":
         value = "auto"
@@ -73,7 +73,7 @@ def with_pose_delay(cfg: Config, text: str | None, where: str = "--pose-delay") 
         if not math.isfinite(value):
             raise ConfigError(f"{where}: must be auto or finite seconds, got {text!r}")
     _check_pose_delay(value, where)
-    return dataclasses.replace(cfg, time=TimeConfig(pose_delay=value))
+    return dataclasses.replace(config, time=TimeConfig(pose_delay=value))
 
 
 def _check_pose_sensor(sensor: PoseSensorConfig) -> None:
@@ -92,8 +92,8 @@ def _check_pose_sensor(sensor: PoseSensorConfig) -> None:
         )
 
 
-def _check_consistency(cfg: Config) -> None:
-    ini, lim = cfg.ekf.initial.resolve(cfg.robot), cfg.ekf.limits.resolve(cfg.robot)
+def _check_consistency(config: Config) -> None:
+    ini, lim = config.ekf.initial.resolve(config.robot), config.ekf.limits.resolve(config.robot)
     if not ini.y_l > 0.0 > ini.y_r:
         raise ConfigError(
             f"ekf.initial needs y_l > 0 > y_r (left ICR left of the body), "
@@ -117,7 +117,7 @@ def _check_consistency(cfg: Config) -> None:
                 f"(|{name}| in [{low:g}, {high:g}] m, from robot.track_width and robot.length "
                 "unless set)"
             )
-    slip = cfg.slip_ekf
+    slip = config.slip_ekf
     if not (slip.lateral_acceleration or slip.curvature):
         raise ConfigError(
             "slip_ekf: lateral_acceleration and curvature are both false; "
@@ -128,13 +128,13 @@ def _check_consistency(cfg: Config) -> None:
     if not slip.limits.alpha_min <= slip.initial.alpha <= slip.limits.alpha_max:
         raise ConfigError("slip_ekf.initial.alpha must lie in [limits.alpha_min, alpha_max]")
     for name in ("pose_delay", "position_delay", "heading_delay"):
-        delay = getattr(cfg.time, name)
+        delay = getattr(config.time, name)
         if delay is not None:
             _check_pose_delay(delay, f"time.{name}")
-    _check_pose_sensor(cfg.pose_sensor)
-    if cfg.format_version != FORMAT_VERSION:
+    _check_pose_sensor(config.pose_sensor)
+    if config.format_version != FORMAT_VERSION:
         raise ConfigError(
-            f"format_version {cfg.format_version} is not supported "
+            f"format_version {config.format_version} is not supported "
             f"(this version of terrain-odom reads {FORMAT_VERSION})"
         )
 
@@ -234,11 +234,11 @@ def validate_config(data: Any, where: str) -> Config:
 def _validated(data: Any, path: Path) -> Config:
     """Return the configuration of a file's YAML data, validated; errors name ``path``."""
     try:
-        cfg = _build(Config(), data or {}, "")
-        _check_consistency(cfg)
+        config = build_section(Config(), data or {}, "")
+        _check_consistency(config)
     except ConfigError as exc:
         raise ConfigError(f"{path}: {exc}") from None
-    return cfg
+    return config
 
 
 def load_classifier_config(
@@ -279,29 +279,29 @@ def load_classifier_config(
     ConfigError
         Naming the file and the first unknown or invalid key.
     """
-    cfg = ClassifierConfig()
+    config = ClassifierConfig()
     if path is not None:
         path = Path(path)
         data = read_yaml(path)
         if not is_flat_classifier(data):
-            cfg = _validated(data, path).classifier
+            config = _validated(data, path).classifier
         else:
             if on_flat is not None:
                 on_flat(path)
             try:
-                cfg = build_section(cfg, data)
+                config = build_section(config, data)
             except ConfigError as exc:
                 raise ConfigError(f"{path}: {exc}") from None
-    result: ClassifierConfig = build_section(cfg, dict(overrides or {}))
+    result: ClassifierConfig = build_section(config, dict(overrides or {}))
     return result
 
 
-def config_to_dict(cfg: Config) -> dict[str, Any]:
+def config_to_dict(config: Config) -> dict[str, Any]:
     """Return the configuration as plain data (for reports and YAML)."""
-    return dataclasses.asdict(cfg)
+    return dataclasses.asdict(config)
 
 
-def dump_config(cfg: Config, comments: Mapping[str, str] | None = None) -> str:
+def dump_config(config: Config, comments: Mapping[str, str] | None = None) -> str:
     """Return the configuration as YAML text that :func:`load_config` reads back equal.
 
     ``comments`` maps dotted keys (``pose_sensor.antenna_x``) to a comment
@@ -313,7 +313,7 @@ def dump_config(cfg: Config, comments: Mapping[str, str] | None = None) -> str:
     >>> [line for line in text.splitlines() if "track_width" in line]
     ['  track_width: 0.5  # measured']
     """
-    text = yaml.safe_dump(_plain(config_to_dict(cfg)), sort_keys=False)
+    text = yaml.safe_dump(_plain(config_to_dict(config)), sort_keys=False)
     if not comments:
         return text
     lines, path = text.splitlines(), list[str]()

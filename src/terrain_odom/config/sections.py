@@ -526,7 +526,7 @@ class ChecksConfig:
 
 @dataclass(frozen=True)
 class PoseSensorConfig:
-    """Where the pose sensors sit on the robot (see :mod:`terrain_odom.estimation.pose_measurement`).
+    """Where the pose sensors sit on the robot (see :mod:`terrain_odom.kinematics.mounting`).
 
     Attributes
     ----------

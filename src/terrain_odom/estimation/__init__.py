@@ -1,16 +1,16 @@
 """Online estimation: ICR EKF, slip-parameter EKF, terrain tracker, OnlineOdometry.
 
-Imported here: the ICR EKF, its process step and the terrain tracker; the
+Imported here: the ICR EKF, its process step (:mod:`~terrain_odom.estimation.icr_model`)
+and the terrain tracker; the
 rest from their own modules (:mod:`~terrain_odom.estimation.slip_ekf`,
 :mod:`~terrain_odom.estimation.online`, the row loop over a log in
 :mod:`~terrain_odom.estimation.odometry`, pose-delay estimation in
 :mod:`~terrain_odom.estimation.time_offset`).
 """
 
-from terrain_odom.estimation.icr_ekf import (
+from terrain_odom.estimation.icr_ekf import IcrEkf, IcrPriors
+from terrain_odom.estimation.icr_model import (
     STATE_NAMES,
-    IcrEkf,
-    IcrPriors,
     icr_step,
     icr_step_jacobian,
     icr_step_with_jacobian,

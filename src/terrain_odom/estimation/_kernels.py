@@ -8,7 +8,7 @@ variance; empty: no bias state).
 They are the filterpy formulation (``F P F^T + Q``; Joseph-form update with
 the inverse of ``S``) written out in scalar loops, so a call costs what the
 arithmetic costs instead of numpy's overhead on 7x7 arrays. The process model
-repeats :func:`~terrain_odom.estimation.icr_ekf.icr_step_with_jacobian` term
+repeats :func:`~terrain_odom.estimation.icr_model.icr_step_with_jacobian` term
 by term; the tests compare both (and a filterpy filter) to 1e-12.
 
 They run as Python for a process's first calls, then compiled (cached on

@@ -3,7 +3,7 @@
 :class:`FilterpyIcrEkf` is :class:`~terrain_odom.estimation.icr_ekf.IcrEkf`
 with predict and update done as before the kernels of
 :mod:`terrain_odom.estimation._kernels`: a filterpy ``ExtendedKalmanFilter``
-whose prediction is :func:`~terrain_odom.estimation.icr_ekf.icr_step_with_jacobian`,
+whose prediction is :func:`~terrain_odom.estimation.icr_model.icr_step_with_jacobian`,
 filterpy's Joseph-form update with SciPy's inverse and the pose sensors'
 :func:`~terrain_odom.estimation.pose_measurement.measurement` after a chi-square
 gate in numpy, numpy clipping; a heading bias state (``heading_bias``) enters
@@ -25,7 +25,8 @@ from numpy.typing import ArrayLike
 
 from terrain_odom.errors import EstimationError
 from terrain_odom.estimation._kernels import REACQUIRED_NIS
-from terrain_odom.estimation.icr_ekf import IcrEkf, gate_bounds, icr_step_with_jacobian
+from terrain_odom.estimation.icr_ekf import IcrEkf, gate_bounds
+from terrain_odom.estimation.icr_model import icr_step_with_jacobian
 from terrain_odom.estimation.pose_measurement import measured_rows, measurement
 from terrain_odom.kinematics import wrap_angle
 

@@ -12,9 +12,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from terrain_odom.estimation.pose_measurement import PoseUse, robot_pose, sensor_pose
+from terrain_odom.estimation.pose_measurement import PoseUse
 from terrain_odom.estimation.steps import HEADING, POSITION, YAW
 from terrain_odom.kinematics import wrap_angle
+from terrain_odom.kinematics.mounting import robot_pose, sensor_pose
 
 if TYPE_CHECKING:
     from terrain_odom.estimation.icr_ekf import IcrEkf

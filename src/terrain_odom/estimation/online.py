@@ -13,7 +13,7 @@ Wheel speeds given at ``t`` are held until the next :meth:`~OnlineOdometry.wheel
 call (zero-order hold), which predicts over the interval. A pose measurement
 may hold any subset of ``x, y, yaw`` (a GPS fix, a heading, both), as the
 sensors of ``config.pose_sensor`` measure them (antenna lever arm, heading
-offset: :mod:`~terrain_odom.estimation.pose_measurement`); what became of each
+offset: :mod:`~terrain_odom.kinematics.mounting`); what became of each
 component is counted in :attr:`OnlineOdometry.pose_use`. The ICR EKF anchors
 the heading and the position of every segment at their first measurements
 (the heading from the course of the fixes when none is measured) and never
@@ -45,11 +45,13 @@ import numpy as np
 
 from terrain_odom.config import Config, load_config
 from terrain_odom.errors import ConfigError, EstimationError
-from terrain_odom.estimation.icr_ekf import HeadingBias, IcrEkf, IcrPriors
+from terrain_odom.estimation.icr_ekf import IcrEkf, IcrPriors
+from terrain_odom.estimation.icr_model import HeadingBias
 from terrain_odom.estimation.icr_steps import IcrSteps
-from terrain_odom.estimation.pose_measurement import Mounting, PoseUse
+from terrain_odom.estimation.pose_measurement import PoseUse
 from terrain_odom.estimation.steps import YAW, FilterSteps
 from terrain_odom.estimation.terrain import TerrainFlow, model_speed
+from terrain_odom.kinematics.mounting import Mounting
 from terrain_odom.records import Sighting
 
 if TYPE_CHECKING:  # the classifier's modules (scikit-learn) load only with a classifier

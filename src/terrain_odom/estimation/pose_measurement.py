@@ -1,24 +1,13 @@
-"""The pose measurement as a robot mounts its sensors: antenna lever arm, heading offset.
+"""The pose measurement as the filters see it: prediction, Jacobian, what was used.
 
-A GPS antenna is rarely at the robot's reference point, and a heading sensor
-(IMU, compass) reads the robot's yaw plus an offset (its mounting, the
-magnetic declination). With the robot's pose ``x, y, yaw`` and the sensor
-mounting of ``pose_sensor`` in the configuration
-(:class:`~terrain_odom.config.PoseSensorConfig`), a measurement row holds
-any subset of
-
-- ``x, y``: the antenna's position, ``p + R(yaw) @ a`` with the antenna at
-  ``a = (antenna_x, antenna_y)`` in the robot frame (x forward, y left);
-- ``yaw``: the sensor's heading, ``yaw + heading_offset`` (wrapped).
-
-During a turn at rate ``omega`` an antenna ``antenna_x`` ahead of the
-reference point moves sideways at ``omega * antenna_x``: exactly what an
-ICR ``x_icr`` does, so an unmodelled lever arm is learned as one.
-
-:func:`measurement` gives the prediction ``h(x)`` of the measured
-components and its Jacobian ``H`` (tested against finite differences);
-:func:`robot_pose` inverts a full measurement; :class:`PoseUse` counts what
-became of each measured component.
+The sensors' mounting (antenna lever arm, heading offset) and what they
+measure at a robot pose are :mod:`terrain_odom.kinematics.mounting`; a
+measurement row holds any subset of the antenna's ``x, y`` and the sensor's
+``yaw``. :func:`measurement` gives the prediction ``h(x)`` of the measured
+components over a filter's state and its Jacobian ``H`` (tested against
+finite differences); :func:`chord_turn` what positions alone measure of two
+pose changes (the slip EKF's GPS-only update); :func:`measured_rows` which
+components of a row count; :class:`PoseUse` what became of each of them.
 """
 
 from __future__ import annotations
@@ -30,52 +19,17 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from terrain_odom.kinematics import wrap_angle
+from terrain_odom.kinematics.mounting import Mounting, rotation_with_derivative, sensor_pose
 
 __all__ = [
     "GATED",
-    "Mounting",
     "PoseUse",
     "chord_turn",
     "measurement",
     "measured_rows",
-    "robot_pose",
-    "sensor_pose",
 ]
 
 _YAW = 2
-
-
-@dataclass(frozen=True)
-class Mounting:
-    """Where the pose sensors sit on the robot (numbers; ``auto`` resolved).
-
-    Attributes
-    ----------
-    antenna_x, antenna_y : float
-        Position antenna in the robot frame, m (x forward, y left).
-    heading_offset : float
-        Measured heading minus the robot's yaw, rad.
-
-    Examples
-    --------
-    >>> Mounting(0.5, 0.0, 0.0).antenna.tolist()
-    [0.5, 0.0]
-    """
-
-    antenna_x: float = 0.0
-    antenna_y: float = 0.0
-    heading_offset: float = 0.0
-
-    @property
-    def antenna(self) -> np.ndarray:
-        """Antenna position in the robot frame, m, shape (2,)."""
-        return np.array([self.antenna_x, self.antenna_y], dtype=float)
-
-
-def _rotation(yaw: float) -> tuple[np.ndarray, np.ndarray]:
-    """Return ``R(yaw)`` and ``dR/dyaw``."""
-    c, s = np.cos(yaw), np.sin(yaw)
-    return np.array([[c, -s], [s, c]]), np.array([[-s, -c], [c, -s]])
 
 
 def measured_rows(z: ArrayLike) -> np.ndarray:
@@ -124,61 +78,17 @@ def measurement(
     """
     s = np.asarray(state, dtype=float)
     rows = np.asarray(rows, dtype=int)
-    rot, d_rot = _rotation(s[_YAW])
-    arm = mounting.antenna
-    full_h = np.r_[s[:2] + rot @ arm, wrap_angle(s[_YAW] + mounting.heading_offset)]
+    _, d_rot = rotation_with_derivative(s[_YAW])
+    full_h = sensor_pose(s[:3], mounting)
     full_H = np.zeros((3, s.size))  # noqa: N806 - the usual symbol
     full_H[[0, 1, 2], [0, 1, 2]] = 1.0
-    full_H[:2, _YAW] = d_rot @ arm
+    full_H[:2, _YAW] = d_rot @ mounting.antenna
     return full_h[rows], full_H[rows]
-
-
-def sensor_pose(pose: ArrayLike, mounting: Mounting) -> np.ndarray:
-    """Return what the sensors measure at robot pose ``x, y, yaw`` (antenna, heading).
-
-    Examples
-    --------
-    >>> sensor_pose([0.0, 0.0, 0.0], Mounting(0.5, 0.1, 0.2)).round(6).tolist()
-    [0.5, 0.1, 0.2]
-    """
-    return measurement(pose, [0, 1, 2], mounting)[0]
-
-
-def robot_pose(z: ArrayLike, mounting: Mounting, yaw: float | None = None) -> np.ndarray:
-    """Invert :func:`sensor_pose`: the robot pose from antenna position and heading.
-
-    Parameters
-    ----------
-    z : array_like, shape (3,)
-        Measured antenna ``x, y`` and sensor heading; the heading may be NaN
-        if ``yaw`` is given.
-    mounting : Mounting
-    yaw : float, optional
-        The robot's yaw where ``z`` has no heading (e.g. an estimate).
-
-    Returns
-    -------
-    ndarray, shape (3,)
-        ``x, y, yaw`` of the robot (NaN where ``z`` has no position).
-
-    Examples
-    --------
-    >>> m = Mounting(0.5, 0.1, 0.2)
-    >>> robot_pose(sensor_pose([1.0, 2.0, 0.3], m), m).round(6).tolist()
-    [1.0, 2.0, 0.3]
-    """
-    z = np.asarray(z, dtype=float)
-    if np.isfinite(z[_YAW]):
-        yaw = float(wrap_angle(z[_YAW] - mounting.heading_offset))
-    if yaw is None:
-        raise ValueError("robot_pose needs a heading: in z, or as yaw")
-    rot, _ = _rotation(yaw)
-    return np.r_[z[:2] - rot @ mounting.antenna, yaw]
 
 
 def _chord(change: np.ndarray, jac: np.ndarray, arm: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Return the antenna's displacement over a pose ``change`` (start frame) and its Jacobian."""
-    rot, d_rot = _rotation(change[_YAW])
+    rot, d_rot = rotation_with_derivative(change[_YAW])
     return change[:2] + rot @ arm - arm, jac[:2] + np.outer(d_rot @ arm, jac[_YAW])
 
 

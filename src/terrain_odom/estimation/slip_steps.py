@@ -12,9 +12,10 @@ from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
-from terrain_odom.estimation.pose_measurement import Mounting, PoseUse, robot_pose
+from terrain_odom.estimation.pose_measurement import PoseUse
 from terrain_odom.estimation.steps import HEADING, POSITION, YAW
 from terrain_odom.kinematics import relative_pose, wrap_angle
+from terrain_odom.kinematics.mounting import Mounting, robot_pose
 
 if TYPE_CHECKING:
     from terrain_odom.estimation.slip_ekf import SlipEkf

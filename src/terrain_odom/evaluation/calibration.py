@@ -3,27 +3,12 @@
 A consumer GPS and IMU come with a mounting and a latency nobody measured
 and with message covariances that understate their noise. This module
 finds them by comparing the positions with the path the wheels draw over
-short windows of time:
-
-- the *heading track* ``psi(s)`` at wheel time ``s``: the integrated ideal
-  yaw ``k * integral (v_r - v_l) / B``, with the scale ``k`` of the measured
-  heading's turn over 1-s intervals (moved by its delay) where the log has
-  headings, else the one that best explains the positions (a skid-steer
-  robot turns less than the ideal model). Not the measured heading itself:
-  its slow wander bends the path within a window, which no rotation
-  undoes, and biased the lever arm towards 0;
-- the *wheel path* ``q(s) = integral (v_l + v_r) / 2 * exp(i psi) ds``
-  (complex numbers: ``x + i y``), one per run;
-- the positions ``m_k`` (the antenna's, stamped ``t_k``) are grouped into
-  windows of ``window`` s, and each window is fitted, by linear least
-  squares in complex numbers, with a similarity of the wheel path plus the
-  lever arm ``a = antenna_x + i antenna_y`` common to the whole log::
-
-      m_k = c_w q(t_k - d) + T_w + exp(i theta_k) a + n_k
-
-  ``c_w`` (a rotation and a speed scale) and ``T_w`` absorb the heading
-  offset, the slow wander of a heading and of a GPS bias, and the drift of
-  dead reckoning; ``theta_k = psi_k + arg c_w`` is the robot's heading.
+short windows of time (:mod:`~terrain_odom.evaluation.wheel_path`: the
+heading track ``psi`` and the wheel path ``q``, not the measured heading
+itself, whose slow wander bends the path within a window, which no rotation
+undoes, and biased the lever arm towards 0; each window of positions
+fitted as ``m_k = c_w q(t_k - d) + T_w + exp(i theta_k) a + n_k``, the lever
+arm ``a`` common to the whole log).
 
 What the fit gives:
 
@@ -67,6 +52,21 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from terrain_odom.evaluation.robust import MAD_TO_STD, circular_median, correlation_time
+from terrain_odom.evaluation.wheel_path import (
+    Fixes,
+    Track,
+    WindowFit,
+    fit_windows,
+    ideal_yaw,
+    measured_heading,
+    run_time,
+    wheel_track,
+    window_fixes,
+    window_sum,
+    yaw_scale_from_headings,
+    yaw_scale_from_positions,
+)
 from terrain_odom.kinematics import wrap_angle
 from terrain_odom.records import WheelLog
 
@@ -75,16 +75,10 @@ __all__ = [
     "Estimate",
     "LeverArm",
     "SensorFit",
-    "circular_median",
-    "correlation_time",
     "fit_sensors",
     "lever_significant",
-    "run_time",
     "x_icr_limit",
 ]
-
-_MAD = 1.4826
-"""Ratio of the standard deviation to the median absolute deviation of a normal sample."""
 
 
 @dataclass(frozen=True)
@@ -230,62 +224,6 @@ class SensorFit:
     lever: LeverArm = _NO_LEVER
 
 
-def circular_median(angles: np.ndarray, weights: np.ndarray | None = None) -> float:
-    """Return the (weighted) median of angles on the circle, rad in (-pi, pi].
-
-    The angles are unwrapped around their circular mean first, so a cluster
-    around +-pi is not split into two halves (a plain median of wrapped
-    angles near +-pi falls between them).
-
-    Examples
-    --------
-    >>> round(float(np.degrees(circular_median(np.radians([179.0, -179.0, 178.0])))), 6)
-    179.0
-    """
-    a = np.asarray(angles, dtype=float)
-    w = np.ones(a.size) if weights is None else np.asarray(weights, dtype=float)
-    centre = float(np.angle(np.sum(w * np.exp(1j * a))))
-    dev = wrap_angle(a - centre)
-    return float(wrap_angle(centre + _weighted_median(dev, w)))
-
-
-def _weighted_median(x: np.ndarray, w: np.ndarray) -> float:
-    order = np.argsort(x)
-    cum = np.cumsum(w[order])
-    return float(x[order][np.searchsorted(cum, 0.5 * cum[-1])])
-
-
-@dataclass(frozen=True)
-class _Fixes:
-    """Positions and the wheel path sampled for them."""
-
-    t: np.ndarray  # stamps, s, on a time axis made increasing across runs
-    m: np.ndarray  # measured positions, complex
-    window: np.ndarray  # window id per fix, 0 .. W-1
-
-
-@dataclass(frozen=True)
-class _Track:
-    """Wheel path and heading at the rows of the log (on the same time axis)."""
-
-    t: np.ndarray
-    q: np.ndarray  # complex wheel path, m
-    psi: np.ndarray  # heading track, rad (unwrapped)
-
-
-@dataclass(frozen=True)
-class _WindowFit:
-    """Result of :func:`_fit_windows` at one delay."""
-
-    cost: float
-    residual: np.ndarray  # complex, per fix
-    c: np.ndarray  # complex, per window
-    info: np.ndarray  # sum |q~|^2 per window, m^2
-    a: complex
-    a_info: np.ndarray  # 2x2 information of (a_x, a_y) per unit noise variance
-    u_kept: float  # share of |u~|^2 left after projecting out the windows
-
-
 def fit_sensors(
     log: WheelLog,
     track_width: float,
@@ -319,14 +257,14 @@ def fit_sensors(
     lim = limits or CalibrationLimits()
     time = run_time(log)
     has_heading = int(log.has_yaw.sum()) >= 2
-    fixes = _fixes(log, time, lim)
+    fixes = window_fixes(log, time, lim.window, lim.min_fixes)
     if has_heading:
-        scale = _yaw_scale_from_headings(log, time, track_width, heading_delay)
+        scale = yaw_scale_from_headings(log, time, track_width, heading_delay)
     else:
-        scale = _yaw_scale_from_positions(log, time, track_width, fixes, lim)
+        scale = yaw_scale_from_positions(log, time, track_width, fixes, lim.yaw_scales)
     # the wheels' turn, not the measured heading: a heading's slow wander bends the path
     # within a window, which no rotation undoes, and biases the lever arm towards 0
-    track = _track(log, time, scale * _ideal_yaw(log, time, track_width))
+    track = wheel_track(log, time, scale * ideal_yaw(log, time, track_width))
     used = int(np.unique(fixes.window).size)
     if used < lim.min_windows:
         return _unobservable(
@@ -340,10 +278,10 @@ def fit_sensors(
     # the lever arm at the least-squares delay, also where its standard error is too large
     # to calibrate it (the two are fitted jointly; at a wrong delay the lever arm is wrong)
     best = delay.value if np.isfinite(delay.value) else 0.0
-    fit = _fit_windows(track, fixes, best, lever=True)
+    fit = fit_windows(track, fixes, best, lever=True)
     lever = _with_delay_error(_lever_arm(fit), track, fixes, best, delay)
     offsets = (
-        _window_offsets(track, fixes, fit, _measured_heading(log, time, heading_delay), delay)
+        _window_offsets(track, fixes, fit, measured_heading(log, time, heading_delay), delay)
         if has_heading
         else None
     )
@@ -361,7 +299,7 @@ def fit_sensors(
 
 
 def _window_offsets(
-    track: _Track, fixes: _Fixes, fit: _WindowFit, measured: np.ndarray, delay: Estimate
+    track: Track, fixes: Fixes, fit: WindowFit, measured: np.ndarray, delay: Estimate
 ) -> np.ndarray:
     """Per window: circular mean of the measured heading minus the robot's at its fixes, rad.
 
@@ -371,7 +309,7 @@ def _window_offsets(
     s = fixes.t - (delay.value if np.isfinite(delay.value) else 0.0)
     robot = np.interp(s, track.t, track.psi) + np.angle(fit.c[fixes.window])
     diff = np.exp(1j * (np.interp(s, track.t, measured) - robot))
-    return np.angle(_wsum(diff, fixes.window, fit.c.size))
+    return np.angle(window_sum(diff, fixes.window, fit.c.size))
 
 
 def _unobservable(why: str, scale: float, windows: int) -> SensorFit:
@@ -383,131 +321,15 @@ def _no_heading() -> Estimate:
     return Estimate(float("nan"), float("nan"), False, "the log has no headings")
 
 
-def run_time(log: WheelLog) -> np.ndarray:
-    """Return the log's times made increasing across runs, with a 1e6-s jump at each new run.
-
-    On that time axis no window, chord or interpolation crosses from one run
-    to the next (it jumps by far more than any of them spans).
-    """
-    jump = np.zeros(len(log))
-    starts = log.run_starts()[1:]
-    jump[starts] = log.t[starts - 1] - log.t[starts] + 1e6
-    return log.t + np.cumsum(jump)
-
-
-def _fixes(log: WheelLog, time: np.ndarray, lim: CalibrationLimits) -> _Fixes:
-    """Positions grouped into windows of ``lim.window`` s (runs never share a window).
-
-    A window is used with ``min_fixes`` positions spread over at least half
-    its length.
-    """
-    rows = np.flatnonzero(log.has_position)
-    t = time[rows]
-    raw = np.floor(t / lim.window).astype(np.int64)
-    _, window, counts = np.unique(raw, return_inverse=True, return_counts=True)
-    span = np.zeros(counts.size)
-    np.maximum.at(span, window, t - raw * lim.window)  # time covered (from the window's start)
-    first = np.full(counts.size, np.inf)
-    np.minimum.at(first, window, t - raw * lim.window)
-    # enough fixes over at least half the window (a short run's similarity is not a rotation)
-    keep = (counts[window] >= lim.min_fixes) & ((span - first)[window] >= 0.5 * lim.window)
-    _, window = np.unique(window[keep], return_inverse=True)
-    m = log.pose[rows[keep], 0] + 1j * log.pose[rows[keep], 1]
-    return _Fixes(t[keep], m, window)
-
-
-def _measured_heading(log: WheelLog, time: np.ndarray, delay: float) -> np.ndarray:
-    """Measured heading at every row's wheel time, unwrapped (moved by its delay)."""
-    rows = np.flatnonzero(log.has_yaw)
-    yaw = np.unwrap(log.pose[rows, 2])
-    return np.interp(time, time[rows] - delay, yaw)
-
-
-def _ideal_yaw(log: WheelLog, time: np.ndarray, track_width: float) -> np.ndarray:
-    """Integrated ideal differential-drive yaw at every row, rad (0 across run starts)."""
-    dt = np.diff(time) * (np.diff(log.segment_runs()) == 0)
-    return np.r_[0.0, np.cumsum((log.v_r - log.v_l)[:-1] / track_width * dt)]
-
-
-def _track(log: WheelLog, time: np.ndarray, psi: np.ndarray) -> _Track:
-    """Wheel path (speeds held, heading at each step's middle) at the rows."""
-    dt = np.diff(time) * (np.diff(log.segment_runs()) == 0)
-    speed = 0.5 * (log.v_l + log.v_r)[:-1]
-    step = speed * dt * np.exp(1j * 0.5 * (psi[1:] + psi[:-1]))
-    return _Track(time, np.r_[0.0, np.cumsum(step)], psi)
-
-
-def _at(track: _Track, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Wheel path and heading at times ``s`` (linear between rows)."""
-    q = np.interp(s, track.t, track.q.real) + 1j * np.interp(s, track.t, track.q.imag)
-    return q, np.interp(s, track.t, track.psi)
-
-
-def _centred(x: np.ndarray, window: np.ndarray, n: int) -> np.ndarray:
-    """``x`` minus its window's mean (complex)."""
-    count = np.bincount(window, minlength=n)
-    mean = (
-        np.bincount(window, x.real, minlength=n) + 1j * np.bincount(window, x.imag, minlength=n)
-    ) / np.maximum(count, 1)
-    return x - mean[window]
-
-
-def _wsum(x: np.ndarray, window: np.ndarray, n: int) -> np.ndarray:
-    """Sum of complex ``x`` per window."""
-    return np.bincount(window, x.real, minlength=n) + 1j * np.bincount(window, x.imag, minlength=n)
-
-
-def _fit_windows(
-    track: _Track, fixes: _Fixes, delay: float, *, lever: bool, rounds: int = 3
-) -> _WindowFit:
-    """Fit ``m = c_w q + T_w (+ exp(i theta) a)`` at one position delay (see the module).
-
-    With the lever arm, ``a`` is fitted jointly with the windows' ``c_w, T_w``
-    (the windows projected out); the robot's heading in ``exp(i theta)``
-    takes the rotations of the previous round, ``rounds`` times.
-    """
-    n = int(fixes.window.max()) + 1
-    w = fixes.window
-    q, psi = _at(track, fixes.t - delay)
-    qc, mc = _centred(q, w, n), _centred(fixes.m, w, n)
-    info = np.bincount(w, np.abs(qc) ** 2, minlength=n)
-    c = _wsum(np.conj(qc) * mc, w, n) / np.maximum(info, 1e-12)
-    r, a, a_info, kept = mc - c[w] * qc, 0j, np.zeros((2, 2)), 0.0
-    for _ in range(rounds if lever else 0):
-        uc = _centred(np.exp(1j * (psi + np.angle(c[w]))), w, n)
-        # what is left of the regressor after each window's similarity: 0 on straight
-        # stretches and steady arcs (the lever arm's information)
-        u = uc - (_wsum(np.conj(qc) * uc, w, n) / np.maximum(info, 1e-12))[w] * qc
-        design = _lever_design(u)
-        a_info = design.T @ design
-        kept = float(np.sum(np.abs(u) ** 2)) / max(float(np.sum(np.abs(uc) ** 2)), 1e-12)
-        a = _lever(u, mc - c[w] * qc)
-        c = _wsum(np.conj(qc) * (mc - a * uc), w, n) / np.maximum(info, 1e-12)
-        r = mc - c[w] * qc - a * uc
-    return _WindowFit(float(np.sum(np.abs(r) ** 2)), r, c, info, a, a_info, kept)
-
-
-def _lever_design(u: np.ndarray) -> np.ndarray:
-    """Real design of ``u a`` in ``(a_x, a_y)``: ``(u_re a_x - u_im a_y) + i (u_im a_x + u_re a_y)``."""
-    return np.column_stack([np.concatenate([u.real, u.imag]), np.concatenate([-u.imag, u.real])])
-
-
-def _lever(u: np.ndarray, r: np.ndarray) -> complex:
-    """Least-squares ``a`` of ``r = u a`` (complex), 0 where ``u`` is all 0."""
-    design = _lever_design(u)
-    sol = np.linalg.lstsq(design, np.concatenate([r.real, r.imag]), rcond=None)[0]
-    return complex(sol[0], sol[1])
-
-
 def _position_delay(
-    track: _Track, fixes: _Fixes, lim: CalibrationLimits, given: float | None
+    track: Track, fixes: Fixes, lim: CalibrationLimits, given: float | None
 ) -> Estimate:
     """Least-squares position delay: a grid, then a parabola fitted to the costs near its best."""
     if given is not None:
         return Estimate(float(given), 0.0, True, "given")
 
     def costs_at(delays: np.ndarray, rounds: int) -> np.ndarray:
-        fits = (_fit_windows(track, fixes, d, lever=True, rounds=rounds) for d in delays)
+        fits = (fit_windows(track, fixes, d, lever=True, rounds=rounds) for d in delays)
         return np.array([fit.cost for fit in fits])
 
     coarse = np.arange(-lim.max_delay, lim.max_delay + 0.5 * lim.coarse_step, lim.coarse_step)
@@ -557,7 +379,7 @@ def _delay_unobservable(why: str, value: float, std: float = float("nan")) -> Es
 
 
 def _moving(
-    fit: _WindowFit, offsets: np.ndarray, fixes: _Fixes, lim: CalibrationLimits
+    fit: WindowFit, offsets: np.ndarray, fixes: Fixes, lim: CalibrationLimits
 ) -> tuple[np.ndarray, np.ndarray] | None:
     """Heading offsets (rad) and weights of the windows moving enough; None if too few."""
     use = fit.info / np.maximum(np.bincount(fixes.window), 1) >= lim.min_extent**2
@@ -567,7 +389,7 @@ def _moving(
 
 
 def _heading_offset(
-    fit: _WindowFit, offsets: np.ndarray, fixes: _Fixes, lim: CalibrationLimits
+    fit: WindowFit, offsets: np.ndarray, fixes: Fixes, lim: CalibrationLimits
 ) -> Estimate:
     """Circular median of the windows' rotations (measured heading minus the robot's)."""
     moving = _moving(fit, offsets, fixes, lim)
@@ -582,7 +404,7 @@ def _heading_offset(
     rot, weight = moving
     value = circular_median(rot, weight)
     dev = wrap_angle(rot - value)
-    spread = _MAD * float(np.median(np.abs(dev)))
+    spread = MAD_TO_STD * float(np.median(np.abs(dev)))
     std = spread * np.sqrt(correlation_time(dev) / rot.size)
     return Estimate(
         value,
@@ -590,21 +412,6 @@ def _heading_offset(
         True,
         f"circular median of measured heading minus the wheel path's over {rot.size} windows",
     )
-
-
-def correlation_time(x: np.ndarray) -> float:
-    """Integrated autocorrelation time of a sequence, in samples (>= 1; Geyer's initial sum)."""
-    x = x - np.mean(x)
-    var = float(x @ x)
-    if x.size < 4 or var == 0.0:
-        return 1.0
-    tau = 1.0
-    for lag in range(1, x.size // 2):
-        rho = float(x[:-lag] @ x[lag:]) / var
-        if rho <= 0.0:
-            break
-        tau += 2.0 * rho
-    return tau
 
 
 def x_icr_limit(track_width: float, limits: CalibrationLimits | None = None) -> float:
@@ -627,7 +434,7 @@ def lever_significant(value: float, std: float, track_width: float, lim: Calibra
     return bool(np.isfinite(value) and std <= lim.max_coarse_std and beyond)
 
 
-def _lever_arm(fit: _WindowFit) -> LeverArm:
+def _lever_arm(fit: WindowFit) -> LeverArm:
     """Return the least-squares lever arm and its standard errors (inf where rank-deficient)."""
     dof = max(2 * fit.residual.size - 4 * fit.c.size - 2, 1)
     sigma2 = fit.cost / dof
@@ -640,7 +447,7 @@ def _lever_arm(fit: _WindowFit) -> LeverArm:
 
 
 def _with_delay_error(
-    lever: LeverArm, track: _Track, fixes: _Fixes, best: float, delay: Estimate, h: float = 0.05
+    lever: LeverArm, track: Track, fixes: Fixes, best: float, delay: Estimate, h: float = 0.05
 ) -> LeverArm:
     """Add the position delay's error to the lever arm's (they are fitted jointly).
 
@@ -652,8 +459,8 @@ def _with_delay_error(
         return lever
     if not np.isfinite(delay.std):
         return dataclasses.replace(lever, std_x=float("inf"), std_y=float("inf"))
-    up = _fit_windows(track, fixes, best + h, lever=True).a
-    down = _fit_windows(track, fixes, best - h, lever=True).a
+    up = fit_windows(track, fixes, best + h, lever=True).a
+    down = fit_windows(track, fixes, best - h, lever=True).a
     slope = (up - down) / (2.0 * h)
     return dataclasses.replace(
         lever,
@@ -695,12 +502,12 @@ def _antenna(
     return out[0], out[1]
 
 
-def _position_noise(fit: _WindowFit, fixes: _Fixes) -> Estimate:
+def _position_noise(fit: WindowFit, fixes: Fixes) -> Estimate:
     """Robust standard deviation of the residual components, corrected for the parameters."""
     parts = np.concatenate([fit.residual.real, fit.residual.imag])
     n = parts.size
     dof = max(n - 4 * fit.c.size - 2, 1)
-    value = _MAD * float(np.median(np.abs(parts))) * np.sqrt(n / dof)
+    value = MAD_TO_STD * float(np.median(np.abs(parts))) * np.sqrt(n / dof)
     return Estimate(
         value,
         value / np.sqrt(2.0 * dof),
@@ -715,49 +522,9 @@ def _heading_increments(
     """Measured heading change and ideal turn between consecutive headings of a run."""
     rows = np.flatnonzero(log.has_yaw)
     same = np.diff(log.segment_runs()[rows]) == 0
-    ideal = _ideal_yaw(log, time, track_width)
+    ideal = ideal_yaw(log, time, track_width)
     a, b = rows[:-1][same], rows[1:][same]
     return wrap_angle(log.pose[b, 2] - log.pose[a, 2]), ideal[b] - ideal[a]
-
-
-def _yaw_scale_from_headings(
-    log: WheelLog, time: np.ndarray, track_width: float, delay: float, span: float = 1.0
-) -> float:
-    """Least-squares ratio of the measured heading's turn to the ideal turn over ``span`` s.
-
-    The heading is moved by its ``delay`` first, and the turns are taken
-    over chained intervals of ``span`` s, not between consecutive headings:
-    over a tenth of a second a heading's latency or jitter decorrelates
-    the two turns and shrinks the ratio.
-    """
-    measured = _measured_heading(log, time, delay)
-    ideal = _ideal_yaw(log, time, track_width)
-    rows = np.flatnonzero(np.r_[True, np.diff(np.floor(time / span)) != 0])
-    same = np.diff(log.segment_runs()[rows]) == 0
-    dm, di = np.diff(measured[rows])[same], np.diff(ideal[rows])[same]
-    size = float(np.max(np.abs(di), initial=0.0))
-    if not 0.0 < size < np.inf:
-        return 1.0
-    di = di / size  # any track width: the squares neither overflow nor underflow
-    return float(dm @ di) / float(di @ di) / size
-
-
-def _yaw_scale_from_positions(
-    log: WheelLog, time: np.ndarray, track_width: float, fixes: _Fixes, lim: CalibrationLimits
-) -> float:
-    """Return the ideal yaw's scale that best explains the positions (grid, then parabola)."""
-    if fixes.t.size == 0:
-        return 1.0
-    ideal = _ideal_yaw(log, time, track_width)
-    low, high = lim.yaw_scales
-    grid = np.arange(low, high + 1e-9, 0.05)
-    costs = np.array(
-        [_fit_windows(_track(log, time, k * ideal), fixes, 0.0, lever=False).cost for k in grid]
-    )
-    i = int(np.clip(np.argmin(costs), 1, grid.size - 2))
-    den = costs[i - 1] - 2.0 * costs[i] + costs[i + 1]
-    step = 0.5 * 0.05 * (costs[i - 1] - costs[i + 1]) / den if den > 0 else 0.0
-    return float(grid[i] + np.clip(step, -0.05, 0.05))
 
 
 def _heading_noise(log: WheelLog, time: np.ndarray, track_width: float, scale: float) -> Estimate:
@@ -766,7 +533,7 @@ def _heading_noise(log: WheelLog, time: np.ndarray, track_width: float, scale: f
     if measured.size < 20:
         return Estimate(float("nan"), float("nan"), False, "fewer than 20 heading increments")
     r = measured - scale * ideal
-    value = _MAD * float(np.median(np.abs(r - np.median(r)))) / np.sqrt(2.0)
+    value = MAD_TO_STD * float(np.median(np.abs(r - np.median(r)))) / np.sqrt(2.0)
     return Estimate(
         value,
         value / np.sqrt(measured.size),
@@ -776,7 +543,7 @@ def _heading_noise(log: WheelLog, time: np.ndarray, track_width: float, scale: f
 
 
 def _heading_wander(
-    fit: _WindowFit, offsets: np.ndarray, fixes: _Fixes, lim: CalibrationLimits
+    fit: WindowFit, offsets: np.ndarray, fixes: Fixes, lim: CalibrationLimits
 ) -> Estimate:
     """Spread of the windows' heading offsets beyond their own standard errors (rad)."""
     moving = _moving(fit, offsets, fixes, lim)
@@ -786,7 +553,7 @@ def _heading_wander(
     dev = wrap_angle(rot - circular_median(rot, weight))
     dof = max(2 * fit.residual.size - 4 * fit.c.size - 2, 1)
     own = fit.cost / dof / weight  # variance of each window's rotation, rad^2
-    spread2 = (_MAD * float(np.median(np.abs(dev)))) ** 2
+    spread2 = (MAD_TO_STD * float(np.median(np.abs(dev)))) ** 2
     value = float(np.sqrt(max(spread2 - float(np.median(own)), 0.0)))
     return Estimate(
         value,

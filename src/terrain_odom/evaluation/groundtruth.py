@@ -47,12 +47,12 @@ def path_length(pose: ArrayLike) -> np.ndarray:
     return np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(xy, axis=0).T))])
 
 
-def frame_truth(gt: GroundTruth, t: ArrayLike, ahead: ArrayLike) -> np.ndarray:
+def frame_truth(truth: GroundTruth, t: ArrayLike, ahead: ArrayLike) -> np.ndarray:
     """Return the true terrain of the ground classified in each frame.
 
     Parameters
     ----------
-    gt : GroundTruth
+    truth : GroundTruth
     t : array_like, shape (F,)
         Frame times, s.
     ahead : array_like, shape (F,)
@@ -68,12 +68,12 @@ def frame_truth(gt: GroundTruth, t: ArrayLike, ahead: ArrayLike) -> np.ndarray:
     """
     t = np.asarray(t, dtype=float)
     ahead = np.nan_to_num(np.asarray(ahead, dtype=float), nan=0.0)
-    s = path_length(gt.pose)
-    target = np.interp(t, gt.t, s) + ahead
+    s = path_length(truth.pose)
+    target = np.interp(t, truth.t, s) + ahead
     row = np.searchsorted(s, target - 1e-9, side="left")
-    known = (t >= gt.t[0]) & (t <= gt.t[-1]) & (row < s.size)
+    known = (t >= truth.t[0]) & (t <= truth.t[-1]) & (row < s.size)
     out = np.full(t.shape, "", dtype=object)
-    out[known] = gt.terrain[row[known]]
+    out[known] = truth.terrain[row[known]]
     return out.astype(str)
 
 
@@ -156,7 +156,7 @@ def feature_times(
     return out
 
 
-def groundtruth_log(log: WheelLog, gt: GroundTruth) -> WheelLog:
+def groundtruth_log(log: WheelLog, truth: GroundTruth) -> WheelLog:
     """Return the log with its pose column replaced by the true pose at every row.
 
     Raises
@@ -164,16 +164,16 @@ def groundtruth_log(log: WheelLog, gt: GroundTruth) -> WheelLog:
     ValueError
         If the ground truth does not cover the log's time span.
     """
-    if not gt.covers(log.t):
+    if not truth.covers(log.t):
         raise ValueError(
-            f"{gt.source} covers {gt.t[0]:g}-{gt.t[-1]:g} s but the log {log.source} spans "
+            f"{truth.source} covers {truth.t[0]:g}-{truth.t[-1]:g} s but the log {log.source} spans "
             f"{log.t[0]:g}-{log.t[-1]:g} s"
         )
-    yaw = np.interp(log.t, gt.t, np.unwrap(gt.pose[:, 2]))
+    yaw = np.interp(log.t, truth.t, np.unwrap(truth.pose[:, 2]))
     pose = np.column_stack(
         [
-            np.interp(log.t, gt.t, gt.pose[:, 0]),
-            np.interp(log.t, gt.t, gt.pose[:, 1]),
+            np.interp(log.t, truth.t, truth.pose[:, 0]),
+            np.interp(log.t, truth.t, truth.pose[:, 1]),
             wrap_angle(yaw),
         ]
     )
@@ -237,7 +237,7 @@ def model_odometry_error(
 
 
 def reconvergence(
-    gt: GroundTruth,
+    truth: GroundTruth,
     t: ArrayLike,
     icr: ArrayLike,
     tolerance: float,
@@ -255,7 +255,7 @@ def reconvergence(
 
     Parameters
     ----------
-    gt : GroundTruth
+    truth : GroundTruth
     t : array_like, shape (N,)
         Times of the estimates, s.
     icr : array_like, shape (N, 3)
@@ -275,15 +275,15 @@ def reconvergence(
     """
     t = np.asarray(t, dtype=float)
     icr = np.asarray(icr, dtype=float)
-    changes = gt.changes() if changes is None else list(changes)
+    changes = truth.changes() if changes is None else list(changes)
     out = []
     for i, (t_c, previous, new) in enumerate(changes):
         t_end = changes[i + 1][0] if i + 1 < len(changes) else np.inf
         t_end = min([t_end] + [t_r for t_r, label in resets if t_c < t_r and label != new])
         rows = (t >= t_c) & (t < t_end)
-        truth = gt.icr[np.searchsorted(gt.t, t_c)]
+        true_icr = truth.icr[np.searchsorted(truth.t, t_c)]
         settle = (
-            settling_time(t[rows], icr[rows], truth, [tolerance] * 3, t_from=t_c)
+            settling_time(t[rows], icr[rows], true_icr, [tolerance] * 3, t_from=t_c)
             if rows.any()
             else np.inf
         )
@@ -293,7 +293,7 @@ def reconvergence(
                 "from": previous,
                 "to": new,
                 "settling_s": float(settle) if np.isfinite(settle) else None,
-                "true_icr": dict(zip(("y_l", "y_r", "x_icr"), truth.tolist(), strict=True)),
+                "true_icr": dict(zip(("y_l", "y_r", "x_icr"), true_icr.tolist(), strict=True)),
             }
         )
     return out

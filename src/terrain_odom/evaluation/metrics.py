@@ -1,4 +1,4 @@
-"""Odometry error metrics: model error over spatial windows and ATE.
+"""Odometry error metrics: model error over spatial windows, dead reckoning, settling.
 
 Spatial-window error (Baril et al., CRV 2020, section IV), on the windows of
 :mod:`terrain_odom.evaluation.windows`. The kinematic model is integrated
@@ -16,9 +16,7 @@ The twist comes from a callable ``twist_fn(v_l, v_r, window_index)``, so the
 same code serves constant models and estimators whose parameters change
 per window (each window uses only the estimate available at its start).
 
-ATE. :func:`absolute_trajectory_error` aligns an estimated planar trajectory
-to measured positions with the rigid SE(2) transform that minimises the
-squared position error (Umeyama without scale) and returns the RMSE.
+The absolute trajectory error is :mod:`terrain_odom.evaluation.ate`.
 """
 
 from __future__ import annotations
@@ -40,8 +38,6 @@ __all__ = [
     "WindowErrors",
     "ErrorStats",
     "ErrorSummary",
-    "SE2Alignment",
-    "AteResult",
     "model_twist",
     "icr_twist_from_rows",
     "icr_twist_per_window",
@@ -50,8 +46,6 @@ __all__ = [
     "error_stats",
     "window_errors",
     "summarize",
-    "align_se2",
-    "absolute_trajectory_error",
     "dead_reckon",
     "settling_time",
 ]
@@ -142,60 +136,6 @@ class ErrorSummary:
         return {
             "translation_m_per_m": self.translation.to_dict(),
             "rotation_deg_per_m": self.rotation.to_dict(),
-        }
-
-
-@dataclass(frozen=True)
-class SE2Alignment:
-    """A planar rigid transform ``p -> R(angle) p + translation``.
-
-    Attributes
-    ----------
-    angle : float
-        Rotation angle, rad, in (-pi, pi].
-    translation : ndarray, shape (2,)
-        Translation, m.
-    """
-
-    angle: float
-    translation: np.ndarray
-
-    @property
-    def rotation(self) -> np.ndarray:
-        """Rotation matrix, shape (2, 2)."""
-        c, s = math.cos(self.angle), math.sin(self.angle)
-        return np.array([[c, -s], [s, c]])
-
-    def apply(self, xy: ArrayLike) -> np.ndarray:
-        """Transform positions of shape (..., 2), m."""
-        return np.asarray(xy, dtype=float) @ self.rotation.T + self.translation
-
-
-@dataclass(frozen=True)
-class AteResult:
-    """Absolute trajectory error after SE(2) alignment.
-
-    Attributes
-    ----------
-    rmse : float
-        Root-mean-square position error after alignment, m.
-    alignment : SE2Alignment
-        Transform applied to the estimate to align it with the reference.
-    count : int
-        Number of rows compared.
-    """
-
-    rmse: float
-    alignment: SE2Alignment
-    count: int
-
-    def to_dict(self) -> dict[str, float | int | list[float]]:
-        """JSON-ready dict: ``rmse_m``, ``angle_rad``, ``translation_m``, ``count``."""
-        return {
-            "rmse_m": self.rmse,
-            "angle_rad": self.alignment.angle,
-            "translation_m": self.alignment.translation.tolist(),
-            "count": self.count,
         }
 
 
@@ -459,71 +399,6 @@ def icr_twist_per_window(
         return twist_icr(v_l, v_r, *(a[window_index][:, None] for a in per_window))
 
     return twist_fn
-
-
-def align_se2(source_xy: ArrayLike, target_xy: ArrayLike) -> SE2Alignment:
-    """Rigid planar transform that best maps ``source`` onto ``target``.
-
-    Closed-form least squares (Kabsch/Umeyama without scale) with the
-    reflection guard, so the result is a proper rotation.
-
-    Parameters
-    ----------
-    source_xy, target_xy : array_like, shape (M, 2)
-        Corresponding positions, m; ``M >= 2``.
-
-    Returns
-    -------
-    SE2Alignment
-        ``T`` minimising ``sum |T(source_i) - target_i|^2``.
-
-    Examples
-    --------
-    >>> src = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 2.0]])
-    >>> a = align_se2(src, src @ np.array([[0.0, -1.0], [1.0, 0.0]]).T + [3.0, 4.0])
-    >>> round(a.angle, 9), a.translation.round(9).tolist()
-    (1.570796327, [3.0, 4.0])
-    """
-    src = np.asarray(source_xy, dtype=float)
-    dst = np.asarray(target_xy, dtype=float)
-    if src.shape != dst.shape or src.ndim != 2 or src.shape[1] != 2 or src.shape[0] < 2:
-        raise ValueError(
-            f"need two (M, 2) position arrays with M >= 2, got {src.shape} and {dst.shape}"
-        )
-    mu_src, mu_dst = src.mean(axis=0), dst.mean(axis=0)
-    cov = (dst - mu_dst).T @ (src - mu_src)
-    u, _, vt = np.linalg.svd(cov)
-    guard = np.diag([1.0, np.sign(np.linalg.det(u) * np.linalg.det(vt))])
-    rot = u @ guard @ vt
-    angle = float(wrap_angle(math.atan2(rot[1, 0], rot[0, 0])))
-    return SE2Alignment(angle=angle, translation=mu_dst - rot @ mu_src)
-
-
-def absolute_trajectory_error(est_xy: ArrayLike, ref_xy: ArrayLike) -> AteResult:
-    """Absolute trajectory error (position RMSE) after SE(2) alignment.
-
-    Parameters
-    ----------
-    est_xy : array_like, shape (N, 2)
-        Estimated positions per log row, m.
-    ref_xy : array_like, shape (N, 2)
-        Measured positions at the same rows, m; NaN where not measured.
-        Only rows finite in both are used (at least 2).
-
-    Returns
-    -------
-    AteResult
-        RMSE (m), the alignment applied to the estimate and the row count.
-    """
-    est = np.asarray(est_xy, dtype=float)
-    ref = np.asarray(ref_xy, dtype=float)
-    if est.shape != ref.shape:
-        raise ValueError(f"estimate and reference shapes differ: {est.shape} vs {ref.shape}")
-    both = np.isfinite(est).all(axis=-1) & np.isfinite(ref).all(axis=-1)
-    alignment = align_se2(est[both], ref[both])
-    residual = alignment.apply(est[both]) - ref[both]
-    rmse = float(np.sqrt(np.mean(np.sum(residual**2, axis=1))))
-    return AteResult(rmse=rmse, alignment=alignment, count=int(both.sum()))
 
 
 def dead_reckon(log: WheelLog, v_x: ArrayLike, v_y: ArrayLike, omega: ArrayLike) -> np.ndarray:

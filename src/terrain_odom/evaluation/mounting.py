@@ -33,13 +33,12 @@ from terrain_odom.evaluation.calibration import (
     CalibrationLimits,
     Estimate,
     LeverArm,
-    circular_median,
-    correlation_time,
     fit_sensors,
     lever_significant,
-    run_time,
     x_icr_limit,
 )
+from terrain_odom.evaluation.robust import MAD_TO_STD, circular_median, correlation_time
+from terrain_odom.evaluation.wheel_path import run_time
 from terrain_odom.kinematics import wrap_angle
 from terrain_odom.records import WheelLog
 
@@ -178,7 +177,7 @@ def fit_mounting(
     value, spread, correlation = nan, nan, 1.0
     if course.size >= lim.min_straight:
         value = circular_median(course)  # near +-180 deg a plain median splits the cluster
-        spread = float(1.4826 * np.median(np.abs(wrap_angle(course - value))))
+        spread = float(MAD_TO_STD * np.median(np.abs(wrap_angle(course - value))))
         correlation = correlation_time(wrap_angle(course - value))
     # at the least-squares position delay left in the log, as calibrate fits it
     sensors = fit_sensors(log, track_width, limits=lim.lever)

@@ -42,6 +42,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from terrain_odom.evaluation.mounting import MountingFit, fit_mounting, mounting_findings
+from terrain_odom.evaluation.robust import MAD_TO_STD
 from terrain_odom.kinematics import wrap_angle
 from terrain_odom.records import WheelLog
 
@@ -321,7 +322,7 @@ def _position_noise(log: WheelLog) -> float:
             parts.append((xy[2:] - 2.0 * xy[1:-1] + xy[:-2]).ravel())
     if not parts:
         return 0.0
-    return 1.4826 * float(np.median(np.abs(np.concatenate(parts)))) / np.sqrt(6.0)
+    return MAD_TO_STD * float(np.median(np.abs(np.concatenate(parts)))) / np.sqrt(6.0)
 
 
 def _chord_travel(log: WheelLog, lim: PlausibilityLimits, noise: float) -> tuple[float, float]:

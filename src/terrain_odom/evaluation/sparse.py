@@ -248,7 +248,7 @@ def anchored_window_errors(
     return sparse_window_errors(log, windows, twist_fn, anchor=anchor, antenna=antenna)
 
 
-def antenna_of(cfg: Config) -> tuple[float, float]:
+def antenna_of(config: Config) -> tuple[float, float]:
     """Return the configured position sensor's place in the robot frame, m (``pose_sensor``).
 
     Raises
@@ -261,7 +261,7 @@ def antenna_of(cfg: Config) -> tuple[float, float]:
     >>> antenna_of(Config())
     (0.0, 0.0)
     """
-    sensor = cfg.pose_sensor
+    sensor = config.pose_sensor
     values = {"antenna_x": sensor.antenna_x, "antenna_y": sensor.antenna_y}
     for name, value in values.items():
         if isinstance(value, str) or not math.isfinite(value):

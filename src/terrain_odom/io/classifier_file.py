@@ -51,9 +51,9 @@ _ZIP_MAGIC = b"PK\x03\x04"  # a zip archive (an .npz file) starts with a local f
 
 
 def save_classifier(
-    model: TerrainClassifier, path: str | Path, *, tuning: Mapping[str, Any] | None = None
+    classifier: TerrainClassifier, path: str | Path, *, tuning: Mapping[str, Any] | None = None
 ) -> Path:
-    """Write a fitted model atomically to one ``.npz`` file (no pickle).
+    """Write a fitted classifier atomically to one ``.npz`` file (no pickle).
 
     Arrays: those of :meth:`~terrain_odom.vision.classifier.TerrainClassifier.to_arrays`
     and ``metadata``, a JSON string (see the module). The file is written as
@@ -61,7 +61,7 @@ def save_classifier(
 
     Parameters
     ----------
-    model : TerrainClassifier
+    classifier : TerrainClassifier
     path : str or Path
     tuning : mapping, optional
         JSON-able record of how the settings were chosen (``train --tune``:
@@ -74,12 +74,12 @@ def save_classifier(
     Raises
     ------
     ValueError
-        The model is not fitted.
+        The classifier is not fitted.
     """
     from terrain_odom import __version__
 
     path = Path(path)
-    arrays, model_meta = model.to_arrays()
+    arrays, model_meta = classifier.to_arrays()
     metadata = {
         "format_version": MODEL_FORMAT_VERSION,
         **model_meta,
@@ -128,8 +128,8 @@ def load_classifier(
     path = Path(path)
     arrays = _read_arrays(path)
     meta = _metadata(path, arrays)
-    cfg = _check_metadata(path, meta, expected)  # versions before the arrays
-    _check_arrays(path, cfg, arrays)
+    config = _check_metadata(path, meta, expected)  # versions before the arrays
+    _check_arrays(path, config, arrays)
     _check_labels(path, meta, arrays)
     novelty, threshold = meta.get("novelty_distance"), meta.get("min_confidence", 0.0)
     if not (novelty is None or _is_number(novelty, 0.0)) or not _is_number(threshold, 0.0, 1.0):
@@ -139,7 +139,7 @@ def load_classifier(
         )
     try:
         return TerrainClassifier.from_arrays(
-            cfg, arrays, novelty_distance=novelty, min_confidence=threshold
+            config, arrays, novelty_distance=novelty, min_confidence=threshold
         )
     except ValueError as exc:
         raise InputFileError(f"{path}: inconsistent model file ({exc})") from None
@@ -217,8 +217,8 @@ def _metadata(path: Path, arrays: dict[str, Any]) -> dict[str, Any]:
     return meta
 
 
-def _check_arrays(path: Path, cfg: ClassifierConfig, arrays: dict[str, Any]) -> None:
-    """Raise unless the model's arrays have the types and shapes a model of ``cfg`` has."""
+def _check_arrays(path: Path, config: ClassifierConfig, arrays: dict[str, Any]) -> None:
+    """Raise unless the model's arrays have the types and shapes a model of ``config`` has."""
     missing = set(MODEL_ARRAYS) - {k for k, v in arrays.items() if isinstance(v, np.ndarray)}
     if missing:
         raise InputFileError(f"{path}: not a terrain-odom model file (no {sorted(missing)})")
@@ -229,14 +229,14 @@ def _check_arrays(path: Path, cfg: ClassifierConfig, arrays: dict[str, Any]) -> 
             f"{features.shape}, not numbers of shape (samples, features)"
         )
     width = features.shape[1]
-    scaled = (width,) if cfg.scale else (0,)  # empty without scaling
+    scaled = (width,) if config.scale else (0,)  # empty without scaling
     for name in ("scaler_mean", "scaler_scale"):
         scaler = arrays[name]
         if scaler.dtype.kind not in "fiu" or scaler.shape != scaled:
             raise InputFileError(
                 f"{path}: inconsistent model file: features and scaler disagree ({name} is "
                 f"{scaler.dtype} of shape {scaler.shape}; {width} feature columns "
-                f"{'need' if cfg.scale else 'without scaling need'} numbers of shape {scaled}); "
+                f"{'need' if config.scale else 'without scaling need'} numbers of shape {scaled}); "
                 "retrain the model with 'terrain-odom train'"
             )
     if not all(np.isfinite(arrays[n]).all() for n in ("features", "scaler_mean", "scaler_scale")):
@@ -295,18 +295,18 @@ def _check_metadata(
                 "retrain the model with 'terrain-odom train'"
             )
     try:
-        cfg: ClassifierConfig = build_section(ClassifierConfig(), meta["config"], "config")
+        config: ClassifierConfig = build_section(ClassifierConfig(), meta["config"], "config")
     except (ConfigError, KeyError) as exc:
         raise InputFileError(f"{path}: invalid model metadata ({exc})") from None
     if expected is not None:
         for name in FEATURE_FIELDS:
-            theirs, ours = getattr(cfg, name), getattr(expected, name)
+            theirs, ours = getattr(config, name), getattr(expected, name)
             if theirs != ours and ours != AUTO:  # auto: whatever the training chose
                 raise InputFileError(
                     f"{path}: model was trained with {name}={theirs!r} but the configuration "
                     f"asks for {name}={ours!r}; retrain the model or change the configuration"
                 )
-    return cfg
+    return config
 
 
 def default_model_path() -> Path:

@@ -8,9 +8,9 @@ strictly; every cell must be a finite number (a label for ``terrain``).
 Examples
 --------
 >>> import io
->>> gt = read_groundtruth(io.StringIO(
+>>> truth = read_groundtruth(io.StringIO(
 ...     "t,x,y,yaw,y_l,y_r,x_icr,terrain\\n0,0,0,0,0.4,-0.4,0,grass\\n0.1,0.05,0,0,0.4,-0.4,0,grass\\n"))
->>> gt.pose.shape, gt.terrain.tolist()
+>>> truth.pose.shape, truth.terrain.tolist()
 ((2, 3), ['grass', 'grass'])
 """
 

@@ -1,4 +1,7 @@
-"""Kinematic models of skid-steer robots and exact planar pose integration."""
+"""Kinematic models of skid-steer robots, exact planar pose integration, sensor mounting.
+
+:mod:`~terrain_odom.kinematics.mounting`: where the pose sensors sit on the robot.
+"""
 
 from terrain_odom.kinematics.integration import (
     arc_increment,

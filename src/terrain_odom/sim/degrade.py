@@ -55,8 +55,8 @@ from typing import Any
 import numpy as np
 
 from terrain_odom.errors import ConfigError, InputFileError
-from terrain_odom.estimation.pose_measurement import Mounting, sensor_pose
 from terrain_odom.kinematics.integration import wrap_angle
+from terrain_odom.kinematics.mounting import Mounting, sensor_pose
 from terrain_odom.records import WheelLog
 
 __all__ = ["Degradation", "DegradedLog", "degrade_log"]

@@ -16,8 +16,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from terrain_odom.errors import ConfigError
-from terrain_odom.estimation.pose_measurement import Mounting, sensor_pose
 from terrain_odom.kinematics import arc_increment, compose, twist_icr, wrap_angle
+from terrain_odom.kinematics.mounting import Mounting, sensor_pose
 from terrain_odom.sim.world import GroundMap
 
 __all__ = ["TerrainParams", "Driver", "Motion", "drive", "encoder_speeds", "pose_measurements"]

@@ -26,8 +26,8 @@ import numpy as np
 
 from terrain_odom.config import CameraConfig, RobotConfig
 from terrain_odom.errors import ConfigError
-from terrain_odom.estimation.pose_measurement import Mounting
 from terrain_odom.kinematics import wrap_angle
+from terrain_odom.kinematics.mounting import Mounting
 from terrain_odom.sim.render import Lighting
 from terrain_odom.sim.robot import Driver, TerrainParams
 from terrain_odom.sim.world import MapSpec, Region

@@ -101,10 +101,10 @@ def read_bag(
     bag: str | Path,
     options: ImportOptions,
     robot: dict[str, float | None],
-    out: Path | None,
+    out_dir: Path | None,
     progress: bool | None = None,
 ) -> BagContents:
-    """Read ``bag`` in one pass (frames written into ``out/frames/``) and merge the wheel log.
+    """Read ``bag`` in one pass (frames written into ``out_dir/frames/``) and merge the wheel log.
 
     Parameters
     ----------
@@ -112,7 +112,7 @@ def read_bag(
     options : ImportOptions
     robot : dict of str to float or None
         Track width and wheel radius (m): :func:`check_options`'s.
-    out : Path, optional
+    out_dir : Path, optional
         The import folder the frames go to (with an image topic).
     progress : bool, optional
         Show a progress bar (default: on a terminal).
@@ -126,7 +126,7 @@ def read_bag(
     ConfigError
         A missing track width or wheel radius, a ``/tf`` pose without frames.
     """
-    streams, merged = _read(bag, options, robot, out, progress)
+    streams, merged = _read(bag, options, robot, out_dir, progress)
     return BagContents(
         bag=streams.bag,
         log=merged.log,
@@ -163,16 +163,16 @@ def _read(
     bag: str | Path,
     options: ImportOptions,
     robot: dict[str, float | None],
-    out: Path | None,
+    out_dir: Path | None,
     progress: bool | None,
 ) -> tuple[BagStreams, MergedLog]:
-    """Read the bag's selected topics in one pass (frames written into ``out``); merge the log."""
+    """Read the bag's selected topics in one pass (frames written into ``out_dir``); merge the log."""
     with open_bag(bag) as reader:
         connections, streams = _plan(reader, bag, options, robot)
-        if out is not None and options.image_topic is not None:
-            (out / FRAMES_DIR).mkdir(exist_ok=True)
+        if out_dir is not None and options.image_topic is not None:
+            (out_dir / FRAMES_DIR).mkdir(exist_ok=True)
         for message in stream_messages(reader, bag, connections, progress):
-            _dispatch(streams, message, options, out)
+            _dispatch(streams, message, options, out_dir)
     return streams, _merge(streams, options, bag)
 
 
@@ -213,10 +213,10 @@ def _check_ranges(options: ImportOptions) -> None:
 
 def _robot(options: ImportOptions) -> dict[str, float | None]:
     """Track width and wheel radius: the options', else the configuration's (if one is given)."""
-    cfg = load_config(options.config_path) if options.config_path is not None else None
+    config = load_config(options.config_path) if options.config_path is not None else None
     return {
-        "track_width": options.track_width or (cfg.robot.track_width if cfg else None),
-        "wheel_radius": options.wheel_radius or (cfg.robot.wheel_radius if cfg else None),
+        "track_width": options.track_width or (config.robot.track_width if config else None),
+        "wheel_radius": options.wheel_radius or (config.robot.wheel_radius if config else None),
     }
 
 
@@ -313,7 +313,7 @@ def _pose_stream(
 
 
 def _dispatch(
-    streams: BagStreams, message: BagMessage, options: ImportOptions, out: Path | None
+    streams: BagStreams, message: BagMessage, options: ImportOptions, out_dir: Path | None
 ) -> None:
     """Hand one message to the stream of its topic (a topic may serve several roles)."""
     topic = message.topic
@@ -323,8 +323,8 @@ def _dispatch(
         streams.poses.add(message)
     if topic == options.heading_topic and streams.headings is not None:
         streams.headings.add(message)
-    if topic == options.image_topic and out is not None:
-        _frame(streams, message, options, out)
+    if topic == options.image_topic and out_dir is not None:
+        _frame(streams, message, options, out_dir)
     if message.msgtype == CAMERA_INFO and streams.camera is None:
         streams.camera = intrinsics(message.msg)
         streams.camera_topic = topic
@@ -362,7 +362,7 @@ def _add_static(streams: BagStreams, pair: tuple[str, str], transform: Any) -> N
     streams.static[pair] = transform_matrix(transform)
 
 
-def _frame(streams: BagStreams, message: BagMessage, options: ImportOptions, out: Path) -> None:
+def _frame(streams: BagStreams, message: BagMessage, options: ImportOptions, out_dir: Path) -> None:
     """Write one image message as ``frames/NNNNNN.<format>`` and remember its stamp."""
     stamp = StampRule(options.stamps).of(message)
     if stamp is None:
@@ -372,7 +372,7 @@ def _frame(streams: BagStreams, message: BagMessage, options: ImportOptions, out
         streams.image_frame = message.msg.header.frame_id.lstrip("/")
     name = f"frames/{len(streams.images):06d}.{options.image_format}"
     where = f"{streams.bag}: --image-topic {message.topic}"
-    write_frame(message.msg, message.msgtype, out / name, options.image_format, where)
+    write_frame(message.msg, message.msgtype, out_dir / name, options.image_format, where)
     streams.images.append((stamp, name))
 
 
