@@ -102,7 +102,7 @@ def test_the_installed_package_is_the_one_imported(installed, tmp_path):
     assert (installed / "terrain_odom" / "py.typed").is_file()
 
 
-def test_camera_quick_start_uses_the_packaged_default_model(installed, tmp_path):
+def test_camera_quick_start_uses_the_packaged_default_classifier(installed, tmp_path):
     done = _run(
         installed,
         tmp_path,

@@ -109,9 +109,9 @@ def test_sample_is_small_and_regenerates_from_its_script(tmp_path, capsys):
         assert a.shape == b.shape and np.abs(a - b).mean() < 1.0, name
 
 
-def test_default_model_is_small_loads_and_is_not_trained_on_the_sample():
-    assert classifier_file.default_model_path() == MODEL.resolve()
-    assert classifier_file.default_model() == MODEL.resolve()
+def test_default_classifier_is_small_loads_and_is_not_trained_on_the_sample():
+    assert classifier_file.default_classifier_path() == MODEL.resolve()
+    assert classifier_file.default_classifier() == MODEL.resolve()
     assert MODEL.stat().st_size < 2e6
     classifier = load_classifier(MODEL)
     assert {"grass", "gravel"} <= set(classifier.classes)
@@ -120,9 +120,9 @@ def test_default_model_is_small_loads_and_is_not_trained_on_the_sample():
     assert make_default.SEED != make_sample.SEED
 
 
-def test_missing_default_model_is_a_one_line_error(tmp_path, capsys, monkeypatch):
+def test_missing_default_classifier_is_a_one_line_error(tmp_path, capsys, monkeypatch):
     missing = tmp_path / "site-packages" / "models" / "default.npz"
-    monkeypatch.setattr(classifier_file, "default_model_path", lambda: missing)
+    monkeypatch.setattr(classifier_file, "default_classifier_path", lambda: missing)
     images = _short_copy(tmp_path)
     out = tmp_path / "out"
     args = ["run", "--images", str(images), "--wheels", str(images / "log.csv")]

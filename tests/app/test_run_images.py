@@ -241,7 +241,7 @@ def test_model_with_other_feature_settings_stops_before_processing(sim, tmp_path
 
 def test_images_without_a_model_or_its_default_is_an_error(sim, tmp_path, capsys, monkeypatch):
     monkeypatch.setattr(
-        classifier_file, "default_model_path", lambda: tmp_path / "no" / "default.npz"
+        classifier_file, "default_classifier_path", lambda: tmp_path / "no" / "default.npz"
     )
     args = ["run", "--wheels", str(sim / "log.csv"), "--out", str(tmp_path / "o")]
     assert main([*args, "--images", str(sim)]) == 2

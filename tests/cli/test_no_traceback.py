@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 from terrain_odom.cli.main import main
-from terrain_odom.io.classifier_file import default_model_path
+from terrain_odom.io.classifier_file import default_classifier_path
 
 SRC = Path(__file__).resolve().parents[2] / "src"
 NESTED_YAML = "".join(" " * i + "-\n" for i in range(3000))
@@ -37,7 +37,7 @@ def inputs(tmp_path: Path, examples_dir: Path, monkeypatch: pytest.MonkeyPatch) 
     images = tmp_path / "images"
     images.mkdir()
     (images / "0.5.png").write_bytes(_png())
-    model = default_model_path().read_bytes()
+    model = default_classifier_path().read_bytes()
     (tmp_path / "truncated.npz").write_bytes(model[: len(model) // 2])
     (tmp_path / "random.npz").write_bytes(np.random.default_rng(0).bytes(4096))
     (tmp_path / "mismatch.npz").write_bytes(_scaler_short_by_one(model))

@@ -17,7 +17,7 @@ from terrain_odom.errors import ConfigError, EstimationError
 from terrain_odom.estimation.icr_ekf import IcrEkf, IcrPriors
 from terrain_odom.estimation.odometry import run_icr_ekf, run_slip_ekf
 from terrain_odom.io import read_trajectory_csv
-from terrain_odom.io.classifier_file import default_model, load_classifier
+from terrain_odom.io.classifier_file import default_classifier, load_classifier
 from terrain_odom.io.frames import read_frames
 from terrain_odom.io.images import read_image_rgb
 from terrain_odom.kinematics import integrate, twist_icr
@@ -117,7 +117,7 @@ def test_frames_reproduce_the_cli_frame_labels(sample_camera_run):
     with (out / "frames.csv").open(newline="") as handle:
         expected = [(r["label"], r["confirmed_label"]) for r in csv.DictReader(handle)]
     cfg = load_config(SAMPLE / "config.yaml")
-    odo = OnlineOdometry(cfg, load_classifier(default_model()))
+    odo = OnlineOdometry(cfg, load_classifier(default_classifier()))
     log, _ = read_calibrated_log(SAMPLE / "log.csv", cfg)
     frames = read_frames(SAMPLE)
     got = []

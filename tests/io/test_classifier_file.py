@@ -16,8 +16,8 @@ from terrain_odom.config.classifier import ClassifierConfig, paper_config
 from terrain_odom.errors import InputFileError
 from terrain_odom.io.classifier_file import (
     MODEL_FORMAT_VERSION,
-    default_model,
-    default_model_path,
+    default_classifier,
+    default_classifier_path,
     load_classifier,
     save_classifier,
 )
@@ -57,19 +57,19 @@ def test_an_unfitted_model_is_not_saved(tmp_path):
     assert not list(tmp_path.iterdir())
 
 
-def test_default_model_is_package_data_and_loads():
-    path = default_model_path()
+def test_default_classifier_is_package_data_and_loads():
+    path = default_classifier_path()
     assert path == Path(terrain_odom.__file__).parent / "models" / "default.npz"
-    assert default_model() == path and path.stat().st_size < 2e6
+    assert default_classifier() == path and path.stat().st_size < 2e6
     model = load_classifier(path)
     assert {"grass", "gravel"} <= set(model.classes)
     assert model.config.tile_size == 32
 
 
-def test_missing_default_model_is_an_input_error(tmp_path):
+def test_missing_default_classifier_is_an_input_error(tmp_path):
     missing = tmp_path / "default.npz"
     with pytest.raises(InputFileError, match="pass --classifier") as info:
-        default_model(missing)
+        default_classifier(missing)
     assert str(missing) in str(info.value)
 
 

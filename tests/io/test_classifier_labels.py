@@ -10,12 +10,12 @@ import numpy as np
 import pytest
 
 from terrain_odom.errors import InputFileError
-from terrain_odom.io.classifier_file import default_model_path, load_classifier
+from terrain_odom.io.classifier_file import default_classifier_path, load_classifier
 
 
 def _model(tmp_path: Path, change) -> Path:  # type: ignore[no-untyped-def]
     """Write the default model with ``change(arrays, metadata)`` applied, as a new file."""
-    with np.load(default_model_path(), allow_pickle=False) as data:
+    with np.load(default_classifier_path(), allow_pickle=False) as data:
         arrays = {name: data[name] for name in data.files}
     meta = json.loads(str(arrays["metadata"]))
     change(arrays, meta)
@@ -31,7 +31,7 @@ def _relabel(arrays: dict, mapping) -> None:  # type: ignore[no-untyped-def]
     arrays["labels"] = np.array([mapping(label) for label in arrays["labels"].tolist()])
 
 
-def test_the_default_model_passes(tmp_path: Path) -> None:
+def test_the_default_classifier_passes(tmp_path: Path) -> None:
     assert load_classifier(_model(tmp_path, lambda arrays, meta: None)).classes
 
 

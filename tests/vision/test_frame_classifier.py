@@ -13,7 +13,7 @@ from terrain_odom.cli.main import main
 from terrain_odom.config import load_config
 from terrain_odom.errors import InputFileError
 from terrain_odom.estimation.online import OnlineOdometry
-from terrain_odom.io.classifier_file import default_model, load_classifier
+from terrain_odom.io.classifier_file import default_classifier, load_classifier
 from terrain_odom.io.images import read_image_rgb
 
 
@@ -24,7 +24,7 @@ def _odometry(sample_dir, classifier):
 
 
 def test_a_grey_frame_and_a_colour_model_is_an_error_naming_the_features(sample_dir):
-    model = load_classifier(default_model())
+    model = load_classifier(default_classifier())
     assert model.config.features != "sfta"
     image = read_image_rgb(sample_dir / "frames" / "000000.jpg")
     assert image is not None

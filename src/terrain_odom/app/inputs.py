@@ -210,9 +210,9 @@ def choose_classifier(classifier_path: str | Path | None) -> Chosen:
     """Return the terrain classifier file: ``classifier_path``, else the packaged default."""
     if classifier_path is not None:
         return Chosen(Path(classifier_path), GIVEN)
-    from terrain_odom.io.classifier_file import default_model  # scikit-learn: with frames only
+    from terrain_odom.io.classifier_file import default_classifier  # scikit-learn: with frames only
 
-    return Chosen(default_model(), DEFAULT)
+    return Chosen(default_classifier(), DEFAULT)
 
 
 def read_calibrated_log(wheels: str | Path, config: Config) -> tuple[WheelLog, TimeCalibration]:

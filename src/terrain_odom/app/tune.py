@@ -168,7 +168,7 @@ class NestedTuning:
     inner_folds : int
     cross_validation : CrossValidation
         Confusion of the outer test folds, each predicted with the setting
-        chosen on the other folds (its ``cfg`` is ``base``).
+        chosen on the other folds (its ``config`` is ``base``).
     folds : tuple of NestedFold
         Each outer fold: its test images, their predictions, the inner search.
     """

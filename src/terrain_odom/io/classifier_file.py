@@ -40,8 +40,8 @@ __all__ = [
     "save_classifier",
     "load_classifier",
     "load_tuning",
-    "default_model_path",
-    "default_model",
+    "default_classifier_path",
+    "default_classifier",
 ]
 
 MODEL_FORMAT_VERSION = 2
@@ -309,7 +309,7 @@ def _check_metadata(
     return config
 
 
-def default_model_path() -> Path:
+def default_classifier_path() -> Path:
     """Return where the default classifier is: ``models/default.npz`` inside the package.
 
     Found through :mod:`importlib.resources`, so an installed package (editable
@@ -318,20 +318,20 @@ def default_model_path() -> Path:
     return Path(str(resources.files("terrain_odom") / "models" / "default.npz"))
 
 
-def default_model(path: Path | None = None) -> Path:
+def default_classifier(path: Path | None = None) -> Path:
     """Return the default classifier's file, or raise if it is missing.
 
     Parameters
     ----------
     path : Path, optional
-        Where it should be (default: :func:`default_model_path`).
+        Where it should be (default: :func:`default_classifier_path`).
 
     Raises
     ------
     InputFileError
-        The default model is not there (an installation without its package data).
+        The default classifier is not there (an installation without its package data).
     """
-    path = default_model_path() if path is None else path
+    path = default_classifier_path() if path is None else path
     if not path.is_file():
         raise InputFileError(
             f"no --classifier given and the default classifier {path} is missing (it ships "

@@ -142,9 +142,9 @@ def _position_error(xy: np.ndarray, reference: np.ndarray) -> tuple[np.ndarray, 
     return rows, np.hypot(*(xy[rows] - reference[rows]).T)
 
 
-def _truth_at(gt: GroundTruth, t: np.ndarray) -> np.ndarray:
+def _truth_at(truth: GroundTruth, t: np.ndarray) -> np.ndarray:
     """Return the true positions at the times ``t`` (linear interpolation), m."""
-    return np.column_stack([np.interp(t, gt.t, gt.pose[:, i]) for i in range(2)])
+    return np.column_stack([np.interp(t, truth.t, truth.pose[:, i]) for i in range(2)])
 
 
 def trajectory_figure(

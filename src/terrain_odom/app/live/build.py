@@ -59,11 +59,11 @@ def build_live(
     check_heading_bias(config, topics.pose is not None, "no --pose-topic")
     frames = None
     if topics.images is not None:
-        from terrain_odom.io.classifier_file import default_model, load_classifier
+        from terrain_odom.io.classifier_file import default_classifier, load_classifier
         from terrain_odom.vision.camera import GroundCamera
         from terrain_odom.vision.frame_classifier import FrameClassifier
 
-        path = classifier_path if classifier_path is not None else default_model()
+        path = classifier_path if classifier_path is not None else default_classifier()
         frames = FrameClassifier(load_classifier(path), GroundCamera(config.camera), config.roi)
     odometry = OnlineOdometry(config, estimator=estimator)  # type: ignore[arg-type]
     _warm_up(config, estimator, frames)
