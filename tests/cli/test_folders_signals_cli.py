@@ -130,6 +130,16 @@ def test_reimport_keeps_an_edited_config_and_drops_old_frames(
     assert "config.yaml: edited since terrain-odom import wrote it" in err
 
 
+def _default_signals() -> None:
+    """Give the child the default signal handlers.
+
+    A suite started by ``nohup`` or ``&`` ignores SIGHUP/SIGINT, and the CLI keeps an
+    inherited ignore (``nohup``'s meaning): the test is of the CLI, not of its shell.
+    """
+    for number in (signal.SIGTERM, signal.SIGHUP, signal.SIGINT):
+        signal.signal(number, signal.SIG_DFL)
+
+
 def _start_slow_run(log: Path, out: Path, *extra: str) -> subprocess.Popen[str]:
     """Start a run that waits after its first block; return once that block is written."""
     env = {**os.environ, "PYTHONPATH": str(SRC)}
@@ -140,6 +150,7 @@ def _start_slow_run(log: Path, out: Path, *extra: str) -> subprocess.Popen[str]:
         stderr=subprocess.PIPE,
         env=env,
         text=True,
+        preexec_fn=_default_signals,
     )
     assert child.stdout is not None
     line = child.stdout.readline()
