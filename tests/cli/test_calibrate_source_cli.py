@@ -45,3 +45,18 @@ def test_with_config_its_geometry_and_file_are_named(
     argv = ["calibrate", "--wheels", str(log), "--config", str(config)]
     first = _first_line([*argv, "--out", str(tmp_path / "cal")], capsys)
     assert first == f"robot:      wheel radius 0.2 m, track width 1 m (from {config})"
+
+
+def test_an_imported_configuration_is_used_unless_config_is_given(
+    log: Path, tmp_path: Path
+) -> None:
+    """The app chooses (not the CLI): a bag import's configuration, else ``--config`` first."""
+    from terrain_odom.app.calibrate import calibrate
+
+    imported = tmp_path / "imported.yaml"
+    imported.write_text("robot: {track_width: 0.9, wheel_radius: 0.2}\n")
+    chosen = calibrate(log, tmp_path / "a", imported=imported)
+    assert (chosen.config_path, chosen.robot.track_width) == (imported, 0.9)
+    given = log.parent / "robot.yaml"
+    wins = calibrate(log, tmp_path / "b", config_path=given, imported=imported)
+    assert (wins.config_path, wins.robot.track_width) == (given, 1.0)

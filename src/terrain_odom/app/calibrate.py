@@ -19,7 +19,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from terrain_odom.app.calibration import SensorCalibration, calibrate_inputs
-from terrain_odom.config import Config, dump_config, load_config
+from terrain_odom.app.inputs import choose_config
+from terrain_odom.config import Config, dump_config
 from terrain_odom.config.sections import RobotConfig
 from terrain_odom.estimation.time_offset import TimeCalibration
 from terrain_odom.io import read_wheel_log
@@ -71,6 +72,7 @@ def calibrate(
     *,
     config: Config | None = None,
     config_path: str | Path | None = None,
+    imported: str | Path | None = None,
 ) -> CalibrateSummary:
     """Calibrate a log's pose sensors and write ``OUT/config.yaml`` and ``OUT/calibration.json``.
 
@@ -81,7 +83,11 @@ def calibrate(
     out_dir : str or Path
         Output folder (created).
     config, config_path : optional
-        The input configuration, or its YAML file (default: built-in).
+        The input configuration, or its YAML file (the user's ``--config``).
+    imported : str or Path, optional
+        The configuration a bag's import wrote, used where neither is given
+        (:func:`~terrain_odom.app.inputs.choose_config`; else the built-in
+        defaults). The summary's ``config_path`` says which file was used.
 
     Returns
     -------
@@ -94,7 +100,8 @@ def calibrate(
         value it cannot give: one line saying what data would.
     """
     started = time.perf_counter()
-    config = config if config is not None else load_config(config_path)
+    chosen = choose_config(config, config_path, imported=imported)
+    config, config_path = chosen.config, chosen.path
     out_dir = Path(out_dir)
     paths = [out_dir / "config.yaml", out_dir / CALIBRATION_JSON]
     check_outputs([wheels, config_path], paths)

@@ -11,7 +11,6 @@ from terrain_odom.cli.options import (
     add_config_option,
     add_out_option,
     add_wheels_option,
-    load_config_option,
     print_calibration,
     print_pose_delay,
     print_written,
@@ -41,10 +40,7 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
     from terrain_odom.app.calibrate import calibrate
 
     wheels, bag_config = wheels_from_bag(args, args.out)
-    config_path = args.config or bag_config
-    summary = calibrate(
-        wheels, args.out, config=load_config_option(args, config_path), config_path=config_path
-    )
+    summary = calibrate(wheels, args.out, config_path=args.config, imported=bag_config)
     print(f"robot:      {robot_geometry(summary.robot)} ({_source(summary.config_path)})")
     print_pose_delay(summary.timing)
     print_calibration(summary.calibration)
