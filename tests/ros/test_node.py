@@ -40,9 +40,26 @@ def _play(ros: Ros, bag: Path, *args: str) -> None:
     ros.tool("rosbag", "play", "--clock", "-q", str(bag), *args, timeout=300.0)
 
 
+def _quiet(ros: Ros, timeout: float = 60.0) -> None:
+    """Wait until the node's latched status (counts, drops; published every second) holds still.
+
+    A fixed pause lost the last camera frame on a loaded machine: the frame
+    worker finished it after the last status the recorder heard.
+    """
+    last = None
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        time.sleep(1.5)
+        now = ros.tool("rostopic", "echo", "-n", "1", "/terrain_odom/status")
+        if now and now == last:
+            return
+        last = now
+    raise AssertionError(f"the node's status still changed after {timeout:g} s: {last}")
+
+
 def _finish(ros: Ros, node: subprocess.Popen[bytes], recorder: subprocess.Popen[bytes]) -> None:
     """Let the last messages through, then stop the recorder and the node (SIGINT: exit 0)."""
-    time.sleep(1.5)
+    _quiet(ros)
     assert ros.stop(node, signal.SIGINT) == 0, ros.log("node.log")
     ros.stop(recorder, signal.SIGINT)
     assert "terrain-odom-ros: " in ros.log("node.log")  # the summary line at shutdown
