@@ -357,7 +357,7 @@ def run(wheels: str | Path, out_dir: str | Path, options: RunOptions | None = No
         warnings=tuple(_lever_arm_warning(x_icr, inputs.config) + guarded.warnings()),
         outage_guard=to_jsonable(guarded.section()),
         frames=None if root is None else frames_report(result, pipeline, options.use_roi),
-        groundtruth=None if scored is None else to_jsonable(scored.section),
+        groundtruth=None if scored is None else scored.section,
     )
     drawn, recording = _pictures(out, inputs, result, scored, records, root)
     if recording is not None:

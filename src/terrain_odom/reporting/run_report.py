@@ -3,9 +3,10 @@
 :class:`RunReport` is built by :func:`terrain_odom.app.run.run`;
 :meth:`RunReport.to_dict` is the content of ``report.json`` (docs/formats.md)
 and :func:`~terrain_odom.reporting.markdown.run_markdown` renders it from
-its attributes. The ground-truth and outage-guard sections are the JSON
-sections their own modules build (:mod:`terrain_odom.app.groundtruth`,
-:mod:`terrain_odom.app.outage_guard`), held as they are written.
+its attributes. The ground-truth section is a
+:class:`~terrain_odom.reporting.groundtruth.GroundTruthSection`; the
+outage-guard section is still the JSON section
+:mod:`terrain_odom.app.outage_guard` builds, held as it is written.
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ from terrain_odom.config import Config, config_to_dict
 from terrain_odom.estimation.pose_measurement import PoseUse
 from terrain_odom.estimation.time_offset import TimeCalibration
 from terrain_odom.records import TerrainChange
+from terrain_odom.reporting.groundtruth import GroundTruthSection
 
 __all__ = ["RunInputs", "RunCounts", "RunOutputs", "FrameCounts", "FramesReport", "RunReport"]
 
@@ -204,8 +206,8 @@ class RunReport:
         The ``auto`` values found before the run (its JSON section), if any.
     frames : FramesReport or None
         With ``--images``.
-    groundtruth : dict or None
-        The run scored against ground truth (its JSON section), with ``--groundtruth``.
+    groundtruth : GroundTruthSection or None
+        The run scored against ground truth, with ``--groundtruth``.
     """
 
     header: dict[str, Any]
@@ -225,7 +227,7 @@ class RunReport:
     outage_guard: dict[str, Any] = field(default_factory=dict)
     calibration: dict[str, Any] | None = None
     frames: FramesReport | None = None
-    groundtruth: dict[str, Any] | None = None
+    groundtruth: GroundTruthSection | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """Return the content of ``report.json``."""
@@ -253,5 +255,5 @@ class RunReport:
             if self.frames.counts is not None:
                 out["frame_problems"] = self.frames.problems
         if self.groundtruth is not None:
-            out["groundtruth"] = self.groundtruth
+            out["groundtruth"] = self.groundtruth.to_dict()
         return out
