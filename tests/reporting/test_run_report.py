@@ -14,6 +14,7 @@ from terrain_odom.config import load_config
 from terrain_odom.estimation.time_offset import PoseDelayEstimate, TimeCalibration
 from terrain_odom.reporting import run_markdown
 from terrain_odom.reporting.groundtruth import GroundTruthSection
+from terrain_odom.reporting.outage import OutageSection
 from terrain_odom.reporting.run_report import FrameCounts, FramesReport, RunInputs, RunOutputs
 
 REPO = Path(__file__).resolve().parents[2]
@@ -151,3 +152,15 @@ def test_the_scored_report_md_is_rendered_from_the_record(scored):
         scored.report, [p.relative_to(scored.out_dir).as_posix() for p in scored.plots]
     )
     assert "## Frame classification" in text and "## ICR re-convergence" in text
+
+
+def test_the_outage_guard_section_is_typed(summary):
+    guard = summary.report.outage_guard
+    assert isinstance(guard, OutageSection) and guard.skipped is None
+    written = json.loads(summary.report_json.read_text(encoding="utf-8"))["outage_guard"]
+    assert list(written) == ["every_s", "durations", "learned_worse_s"]
+    assert written["learned_worse_s"] == list(guard.learned_worse_s or ())
+    skipped = OutageSection(skipped="no positions")
+    assert skipped.to_dict() == {"skipped": "no positions"}
+    text = run_markdown(dataclasses.replace(summary.report, outage_guard=skipped))
+    assert "Skipped: no positions." in text

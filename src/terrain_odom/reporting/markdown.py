@@ -12,8 +12,10 @@ if TYPE_CHECKING:
     from terrain_odom.estimation.pose_measurement import PoseUse
     from terrain_odom.estimation.time_offset import TimeCalibration
     from terrain_odom.evaluation.groundtruth import FrameTime
+    from terrain_odom.evaluation.metrics import ErrorStats
     from terrain_odom.records import TerrainChange
     from terrain_odom.reporting.groundtruth import FrameScores, GroundTruthSection
+    from terrain_odom.reporting.outage import OutageSection
     from terrain_odom.reporting.run_report import RunReport
 
 __all__ = ["table", "run_markdown", "OUTAGE_HEADER", "outage_rows", "outage_markdown"]
@@ -174,36 +176,37 @@ OUTAGE_HEADER = (
 """Columns of :func:`outage_rows`."""
 
 
-def _quartiles(stats: dict[str, Any], digits: int) -> str:
-    if not stats["count"] or stats["median"] is None:
+def _quartiles(stats: ErrorStats, digits: int) -> str:
+    if not stats.count or math.isnan(stats.median):
         return "n/a"
-    return f"{stats['median']:.{digits}f} [{stats['q25']:.{digits}f}-{stats['q75']:.{digits}f}]"
+    return f"{stats.median:.{digits}f} [{stats.q25:.{digits}f}-{stats.q75:.{digits}f}]"
 
 
-def outage_rows(section: dict[str, Any]) -> list[list[str]]:
-    """Rows of :data:`OUTAGE_HEADER` from an :func:`~terrain_odom.reporting.outage.outage_section`: one per duration and model."""
+def outage_rows(section: OutageSection) -> list[list[str]]:
+    """Rows of :data:`OUTAGE_HEADER` from an :class:`~terrain_odom.reporting.outage.OutageSection`: one per duration and model."""
     rows = []
-    for duration, entry in section["durations"].items():
-        for name, stats in entry["models"].items():
+    for duration, models in section.outages.items():
+        windows = len(next(iter(models.values())).windows)
+        for name, errors in models.items():
             rows.append(
                 [
-                    f"{duration} s",
-                    str(entry["windows"]),
+                    f"{duration:g} s",
+                    str(windows),
                     name,
-                    _quartiles(stats["position_m"], 2),
-                    _quartiles(stats["heading_deg"], 1),
+                    _quartiles(errors.position_stats, 2),
+                    _quartiles(errors.heading_stats, 1),
                 ]
             )
     return rows
 
 
-def outage_markdown(section: dict[str, Any], title: str) -> list[str]:
+def outage_markdown(section: OutageSection, title: str) -> list[str]:
     """Return a Markdown heading, how the windows are made, and the table of a section."""
-    if "skipped" in section:
-        return [f"## {title}", f"Skipped: {section['skipped']}."]
+    if section.skipped is not None:
+        return [f"## {title}", f"Skipped: {section.skipped}."]
     return [
         f"## {title}",
-        f"A window starts at a position fix every {section['every_s']:g} s; each model is "
+        f"A window starts at a position fix every {section.every:g} s; each model is "
         "frozen at the run's state there and dead-reckoned with the logged wheel speeds, no "
         "pose update; its displacement (of the position sensor) is compared with the measured "
         "one.",
@@ -230,9 +233,7 @@ def run_markdown(report: RunReport, plots: Sequence[str] = ()) -> str:
     Parameters
     ----------
     report : RunReport
-        The report (:func:`terrain_odom.app.run.run`); its outage-guard
-        section, held as JSON, made JSON-ready
-        (:func:`~terrain_odom.io.report.to_jsonable`).
+        The report (:func:`terrain_odom.app.run.run`).
     plots : sequence of str
         Relative paths of PNG plots to show.
     """

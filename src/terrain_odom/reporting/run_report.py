@@ -3,10 +3,9 @@
 :class:`RunReport` is built by :func:`terrain_odom.app.run.run`;
 :meth:`RunReport.to_dict` is the content of ``report.json`` (docs/formats.md)
 and :func:`~terrain_odom.reporting.markdown.run_markdown` renders it from
-its attributes. The ground-truth section is a
-:class:`~terrain_odom.reporting.groundtruth.GroundTruthSection`; the
-outage-guard section is still the JSON section
-:mod:`terrain_odom.app.outage_guard` builds, held as it is written.
+its attributes, the ground-truth and outage-guard sections included
+(:class:`~terrain_odom.reporting.groundtruth.GroundTruthSection`,
+:class:`~terrain_odom.reporting.outage.OutageSection`).
 """
 
 from __future__ import annotations
@@ -19,6 +18,7 @@ from terrain_odom.estimation.pose_measurement import PoseUse
 from terrain_odom.estimation.time_offset import TimeCalibration
 from terrain_odom.records import TerrainChange
 from terrain_odom.reporting.groundtruth import GroundTruthSection
+from terrain_odom.reporting.outage import OutageSection
 
 __all__ = ["RunInputs", "RunCounts", "RunOutputs", "FrameCounts", "FramesReport", "RunReport"]
 
@@ -200,8 +200,8 @@ class RunReport:
         Wall time of the run, s.
     warnings : tuple of str
         What the finished run's estimate makes doubtful (one line each).
-    outage_guard : dict
-        The learned model against the nominal one through pose outages (its JSON section).
+    outage_guard : OutageSection
+        The learned model against the nominal one through pose outages.
     calibration : dict or None
         The ``auto`` values found before the run (its JSON section), if any.
     frames : FramesReport or None
@@ -224,7 +224,7 @@ class RunReport:
     outputs: RunOutputs
     run_time_s: float
     warnings: tuple[str, ...] = ()
-    outage_guard: dict[str, Any] = field(default_factory=dict)
+    outage_guard: OutageSection = field(default_factory=OutageSection)
     calibration: dict[str, Any] | None = None
     frames: FramesReport | None = None
     groundtruth: GroundTruthSection | None = None
@@ -246,7 +246,7 @@ class RunReport:
             "outputs": self.outputs.to_dict(),
             "run_time_s": self.run_time_s,
             "warnings": list(self.warnings),
-            "outage_guard": self.outage_guard,
+            "outage_guard": self.outage_guard.to_dict(),
         }
         if self.calibration is not None:
             out["calibration"] = self.calibration
