@@ -80,9 +80,9 @@ def simulator(work: Path) -> None:
         for name, given in (("without priors", None), ("with priors", priors)):
             section = groundtruth_section(log, cfg, gt, labels=log.terrain, priors=given).section
             for variant in VARIANTS:
-                settle = [c["settling_s"] for c in section["reconvergence"][variant]]
+                settle = [c.settling_s for c in section.reconvergence[variant]]
                 text = ", ".join("-" if s is None else f"{s:.2f}" for s in settle)
-                error = section["odometry"][variant]["mean_position_error_m"]
+                error = section.odometry[variant].mean_position_error_m
                 print(f"  {seed}  {variant:<24} {name:<15} {text:>18}  {error:.4f}")
 
 

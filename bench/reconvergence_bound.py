@@ -68,7 +68,7 @@ def filter_settling(log, gt, config, late: float = 0.0) -> float | None:
     """Re-convergence of the EKF reset ``late`` s after the true change (first change)."""
     labels = gt.terrain[np.clip(np.searchsorted(gt.t, log.t - late - 1e-9), 0, len(gt) - 1)]
     section = groundtruth_section(log, config, gt, labels=list(labels)).section
-    return section["reconvergence"]["ekf (terrain + memory)"][0]["settling_s"]
+    return section.reconvergence["ekf (terrain + memory)"][0].settling_s
 
 
 def _fmt(values) -> str:

@@ -49,7 +49,7 @@ def test_a_learned_model_worse_than_the_nominal_one_is_one_warning():
     (warning,) = result.warnings()
     assert warning.startswith("the learned model dead-reckons worse than the nominal one")
     assert "30 s:" in warning and "60 s:" in warning
-    assert result.section()["learned_worse_s"] == [30.0, 60.0]
+    assert result.section().to_dict()["learned_worse_s"] == [30.0, 60.0]
 
 
 def test_a_learned_model_that_is_right_passes():

@@ -43,7 +43,7 @@ def test_frame_truth_looks_ahead_along_the_true_path():
 def test_frame_accuracy_counts_per_true_terrain():
     truth = ["grass", "grass", "sand", "sand", "sand", ""]
     predicted = ["grass", "sand", "sand", "", "sand", "grass"]
-    acc = frame_accuracy(truth, predicted)
+    acc = frame_accuracy(truth, predicted).to_dict()
     assert acc["per_terrain"]["grass"] == {
         "frames": 2,
         "correct": 1,
@@ -55,7 +55,8 @@ def test_frame_accuracy_counts_per_true_terrain():
 
 
 def test_feature_times_and_speedup():
-    times = feature_times(["a", "a", "b"], [1.0, 3.0, np.nan], [8.0, 8.0, 5.0])
+    typed = feature_times(["a", "a", "b"], [1.0, 3.0, np.nan], [8.0, 8.0, 5.0])
+    times = {name: t.to_dict() for name, t in typed.items()}
     assert times["a"]["roi"] == {"frames": 2, "mean_ms": 2.0, "max_ms": 3.0}
     assert times["a"]["speedup"] == 4.0
     assert times["b"]["roi"]["frames"] == 0 and times["b"]["speedup"] is None
@@ -78,7 +79,8 @@ def test_model_odometry_error_is_exact_for_a_known_scale_error():
         "right": lambda _w: model_twist(edd, [1.0, 1.0]),
         "10 % fast": lambda _w: model_twist(edd, [1.1, 1.0]),
     }
-    out = model_odometry_error(log, gt.terrain, models, horizon=2.0)
+    typed = model_odometry_error(log, gt.terrain, models, horizon=2.0)
+    out = {name: m.to_dict() for name, m in typed.items()}
     assert out["right"]["mean_position_error_m"] == pytest.approx(0.0, abs=1e-9)
     # every window (>= 2 m measured) ends 10 % of its length too far
     length = spatial_windows(log, 2.0).length
@@ -103,14 +105,15 @@ def test_reconvergence_counts_from_the_true_change_until_inside_the_band():
     w = np.clip((t - 4.0) / 2.0, 0.0, 1.0)[:, None]
     est = (1 - w) * est + w * np.array([0.8, -0.7, 0.1])
     (change,) = reconvergence(gt, t, est, tolerance=0.03)
-    assert (change["from"], change["to"], change["t"]) == ("grass", "sand", pytest.approx(4.0))
+    assert (change.previous, change.new, change.t) == ("grass", "sand", pytest.approx(4.0))
+    assert list(change.to_dict()) == ["t", "from", "to", "settling_s", "true_icr"]
     # y_l is the slowest: within 0.03 of 0.8 once w >= 0.9, i.e. t >= 5.8 s
-    assert change["settling_s"] == pytest.approx(1.8, abs=0.11)
+    assert change.settling_s == pytest.approx(1.8, abs=0.11)
     never = reconvergence(gt, t, np.tile([0.5, -0.5, 0.0], (t.size, 1)), tolerance=0.03)
-    assert never[0]["settling_s"] is None
+    assert never[0].settling_s is None
     # the filter switching back to grass at t = 9 s (wrongly) ends the stretch: settled
     # before it, with the estimate outside the band after it
     est[t >= 9.0] = [0.5, -0.5, 0.0]
-    assert reconvergence(gt, t, est, 0.03)[0]["settling_s"] is None
+    assert reconvergence(gt, t, est, 0.03)[0].settling_s is None
     (early,) = reconvergence(gt, t, est, 0.03, resets=[(4.1, "sand"), (9.0, "grass")])
-    assert early["settling_s"] == pytest.approx(1.8, abs=0.11)
+    assert early.settling_s == pytest.approx(1.8, abs=0.11)

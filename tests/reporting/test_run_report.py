@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+from pathlib import Path
 
 import pytest
 
@@ -12,7 +13,11 @@ from terrain_odom.app.run import RunOptions, run
 from terrain_odom.config import load_config
 from terrain_odom.estimation.time_offset import PoseDelayEstimate, TimeCalibration
 from terrain_odom.reporting import run_markdown
+from terrain_odom.reporting.groundtruth import GroundTruthSection
+from terrain_odom.reporting.outage import OutageSection
 from terrain_odom.reporting.run_report import FrameCounts, FramesReport, RunInputs, RunOutputs
+
+REPO = Path(__file__).resolve().parents[2]
 
 TOP_KEYS = [
     "format_version", "terrain_odom_version", "command", "status", "estimator", "inputs",
@@ -99,3 +104,63 @@ def test_optional_sections_appear_only_when_set():
     }
     assert list(section["roi_status"]) == ["inside", "too_small"]  # sorted
     assert section["ms_per_frame"] == {"mean": 1.5, "max": 3.0}
+
+
+GROUNDTRUTH_KEYS = ["settings", "true_changes", "odometry", "reconvergence", "resets", "frames"]
+
+
+@pytest.fixture(scope="module")
+def scored(tmp_path_factory):
+    """Run the camera sample scored against its ground truth (``run --groundtruth``)."""
+    sample = REPO / "sample_images" / "chen2023"
+    out = tmp_path_factory.mktemp("scored")
+    options = RunOptions(images=sample, groundtruth=sample / "groundtruth.csv", progress=False)
+    return run(sample / "log.csv", out, options)
+
+
+def test_the_groundtruth_section_is_the_records_dict_key_for_key_in_order(scored):
+    written = json.loads(scored.report_json.read_text(encoding="utf-8"))["groundtruth"]
+    section = scored.report.groundtruth
+    assert isinstance(section, GroundTruthSection) and section.frames is not None
+    assert written == json.loads(json.dumps(section.to_dict()))
+    assert list(written) == GROUNDTRUTH_KEYS
+    assert list(written["settings"]) == [
+        "horizon_m",
+        "icr_tolerance_m",
+        "reset_at",
+        "classification",
+    ]
+    assert list(written["frames"]) == ["truth", "accuracy", "feature_time", "classification_time"]
+    name, odometry = next(iter(section.odometry.items()))
+    assert list(written["odometry"][name]) == [
+        "mean_position_error_m", "mean_heading_error_deg", "translation_m_per_m",
+        "rotation_deg_per_m", "per_terrain_mean_position_error_m", "windows",
+    ]  # fmt: skip
+    assert written["odometry"][name]["windows"] == odometry.windows
+    name, changes = next(iter(section.reconvergence.items()))
+    assert [c["settling_s"] for c in written["reconvergence"][name]] == [
+        c.settling_s for c in changes
+    ]
+    overall = written["frames"]["accuracy"]["overall"]
+    assert list(overall) == ["frames", "correct", "accuracy"]
+    assert overall["accuracy"] == section.frames.accuracy.overall.accuracy
+
+
+def test_the_scored_report_md_is_rendered_from_the_record(scored):
+    text = scored.report_md.read_text(encoding="utf-8")
+    assert text == run_markdown(
+        scored.report, [p.relative_to(scored.out_dir).as_posix() for p in scored.plots]
+    )
+    assert "## Frame classification" in text and "## ICR re-convergence" in text
+
+
+def test_the_outage_guard_section_is_typed(summary):
+    guard = summary.report.outage_guard
+    assert isinstance(guard, OutageSection) and guard.skipped is None
+    written = json.loads(summary.report_json.read_text(encoding="utf-8"))["outage_guard"]
+    assert list(written) == ["every_s", "durations", "learned_worse_s"]
+    assert written["learned_worse_s"] == list(guard.learned_worse_s or ())
+    skipped = OutageSection(skipped="no positions")
+    assert skipped.to_dict() == {"skipped": "no positions"}
+    text = run_markdown(dataclasses.replace(summary.report, outage_guard=skipped))
+    assert "Skipped: no positions." in text

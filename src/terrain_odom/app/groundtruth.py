@@ -32,6 +32,11 @@ from terrain_odom.evaluation.groundtruth import (
 from terrain_odom.evaluation.metrics import icr_twist_from_rows, model_twist
 from terrain_odom.kinematics import get_model
 from terrain_odom.records import GroundTruth, WheelLog
+from terrain_odom.reporting.groundtruth import (
+    FrameScores,
+    GroundTruthSection,
+    GroundTruthSettings,
+)
 
 __all__ = ["VARIANTS", "Variant", "GroundTruthReport", "run_variants", "groundtruth_section"]
 
@@ -107,21 +112,20 @@ def _icr_model(result: OdometryResult) -> Any:
 
 def _frames_section(
     truth: GroundTruth, records: list[FrameRecord]
-) -> tuple[dict[str, Any], np.ndarray]:
+) -> tuple[FrameScores, np.ndarray]:
     t = np.array([r.t for r in records], dtype=float)
     true_labels = frame_truth(truth, t, [r.ahead for r in records])
-    return {
-        "truth": "terrain under the true robot once it has travelled the frame's ahead_m",
-        "accuracy": frame_accuracy(true_labels, [r.label for r in records]),
-        "feature_time": feature_times(
+    return FrameScores(
+        accuracy=frame_accuracy(true_labels, [r.label for r in records]),
+        feature_time=feature_times(
             true_labels, [r.ms_features for r in records], [r.ms_features_full for r in records]
         ),
-        "classification_time": feature_times(
+        classification_time=feature_times(
             true_labels,
             [r.ms_features + r.ms_knn for r in records],
             [r.ms_features_full + r.ms_knn_full for r in records],
         ),
-    }, true_labels
+    ), true_labels
 
 
 @dataclass(frozen=True)
@@ -130,15 +134,15 @@ class GroundTruthReport:
 
     Attributes
     ----------
-    section : dict
-        JSON-ready ``groundtruth`` section of ``report.json``.
+    section : GroundTruthSection
+        The ``groundtruth`` section of ``report.json``.
     results : dict of str to OdometryResult
         The filter variants' runs.
     frame_truth : ndarray of str, shape (F,), or None
         True terrain of each recorded frame.
     """
 
-    section: dict[str, Any]
+    section: GroundTruthSection
     results: dict[str, OdometryResult]
     frame_truth: np.ndarray | None
 
@@ -173,9 +177,9 @@ def groundtruth_section(
     Returns
     -------
     GroundTruthReport
-        Its section has ``settings``, ``true_changes``, ``odometry`` (per
-        model), ``reconvergence`` and ``resets`` (per variant), and with
-        records ``frames`` (accuracy and feature time per true terrain).
+        Its section: the settings, the true changes, the odometry error per
+        model, the re-convergence and resets per variant, and with records
+        the frames' accuracy and times per true terrain.
     """
     true_log = groundtruth_log(log, truth)
     true_terrain = truth.terrain[np.clip(np.searchsorted(truth.t, log.t - 1e-9), 0, len(truth) - 1)]
@@ -187,16 +191,19 @@ def groundtruth_section(
     horizon = config.evaluation.horizon
     tolerance = config.evaluation.icr_tolerance * b
     changes = [c for c in truth.changes() if log.t[0] < c[0] <= log.t[-1]]
-    section: dict[str, Any] = {
-        "settings": {
-            "horizon_m": horizon,
-            "icr_tolerance_m": tolerance,
-            "reset_at": config.terrain.reset_at,
-            "classification": None if records is None else ("roi" if use_roi else "whole frame"),
-        },
-        "true_changes": [{"t": t, "from": a, "to": new} for t, a, new in changes],
-        "odometry": model_odometry_error(true_log, true_terrain, models, horizon),
-        "reconvergence": {
+    frames, frame_labels = None, None
+    if records is not None:
+        frames, frame_labels = _frames_section(truth, records)
+    section = GroundTruthSection(
+        settings=GroundTruthSettings(
+            horizon_m=horizon,
+            icr_tolerance_m=tolerance,
+            reset_at=config.terrain.reset_at,
+            classification=None if records is None else ("roi" if use_roi else "whole frame"),
+        ),
+        true_changes=tuple(changes),
+        odometry=model_odometry_error(true_log, true_terrain, models, horizon),
+        reconvergence={
             name: reconvergence(
                 truth,
                 log.t,
@@ -207,14 +214,9 @@ def groundtruth_section(
             )
             for name, result in results.items()
         },
-        "resets": {
-            name: [dataclasses.asdict(c) for c in result.changes]
-            for name, result in results.items()
-        },
-    }
-    frame_labels = None
-    if records is not None:
-        section["frames"], frame_labels = _frames_section(truth, records)
+        resets={name: list(result.changes) for name, result in results.items()},
+        frames=frames,
+    )
     return GroundTruthReport(section, results, frame_labels)
 
 

@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 
@@ -31,7 +30,7 @@ from terrain_odom.evaluation.outage import (
 )
 from terrain_odom.evaluation.sparse import antenna_of
 from terrain_odom.records import WheelLog
-from terrain_odom.reporting.outage import outage_section
+from terrain_odom.reporting.outage import OutageSection
 
 __all__ = ["GUARD_STATES", "OutageGuard", "GuardResult"]
 
@@ -96,12 +95,12 @@ class GuardResult:
             out.append(f"{duration:g} s outages ({n}): {medians} (median displacement error)")
         return out
 
-    def section(self) -> dict[str, Any]:
-        """Return the ``outage_guard`` entry of ``report.json`` (the same on every run of a log)."""
+    def section(self) -> OutageSection:
+        """Return the ``outage_guard`` section of the report (the same on every run of a log)."""
         if self.skipped is not None:
-            return {"skipped": self.skipped}
-        worse = [d for d, _, _ in self.worse()]
-        return outage_section(self.outages, self.every, learned_worse_s=worse)
+            return OutageSection(skipped=self.skipped)
+        worse = tuple(d for d, _, _ in self.worse())
+        return OutageSection(self.outages, self.every, learned_worse_s=worse)
 
 
 class OutageGuard:

@@ -59,7 +59,7 @@ from terrain_odom.io import read_wheel_log
 from terrain_odom.io.atomic import write_text_atomic
 from terrain_odom.io.params import read_priors
 from terrain_odom.io.paths import check_outputs
-from terrain_odom.io.report import path_or_none, report_header, to_jsonable, write_json
+from terrain_odom.io.report import path_or_none, report_header, write_json
 from terrain_odom.records import GroundTruth, WheelLog
 from terrain_odom.reporting import run_markdown
 from terrain_odom.reporting.run_report import (
@@ -355,9 +355,9 @@ def run(wheels: str | Path, out_dir: str | Path, options: RunOptions | None = No
     report = dataclasses.replace(
         report,
         warnings=tuple(_lever_arm_warning(x_icr, inputs.config) + guarded.warnings()),
-        outage_guard=to_jsonable(guarded.section()),
+        outage_guard=guarded.section(),
         frames=None if root is None else frames_report(result, pipeline, options.use_roi),
-        groundtruth=None if scored is None else to_jsonable(scored.section),
+        groundtruth=None if scored is None else scored.section,
     )
     drawn, recording = _pictures(out, inputs, result, scored, records, root)
     if recording is not None:

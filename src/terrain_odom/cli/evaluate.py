@@ -81,7 +81,7 @@ def _format_stats(entry: ModelErrors) -> str:
 
 def _print_outages(result: EvaluationResult) -> None:
     from terrain_odom.reporting.markdown import OUTAGE_HEADER, outage_rows
-    from terrain_odom.reporting.outage import outage_section
+    from terrain_odom.reporting.outage import OutageSection
 
     if not result.outages:
         return
@@ -92,7 +92,7 @@ def _print_outages(result: EvaluationResult) -> None:
     )
     widths = (8, 9, 32, 30, 30)
     print("".join(f"{h:<{w}}" for h, w in zip(OUTAGE_HEADER, widths, strict=True)).rstrip())
-    for row in outage_rows(outage_section(result.outages, result.outage_every)):
+    for row in outage_rows(OutageSection(result.outages, result.outage_every)):
         print("".join(f"{c:<{w}}" for c, w in zip(row, widths, strict=True)).rstrip())
 
 

@@ -19,18 +19,31 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from terrain_odom.errors import EstimationError
-from terrain_odom.evaluation.metrics import TwistFn, settling_time, summarize, window_errors
+from terrain_odom.evaluation.metrics import (
+    ErrorSummary,
+    TwistFn,
+    settling_time,
+    summarize,
+    window_errors,
+)
 from terrain_odom.evaluation.windows import Windows, spatial_windows
 from terrain_odom.kinematics import wrap_angle
 from terrain_odom.records import GroundTruth, WheelLog
 
 __all__ = [
+    "Accuracy",
+    "FrameAccuracy",
+    "TimeStats",
+    "FrameTime",
+    "ModelOdometry",
+    "Reconvergence",
     "path_length",
     "frame_truth",
     "frame_accuracy",
@@ -39,6 +52,124 @@ __all__ = [
     "model_odometry_error",
     "reconvergence",
 ]
+
+
+@dataclass(frozen=True)
+class Accuracy:
+    """Frames of one true terrain (or all) and how many were classified right.
+
+    ``confused_with`` (per terrain only, None overall): wrong labels and their counts.
+    """
+
+    frames: int
+    correct: int
+    confused_with: dict[str, int] | None = None
+
+    @property
+    def accuracy(self) -> float | None:
+        """Fraction classified right (None without frames)."""
+        return self.correct / self.frames if self.frames else None
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready dict: ``frames``, ``correct``, ``accuracy`` (and ``confused_with``)."""
+        out: dict[str, Any] = {
+            "frames": self.frames,
+            "correct": self.correct,
+            "accuracy": self.accuracy,
+        }
+        if self.confused_with is not None:
+            out["confused_with"] = self.confused_with
+        return out
+
+
+@dataclass(frozen=True)
+class FrameAccuracy:
+    """Classification accuracy per true terrain and overall (:func:`frame_accuracy`)."""
+
+    per_terrain: dict[str, Accuracy]
+    overall: Accuracy
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready dict: ``per_terrain`` and ``overall``."""
+        return {
+            "per_terrain": {k: a.to_dict() for k, a in self.per_terrain.items()},
+            "overall": self.overall.to_dict(),
+        }
+
+
+@dataclass(frozen=True)
+class TimeStats:
+    """Per-frame times measured, ms (``mean_ms``, ``max_ms`` None without frames)."""
+
+    frames: int
+    mean_ms: float | None
+    max_ms: float | None
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready dict: ``frames``, ``mean_ms``, ``max_ms``."""
+        return {"frames": self.frames, "mean_ms": self.mean_ms, "max_ms": self.max_ms}
+
+
+@dataclass(frozen=True)
+class FrameTime:
+    """Time with and without the region of interest, and the speed-up (None: not measured)."""
+
+    roi: TimeStats
+    full_frame: TimeStats
+    speedup: float | None
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready dict: ``roi``, ``full_frame``, ``speedup``."""
+        return {
+            "roi": self.roi.to_dict(),
+            "full_frame": self.full_frame.to_dict(),
+            "speedup": self.speedup,
+        }
+
+
+@dataclass(frozen=True)
+class ModelOdometry:
+    """A model's odometry error over windows from the true pose (:func:`model_odometry_error`)."""
+
+    mean_position_error_m: float
+    mean_heading_error_deg: float
+    summary: ErrorSummary
+    per_terrain_mean_position_error_m: dict[str, float]
+    windows: int
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready dict: the means, the summary's m/m and deg/m, per terrain, windows."""
+        return {
+            "mean_position_error_m": self.mean_position_error_m,
+            "mean_heading_error_deg": self.mean_heading_error_deg,
+            **self.summary.to_dict(),
+            "per_terrain_mean_position_error_m": self.per_terrain_mean_position_error_m,
+            "windows": self.windows,
+        }
+
+
+@dataclass(frozen=True)
+class Reconvergence:
+    """Re-convergence after one true terrain change (:func:`reconvergence`).
+
+    ``settling_s`` None: never settled before the next change.
+    """
+
+    t: float
+    previous: str
+    new: str
+    settling_s: float | None
+    true_icr: dict[str, float]
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready dict: ``t``, ``from``, ``to``, ``settling_s``, ``true_icr``."""
+        return {
+            "t": self.t,
+            "from": self.previous,
+            "to": self.new,
+            "settling_s": self.settling_s,
+            "true_icr": self.true_icr,
+        }
 
 
 def path_length(pose: ArrayLike) -> np.ndarray:
@@ -81,7 +212,7 @@ def _per_terrain(truth: np.ndarray) -> list[str]:
     return sorted({str(s) for s in truth if s})
 
 
-def frame_accuracy(truth: ArrayLike, predicted: ArrayLike) -> dict[str, Any]:
+def frame_accuracy(truth: ArrayLike, predicted: ArrayLike) -> FrameAccuracy:
     """Classification accuracy per true terrain and overall.
 
     Frames with an unknown truth (``""``) are left out; frames with no label
@@ -89,42 +220,34 @@ def frame_accuracy(truth: ArrayLike, predicted: ArrayLike) -> dict[str, Any]:
 
     Returns
     -------
-    dict
-        ``{"per_terrain": {label: {"frames", "correct", "accuracy", "confused_with"}},
-        "overall": {"frames", "correct", "accuracy"}}``.
+    FrameAccuracy
+        Per true terrain (with what it was confused with) and overall.
     """
     truth = np.asarray(truth, dtype=str)
     predicted = np.asarray(predicted, dtype=str)
     used = truth != ""
-    per: dict[str, Any] = {}
+    per: dict[str, Accuracy] = {}
     for label in _per_terrain(truth):
         rows = truth == label
         wrong = predicted[rows & (predicted != label)]
         names, counts = np.unique(wrong, return_counts=True)
-        per[label] = {
-            **_accuracy(int(rows.sum()), int(np.count_nonzero(predicted[rows] == label))),
-            "confused_with": {
-                (n or "(no label)"): int(c) for n, c in zip(names, counts, strict=True)
-            },
-        }
+        per[label] = Accuracy(
+            int(rows.sum()),
+            int(np.count_nonzero(predicted[rows] == label)),
+            {(str(n) or "(no label)"): int(c) for n, c in zip(names, counts, strict=True)},
+        )
     correct = int(np.count_nonzero(predicted[used] == truth[used]))
-    return {"per_terrain": per, "overall": _accuracy(int(used.sum()), correct)}
+    return FrameAccuracy(per, Accuracy(int(used.sum()), correct))
 
 
-def _accuracy(frames: int, correct: int) -> dict[str, Any]:
-    return {"frames": frames, "correct": correct, "accuracy": correct / frames if frames else None}
-
-
-def _time_stats(ms: np.ndarray) -> dict[str, Any]:
+def _time_stats(ms: np.ndarray) -> TimeStats:
     ms = ms[np.isfinite(ms)]
     if ms.size == 0:
-        return {"frames": 0, "mean_ms": None, "max_ms": None}
-    return {"frames": int(ms.size), "mean_ms": float(ms.mean()), "max_ms": float(ms.max())}
+        return TimeStats(0, None, None)
+    return TimeStats(int(ms.size), float(ms.mean()), float(ms.max()))
 
 
-def feature_times(
-    truth: ArrayLike, ms_roi: ArrayLike, ms_full: ArrayLike
-) -> dict[str, dict[str, Any]]:
+def feature_times(truth: ArrayLike, ms_roi: ArrayLike, ms_full: ArrayLike) -> dict[str, FrameTime]:
     """Per-frame time per true terrain, with and without the region of interest.
 
     Parameters
@@ -137,22 +260,22 @@ def feature_times(
 
     Returns
     -------
-    dict
-        Per terrain and ``all``: ``{"roi": {frames, mean_ms, max_ms},
-        "full_frame": {...}, "speedup": mean full / mean roi}``.
+    dict of str to FrameTime
+        Per terrain and ``all``: with and without the region of interest,
+        and the speed-up (mean full / mean roi).
     """
     truth = np.asarray(truth, dtype=str)
     roi = np.asarray(ms_roi, dtype=float)
     full = np.asarray(ms_full, dtype=float)
     groups = {label: truth == label for label in _per_terrain(truth)}
     groups["all"] = np.ones(truth.shape, dtype=bool)
-    out: dict[str, dict[str, Any]] = {}
+    out: dict[str, FrameTime] = {}
     for name, rows in groups.items():
         with_roi, without = _time_stats(roi[rows]), _time_stats(full[rows])
         speedup = None
-        if with_roi["mean_ms"] and without["mean_ms"]:
-            speedup = without["mean_ms"] / with_roi["mean_ms"]
-        out[name] = {"roi": with_roi, "full_frame": without, "speedup": speedup}
+        if with_roi.mean_ms and without.mean_ms:
+            speedup = without.mean_ms / with_roi.mean_ms
+        out[name] = FrameTime(with_roi, without, speedup)
     return out
 
 
@@ -185,7 +308,7 @@ def model_odometry_error(
     terrain: ArrayLike,
     models: Mapping[str, Callable[[Windows], TwistFn]],
     horizon: float,
-) -> dict[str, dict[str, Any]]:
+) -> dict[str, ModelOdometry]:
     """Model-odometry error of several models over ``horizon``-metre windows.
 
     Parameters
@@ -203,10 +326,10 @@ def model_odometry_error(
 
     Returns
     -------
-    dict
-        Per model: ``mean_position_error_m`` (mean end-of-window position
-        error), the median/quartile summary in m/m and deg/m, and
-        ``per_terrain`` mean position errors.
+    dict of str to ModelOdometry
+        Per model: the mean end-of-window position error, the
+        median/quartile summary in m/m and deg/m, and per-terrain mean
+        position errors.
 
     Raises
     ------
@@ -220,19 +343,19 @@ def model_odometry_error(
             f"travels less than {horizon:g} m)"
         )
     start_terrain = np.asarray(terrain, dtype=str)[windows.start]
-    out: dict[str, dict[str, Any]] = {}
+    out: dict[str, ModelOdometry] = {}
     for name, make in models.items():
         errors = window_errors(log, windows, make(windows))
-        out[name] = {
-            "mean_position_error_m": float(errors.translation.mean()),
-            "mean_heading_error_deg": float(np.degrees(errors.rotation).mean()),
-            **summarize(errors).to_dict(),
-            "per_terrain_mean_position_error_m": {
+        out[name] = ModelOdometry(
+            float(errors.translation.mean()),
+            float(np.degrees(errors.rotation).mean()),
+            summarize(errors),
+            {
                 label: float(errors.translation[start_terrain == label].mean())
                 for label in _per_terrain(start_terrain)
             },
-            "windows": len(windows),
-        }
+            len(windows),
+        )
     return out
 
 
@@ -244,7 +367,7 @@ def reconvergence(
     *,
     changes: Sequence[tuple[float, str, str]] | None = None,
     resets: Sequence[tuple[float, str]] = (),
-) -> list[dict[str, Any]]:
+) -> list[Reconvergence]:
     """Re-convergence time of an ICR estimate after each true terrain change.
 
     The clock starts when the robot enters the new terrain; the estimate has
@@ -269,9 +392,9 @@ def reconvergence(
 
     Returns
     -------
-    list of dict
-        Per change: ``t``, ``from``, ``to``, ``settling_s`` (None if it never
-        settles before the next change) and ``true_icr``.
+    list of Reconvergence
+        Per change: its time, terrains, settling time (None if it never
+        settles before the next change) and the true ICRs.
     """
     t = np.asarray(t, dtype=float)
     icr = np.asarray(icr, dtype=float)
@@ -288,12 +411,12 @@ def reconvergence(
             else np.inf
         )
         out.append(
-            {
-                "t": t_c,
-                "from": previous,
-                "to": new,
-                "settling_s": float(settle) if np.isfinite(settle) else None,
-                "true_icr": dict(zip(("y_l", "y_r", "x_icr"), true_icr.tolist(), strict=True)),
-            }
+            Reconvergence(
+                t_c,
+                previous,
+                new,
+                float(settle) if np.isfinite(settle) else None,
+                dict(zip(("y_l", "y_r", "x_icr"), true_icr.tolist(), strict=True)),
+            )
         )
     return out

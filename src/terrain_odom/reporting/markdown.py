@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable, Sequence
 from typing import TYPE_CHECKING, Any
 
@@ -10,7 +11,11 @@ from terrain_odom.estimation.time_offset import shows_pose_delay
 if TYPE_CHECKING:
     from terrain_odom.estimation.pose_measurement import PoseUse
     from terrain_odom.estimation.time_offset import TimeCalibration
+    from terrain_odom.evaluation.groundtruth import FrameTime
+    from terrain_odom.evaluation.metrics import ErrorStats
     from terrain_odom.records import TerrainChange
+    from terrain_odom.reporting.groundtruth import FrameScores, GroundTruthSection
+    from terrain_odom.reporting.outage import OutageSection
     from terrain_odom.reporting.run_report import RunReport
 
 __all__ = ["table", "run_markdown", "OUTAGE_HEADER", "outage_rows", "outage_markdown"]
@@ -40,6 +45,11 @@ def table(header: Sequence[str], rows: Iterable[Sequence[Any]], digits: int = 3)
     return "\n".join(lines)
 
 
+def _number(value: float | None) -> float | None:
+    """None for NaN (shown ``-``, as in ``report.json``)."""
+    return None if value is None or math.isnan(value) else value
+
+
 def _percent(value: float | None) -> float | None:
     return None if value is None else 100.0 * value
 
@@ -65,57 +75,47 @@ def _changes(changes: Sequence[TerrainChange]) -> str:
     )
 
 
-def _frames(frames: dict[str, Any]) -> list[str]:
-    accuracy = frames["accuracy"]
+def _frames(frames: FrameScores) -> list[str]:
+    accuracy = frames.accuracy
     acc_rows = [
-        [label, a["frames"], _percent(a["accuracy"]), a["confused_with"] or ""]
-        for label, a in accuracy["per_terrain"].items()
+        [label, a.frames, _percent(a.accuracy), a.confused_with or ""]
+        for label, a in accuracy.per_terrain.items()
     ]
-    overall = accuracy["overall"]
-    acc_rows.append(["**all**", overall["frames"], _percent(overall["accuracy"]), ""])
+    overall = accuracy.overall
+    acc_rows.append(["**all**", overall.frames, _percent(overall.accuracy), ""])
     return [
         "## Frame classification (true terrain of the ground each frame classified)",
         table(["true terrain", "frames", "accuracy %", "misclassified as"], acc_rows, digits=1),
         "## Feature extraction time per frame (Chen et al. 2023, Table 2 form)",
-        _time_table(frames["feature_time"]),
+        _time_table(frames.feature_time),
         "## Feature extraction + KNN vote time per frame",
-        _time_table(frames["classification_time"]),
+        _time_table(frames.classification_time),
     ]
 
 
-def _time_table(times: dict[str, Any]) -> str:
+def _time_table(times: dict[str, FrameTime]) -> str:
     rows = [
-        [
-            label,
-            t["roi"]["mean_ms"],
-            t["roi"]["max_ms"],
-            t["full_frame"]["mean_ms"],
-            t["full_frame"]["max_ms"],
-            t["speedup"],
-        ]
+        [label, t.roi.mean_ms, t.roi.max_ms, t.full_frame.mean_ms, t.full_frame.max_ms, t.speedup]
         for label, t in times.items()
     ]
     header = ["true terrain", "with ROI: mean ms", "max ms", "whole frame: mean ms", "max ms"]
     return table([*header, "speed-up"], rows, digits=2)
 
 
-def _odometry(section: dict[str, Any]) -> list[str]:
+def _odometry(section: GroundTruthSection) -> list[str]:
     rows = []
-    for name, m in section["odometry"].items():
-        tr, rot = m["translation_m_per_m"], m["rotation_deg_per_m"]
+    for name, m in section.odometry.items():
         rows.append(
             [
                 name,
-                m["mean_position_error_m"],
-                m["mean_heading_error_deg"],
-                tr["median"],
-                rot["median"],
-                ", ".join(
-                    f"{k} {v:.3f}" for k, v in m["per_terrain_mean_position_error_m"].items()
-                ),
+                _number(m.mean_position_error_m),
+                _number(m.mean_heading_error_deg),
+                _number(m.summary.translation.median),
+                _number(m.summary.rotation.median),
+                ", ".join(f"{k} {v:.3f}" for k, v in m.per_terrain_mean_position_error_m.items()),
             ]
         )
-    horizon = section["settings"]["horizon_m"]
+    horizon = section.settings.horizon_m
     return [
         f"## Model-odometry error ({horizon:g} m windows from the true pose)",
         table(
@@ -132,12 +132,12 @@ def _odometry(section: dict[str, Any]) -> list[str]:
     ]
 
 
-def _reconvergence(section: dict[str, Any]) -> list[str]:
+def _reconvergence(section: GroundTruthSection) -> list[str]:
     rows = []
-    for name, changes in section["reconvergence"].items():
+    for name, changes in section.reconvergence.items():
         for c in changes:
-            rows.append([name, c["t"], f"{c['from']} -> {c['to']}", c["settling_s"]])
-    tol = section["settings"]["icr_tolerance_m"]
+            rows.append([name, c.t, f"{c.previous} -> {c.new}", c.settling_s])
+    tol = section.settings.icr_tolerance_m
     return [
         f"## ICR re-convergence after each true terrain change (band +/- {tol:.3f} m)",
         table(["filter", "true change at (s)", "change", "re-converged after (s)"], rows, 2)
@@ -176,36 +176,37 @@ OUTAGE_HEADER = (
 """Columns of :func:`outage_rows`."""
 
 
-def _quartiles(stats: dict[str, Any], digits: int) -> str:
-    if not stats["count"] or stats["median"] is None:
+def _quartiles(stats: ErrorStats, digits: int) -> str:
+    if not stats.count or math.isnan(stats.median):
         return "n/a"
-    return f"{stats['median']:.{digits}f} [{stats['q25']:.{digits}f}-{stats['q75']:.{digits}f}]"
+    return f"{stats.median:.{digits}f} [{stats.q25:.{digits}f}-{stats.q75:.{digits}f}]"
 
 
-def outage_rows(section: dict[str, Any]) -> list[list[str]]:
-    """Rows of :data:`OUTAGE_HEADER` from an :func:`~terrain_odom.reporting.outage.outage_section`: one per duration and model."""
+def outage_rows(section: OutageSection) -> list[list[str]]:
+    """Rows of :data:`OUTAGE_HEADER` from an :class:`~terrain_odom.reporting.outage.OutageSection`: one per duration and model."""
     rows = []
-    for duration, entry in section["durations"].items():
-        for name, stats in entry["models"].items():
+    for duration, models in section.outages.items():
+        windows = len(next(iter(models.values())).windows)
+        for name, errors in models.items():
             rows.append(
                 [
-                    f"{duration} s",
-                    str(entry["windows"]),
+                    f"{duration:g} s",
+                    str(windows),
                     name,
-                    _quartiles(stats["position_m"], 2),
-                    _quartiles(stats["heading_deg"], 1),
+                    _quartiles(errors.position_stats, 2),
+                    _quartiles(errors.heading_stats, 1),
                 ]
             )
     return rows
 
 
-def outage_markdown(section: dict[str, Any], title: str) -> list[str]:
+def outage_markdown(section: OutageSection, title: str) -> list[str]:
     """Return a Markdown heading, how the windows are made, and the table of a section."""
-    if "skipped" in section:
-        return [f"## {title}", f"Skipped: {section['skipped']}."]
+    if section.skipped is not None:
+        return [f"## {title}", f"Skipped: {section.skipped}."]
     return [
         f"## {title}",
-        f"A window starts at a position fix every {section['every_s']:g} s; each model is "
+        f"A window starts at a position fix every {section.every:g} s; each model is "
         "frozen at the run's state there and dead-reckoned with the logged wheel speeds, no "
         "pose update; its displacement (of the position sensor) is compared with the measured "
         "one.",
@@ -232,9 +233,7 @@ def run_markdown(report: RunReport, plots: Sequence[str] = ()) -> str:
     Parameters
     ----------
     report : RunReport
-        The report (:func:`terrain_odom.app.run.run`); its sections held as
-        JSON (ground truth, outage guard) made JSON-ready
-        (:func:`~terrain_odom.io.report.to_jsonable`).
+        The report (:func:`terrain_odom.app.run.run`).
     plots : sequence of str
         Relative paths of PNG plots to show.
     """
@@ -258,8 +257,8 @@ def run_markdown(report: RunReport, plots: Sequence[str] = ()) -> str:
         parts.insert(2, _pose_delay(report.time_calibration))
     section = report.groundtruth
     if section is not None:
-        if "frames" in section:
-            parts += _frames(section["frames"])
+        if section.frames is not None:
+            parts += _frames(section.frames)
         parts += _odometry(section) + _reconvergence(section)
     if plots:
         parts.append("## Plots")

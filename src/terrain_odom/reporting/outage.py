@@ -10,6 +10,7 @@ nominal one it started from); see :mod:`terrain_odom.evaluation.outage`.
 from __future__ import annotations
 
 from collections.abc import Mapping
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -19,6 +20,7 @@ from terrain_odom.reporting.figure import new_figure, wrap
 
 __all__ = [
     "Outages",
+    "OutageSection",
     "outage_section",
     "outage_figure",
 ]
@@ -42,6 +44,36 @@ def outage_section(outages: Outages, every: float, **extra: Any) -> dict[str, An
             "models": {name: e.to_dict() for name, e in models.items()},
         }
     return {"every_s": every, "durations": durations, **extra}
+
+
+@dataclass(frozen=True)
+class OutageSection:
+    """Outage-window errors as a report's section; :meth:`to_dict` is its JSON.
+
+    Attributes
+    ----------
+    outages : Outages
+        Per duration, per model: the errors.
+    every : float
+        Time between window starts, s.
+    learned_worse_s : tuple of float or None
+        The guard's verdict: durations where the learned model is worse (None: no verdict).
+    skipped : str or None
+        Why there was nothing to compare (then the section is only that).
+    """
+
+    outages: Outages = field(default_factory=dict)
+    every: float = 0.0
+    learned_worse_s: tuple[float, ...] | None = None
+    skipped: str | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        """Return the section: :func:`outage_section`'s, or ``{"skipped": why}``."""
+        if self.skipped is not None:
+            return {"skipped": self.skipped}
+        if self.learned_worse_s is None:
+            return outage_section(self.outages, self.every)
+        return outage_section(self.outages, self.every, learned_worse_s=list(self.learned_worse_s))
 
 
 def outage_figure(outages: Outages) -> Any:

@@ -3,9 +3,9 @@
 :class:`RunReport` is built by :func:`terrain_odom.app.run.run`;
 :meth:`RunReport.to_dict` is the content of ``report.json`` (docs/formats.md)
 and :func:`~terrain_odom.reporting.markdown.run_markdown` renders it from
-its attributes. The ground-truth and outage-guard sections are the JSON
-sections their own modules build (:mod:`terrain_odom.app.groundtruth`,
-:mod:`terrain_odom.app.outage_guard`), held as they are written.
+its attributes, the ground-truth and outage-guard sections included
+(:class:`~terrain_odom.reporting.groundtruth.GroundTruthSection`,
+:class:`~terrain_odom.reporting.outage.OutageSection`).
 """
 
 from __future__ import annotations
@@ -17,6 +17,8 @@ from terrain_odom.config import Config, config_to_dict
 from terrain_odom.estimation.pose_measurement import PoseUse
 from terrain_odom.estimation.time_offset import TimeCalibration
 from terrain_odom.records import TerrainChange
+from terrain_odom.reporting.groundtruth import GroundTruthSection
+from terrain_odom.reporting.outage import OutageSection
 
 __all__ = ["RunInputs", "RunCounts", "RunOutputs", "FrameCounts", "FramesReport", "RunReport"]
 
@@ -198,14 +200,14 @@ class RunReport:
         Wall time of the run, s.
     warnings : tuple of str
         What the finished run's estimate makes doubtful (one line each).
-    outage_guard : dict
-        The learned model against the nominal one through pose outages (its JSON section).
+    outage_guard : OutageSection
+        The learned model against the nominal one through pose outages.
     calibration : dict or None
         The ``auto`` values found before the run (its JSON section), if any.
     frames : FramesReport or None
         With ``--images``.
-    groundtruth : dict or None
-        The run scored against ground truth (its JSON section), with ``--groundtruth``.
+    groundtruth : GroundTruthSection or None
+        The run scored against ground truth, with ``--groundtruth``.
     """
 
     header: dict[str, Any]
@@ -222,10 +224,10 @@ class RunReport:
     outputs: RunOutputs
     run_time_s: float
     warnings: tuple[str, ...] = ()
-    outage_guard: dict[str, Any] = field(default_factory=dict)
+    outage_guard: OutageSection = field(default_factory=OutageSection)
     calibration: dict[str, Any] | None = None
     frames: FramesReport | None = None
-    groundtruth: dict[str, Any] | None = None
+    groundtruth: GroundTruthSection | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """Return the content of ``report.json``."""
@@ -244,7 +246,7 @@ class RunReport:
             "outputs": self.outputs.to_dict(),
             "run_time_s": self.run_time_s,
             "warnings": list(self.warnings),
-            "outage_guard": self.outage_guard,
+            "outage_guard": self.outage_guard.to_dict(),
         }
         if self.calibration is not None:
             out["calibration"] = self.calibration
@@ -253,5 +255,5 @@ class RunReport:
             if self.frames.counts is not None:
                 out["frame_problems"] = self.frames.problems
         if self.groundtruth is not None:
-            out["groundtruth"] = self.groundtruth
+            out["groundtruth"] = self.groundtruth.to_dict()
         return out
