@@ -267,9 +267,16 @@ class IcrEkf:
             Track surface speeds, m/s.
         dt : float
             Duration, s (> 0).
+
+        Raises
+        ------
+        EstimationError
+            ``dt`` is not positive or a track speed is not finite.
         """
         if not dt > 0.0:
             raise EstimationError(f"predict needs dt > 0 s, got {dt}")
+        if not (math.isfinite(v_l) and math.isfinite(v_r)):
+            raise EstimationError(f"predict needs finite track speeds, got {v_l}, {v_r} m/s")
         _kernels.icr_predict(
             self._x, self._P, self._q_density, float(v_l), float(v_r), float(dt), self._bias
         )
@@ -372,11 +379,16 @@ class IcrEkf:
         Raises
         ------
         EstimationError
-            Time does not advance, or the state became non-finite.
+            Time does not advance, a track speed is not finite, or the state
+            became non-finite.
         """
         steps = np.diff(t, prepend=since[0])
         if steps.size and not steps.min() > 0.0:
             raise EstimationError(f"predict needs dt > 0 s, got {steps.min()}")
+        if not (math.isfinite(since[1]) and math.isfinite(since[2])) or not all(
+            np.isfinite(s).all() for s in speeds
+        ):
+            raise EstimationError("predict needs finite track speeds (a NaN or inf in the rows)")
         held = np.array([*since, self.t])
         states, stds = np.empty((t.size, self._x.size)), np.empty((t.size, self._x.size))
         noise = (

@@ -348,3 +348,11 @@ def test_frames_faster_than_the_classifier_are_skipped_not_queued(sample_dir: Pa
     skipped = live.dropped["images: the classifier is behind (frames skipped to keep up)"]
     assert max(waiting) <= 3 and skipped > 0
     assert live.counts["frames_classified"] + skipped == live.counts["images"]
+
+
+def test_an_unknown_role_is_a_clear_error_not_a_dropped_message() -> None:
+    outputs: list[LiveOutput] = []
+    live = _live(outputs)
+    with pytest.raises(ValueError, match="unknown role 'odom': expected one of wheels"):
+        live.message("odom", ODOMETRY, object())
+    assert live.dropped == {}  # a caller's mistake: not counted as a bad message

@@ -145,8 +145,15 @@ class LiveOdometry:
 
         ``msgtype``: ``pkg/Name`` or ``pkg/msg/Name``; ``receive_ns``: the
         receive time (the stamp with ``stamps="receive"``). Never raises on
-        bad input: it is dropped and counted (:attr:`dropped`).
+        a bad message: it is dropped and counted (:attr:`dropped`).
+
+        Raises
+        ------
+        ValueError
+            ``role`` is none of the four (a caller's mistake, not a message's).
         """
+        if role not in _RANK:
+            raise ValueError(f"unknown role {role!r}: expected one of {', '.join(_RANK)}")
         events = self._converter.convert(role, msgtype, msg, receive_ns)
         if events is None:
             return
