@@ -60,3 +60,24 @@ def test_an_imported_configuration_is_used_unless_config_is_given(
     given = log.parent / "robot.yaml"
     wins = calibrate(log, tmp_path / "b", config_path=given, imported=imported)
     assert (wins.config_path, wins.robot.track_width) == (given, 1.0)
+
+
+def test_a_config_without_a_robot_section_is_not_called_the_robots(
+    log: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A --config file that sets only other sections: its geometry is the built-in one, and said so."""
+    config = tmp_path / "other.yaml"
+    config.write_text("ekf: {gate: {probability: 0.999}}\n")
+    argv = [
+        "calibrate",
+        "--wheels",
+        str(log),
+        "--config",
+        str(config),
+        "--out",
+        str(tmp_path / "c"),
+    ]
+    assert _first_line(argv, capsys) == (
+        "robot:      wheel radius 0.1 m, track width 0.5 m "
+        f"(the built-in defaults: {config} gives no other)"
+    )

@@ -15,6 +15,7 @@ from terrain_odom.cli.options import (
     print_pose_delay,
     print_written,
 )
+from terrain_odom.config import RobotConfig
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -41,7 +42,9 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
 
     wheels, bag_config = wheels_from_bag(args, args.out)
     summary = calibrate(wheels, args.out, config_path=args.config, imported=bag_config)
-    print(f"robot:      {robot_geometry(summary.robot)} ({_source(summary.config_path)})")
+    print(
+        f"robot:      {robot_geometry(summary.robot)} ({_source(summary.config_path, summary.robot)})"
+    )
     print_pose_delay(summary.timing)
     print_calibration(summary.calibration)
     print(f"{summary.rows} rows in {summary.seconds:.2f} s")
@@ -50,8 +53,10 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
     return 0
 
 
-def _source(config_path: Path | None) -> str:
+def _source(config_path: Path | None, robot: RobotConfig) -> str:
     """Where the robot's geometry came from, for the console (the built-in defaults: say so)."""
     if config_path is None:
         return "the built-in defaults: --config gives the robot's"
+    if robot == RobotConfig():  # a file without a robot section (or one giving the defaults)
+        return f"the built-in defaults: {config_path} gives no other"
     return f"from {config_path}"
