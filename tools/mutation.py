@@ -9,6 +9,7 @@ copies in ``mutants/``. Run both from the repository root after mutmut has
 generated the mutants (any ``mutmut run`` does, first thing)::
 
     mutmut run $(python tools/mutation.py sample evaluation.calibration)
+    mutmut run $(python tools/mutation.py sample --todo evaluation.calibration)  # resume
     python tools/mutation.py counts --sample evaluation.calibration
 """
 
@@ -55,12 +56,13 @@ def main() -> None:
         "modules", nargs="+", help="modules of terrain_odom: evaluation.calibration"
     )
     parser.add_argument("--sample", action="store_true", help="counts: of the sample only")
+    parser.add_argument("--todo", action="store_true", help="sample: only mutants not run yet")
     args = parser.parse_args()
     for module in args.modules:
         codes = verdicts(module)
         chosen = sample(list(codes)) if args.action == "sample" or args.sample else sorted(codes)
         if args.action == "sample":
-            print("\n".join(chosen))
+            print("\n".join(n for n in chosen if not args.todo or codes[n] is None))
             continue
         tally = counts({name: codes[name] for name in chosen})
         killed = tally["killed"] + tally["timeout"]
