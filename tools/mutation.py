@@ -56,11 +56,16 @@ def main() -> None:
         "modules", nargs="+", help="modules of terrain_odom: evaluation.calibration"
     )
     parser.add_argument("--sample", action="store_true", help="counts: of the sample only")
+    parser.add_argument("--size", type=int, default=SIZE, help=f"sample size (default {SIZE})")
     parser.add_argument("--todo", action="store_true", help="sample: only mutants not run yet")
     args = parser.parse_args()
     for module in args.modules:
         codes = verdicts(module)
-        chosen = sample(list(codes)) if args.action == "sample" or args.sample else sorted(codes)
+        chosen = (
+            sample(list(codes), args.size)
+            if args.action == "sample" or args.sample
+            else sorted(codes)
+        )
         if args.action == "sample":
             print("\n".join(n for n in chosen if not args.todo or codes[n] is None))
             continue
