@@ -9,9 +9,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from terrain_odom.fitting import parse_horizon, segment_set, training_windows
 from terrain_odom.fitting.loss import residuals
 from terrain_odom.fitting.segments import SegmentBlock, SegmentSet
 from terrain_odom.kinematics import get_model
+from terrain_odom.sim.model_log import constant_model_log
+from tests.evaluation.test_sparse import _log
 
 
 def _block() -> SegmentSet:
@@ -50,3 +53,22 @@ def test_the_heading_error_is_the_end_heading_wrapped():
         track_width=1.0,
     )  # fmt: skip
     assert res[0, 2, 2] == pytest.approx(-0.1, abs=1e-12)
+
+
+@pytest.mark.parametrize("anchor", ["pose", "position", "heading"])
+def test_segment_set_gives_the_fixes_their_displacements_or_neither(anchor):
+    """So the loss never meets fixes without measured displacements (no such branch)."""
+    if anchor == "pose":
+        log = constant_model_log("idd", [], seconds=20.0)
+    else:
+        log = _log(positions=anchor == "position", headings=anchor == "heading")
+    windows = training_windows(log, parse_horizon("3m"), anchor=anchor)
+    segs = segment_set([log], [windows], anchor=anchor)
+    assert segs.count > 3
+    for block in segs.blocks:
+        if anchor == "pose":
+            assert block.fixes is None and block.measured is None
+        else:
+            assert block.fixes.shape == block.dt.shape[:1] + (block.dt.shape[1] + 1,)
+            assert block.measured.shape == block.fixes.shape + (2,)
+            assert not block.measured[~block.fixes].any()  # 0 where no fix
