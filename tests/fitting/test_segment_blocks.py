@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import re
 
 import numpy as np
 import pytest
@@ -38,3 +39,10 @@ def test_segments_between_fixes_keep_every_fix_inside_them():
     assert sum(int(b.dt.astype(bool).sum()) for b in segs.blocks) < 0.5 * int(
         (windows.end - windows.start).sum()
     )
+
+
+def test_a_terrain_is_selected_only_from_a_log_with_a_terrain_column():
+    log = constant_model_log("idd", [], seconds=10.0)
+    message = f"{log.source}: no terrain column, cannot select terrain 'grass'"
+    with pytest.raises(ValueError, match=f"^{re.escape(message)}$"):
+        training_windows(log, parse_horizon("2m"), terrain="grass")
