@@ -12,7 +12,14 @@ import time
 import numpy as np
 import pytest
 
-from terrain_odom.fitting import FitOptions, Horizon, fit_model, segment_set, training_windows
+from terrain_odom.fitting import (
+    FitOptions,
+    Horizon,
+    at_bounds,
+    fit_model,
+    segment_set,
+    training_windows,
+)
 from terrain_odom.fitting.loss import residuals, squared_loss, whitener_matrix
 from terrain_odom.kinematics import get_model
 from terrain_odom.sim.model_log import constant_model_log
@@ -128,3 +135,10 @@ def test_a_model_without_parameters_reports_its_loss_and_one_evaluation(segs):
         idd_segs.count, idd_segs.length, idd_segs.duration,
     )  # fmt: skip
     assert 0.0 < result.seconds <= wall
+
+
+def test_bounds_given_to_at_bounds_must_pair_with_the_parameters():
+    roc = get_model("roc")
+    assert at_bounds(roc, np.array([1.0, 0.5, 0.5]), [(0, 2), (0, 1), (0, 1)]) == ()
+    with pytest.raises(ValueError, match="zip"):  # a bound missing, not silently unchecked
+        at_bounds(roc, np.array([1.0, 0.5, 0.5]), [(0, 2), (0, 1)])
