@@ -14,6 +14,7 @@ import pytest
 
 from terrain_odom.fitting import (
     FitOptions,
+    FitResult,
     Horizon,
     at_bounds,
     fit_model,
@@ -142,3 +143,9 @@ def test_bounds_given_to_at_bounds_must_pair_with_the_parameters():
     assert at_bounds(roc, np.array([1.0, 0.5, 0.5]), [(0, 2), (0, 1), (0, 1)]) == ()
     with pytest.raises(ValueError, match="zip"):  # a bound missing, not silently unchecked
         at_bounds(roc, np.array([1.0, 0.5, 0.5]), [(0, 2), (0, 1)])
+
+
+def test_as_dict_refuses_parameters_that_do_not_match_the_model():
+    result = FitResult("edd-sym", np.array([0.9]), 0.0, 1, 1.0, 1.0, 0.0, 0, 1)
+    with pytest.raises(ValueError, match="zip"):  # one value for alpha and b_hat
+        result.as_dict()

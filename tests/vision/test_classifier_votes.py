@@ -12,12 +12,14 @@ import numpy as np
 import pytest
 
 from terrain_odom.config.classifier import ClassifierConfig, paper_config
+from terrain_odom.errors import ConfigError
 from terrain_odom.vision.classifier import (
     MAJORITY,
     NOVELTY_MARGIN,
     NOVELTY_QUANTILE,
     TerrainClassifier,
 )
+from terrain_odom.vision.neighbours import SMALL_QUERY
 
 # Two training images of three tiles each, on a line: 0, 1, 3 and 10, 12, 13.
 LINE = np.array([[0.0], [1.0], [3.0], [10.0], [12.0], [13.0]])
@@ -152,3 +154,18 @@ def test_a_model_rebuilt_without_a_threshold_has_none():
     rebuilt = TerrainClassifier.from_arrays(paper_config(), arrays)
     assert rebuilt.min_confidence == 0.0 and rebuilt.novelty_distance is None
     assert rebuilt.sighting_threshold == MAJORITY
+
+
+def test_a_batch_larger_than_a_frame_gets_the_shares_of_its_rows_one_by_one():
+    """Batches past SMALL_QUERY rows go to scikit-learn's search, with the same k."""
+    for weights in ("uniform", "distance"):
+        cfg = dataclasses.replace(paper_config(), k=3, weights=weights)
+        model = TerrainClassifier(cfg).fit(VOTERS, np.array(list("aabbb")))
+        queries = np.linspace(-0.5, 1.7, SMALL_QUERY + 9)[:, None]
+        one_by_one = np.vstack([model.predict_proba(row[None]) for row in queries])
+        np.testing.assert_allclose(model.predict_proba(queries), one_by_one, rtol=1e-12)
+
+
+def test_k_beyond_the_training_tiles_names_both_counts():
+    with pytest.raises(ConfigError, match=r"^k: 5 neighbours but only 3 training samples$"):
+        TerrainClassifier(ClassifierConfig(k=5)).fit(np.zeros((3, 2)), list("abc"))
