@@ -7,6 +7,7 @@ distance and share is written out; no image is read.
 from __future__ import annotations
 
 import dataclasses
+import re
 
 import numpy as np
 import pytest
@@ -169,3 +170,16 @@ def test_a_batch_larger_than_a_frame_gets_the_shares_of_its_rows_one_by_one():
 def test_k_beyond_the_training_tiles_names_both_counts():
     with pytest.raises(ConfigError, match=r"^k: 5 neighbours but only 3 training samples$"):
         TerrainClassifier(ClassifierConfig(k=5)).fit(np.zeros((3, 2)), list("abc"))
+
+
+def test_an_unfitted_classifier_holds_no_training_data():
+    model = TerrainClassifier(paper_config())
+    assert model.training_features.shape == (0, 0) and model.training_labels.shape == (0,)
+    assert model.n_training_images == 0 and model.novelty_distance is None
+
+
+def test_a_region_index_of_the_wrong_length_names_the_rows():
+    model = _line_model()
+    message = "region must hold one integer per feature row (3), got int64 (2,)"
+    with pytest.raises(ValueError, match=f"^{re.escape(message)}$"):
+        model.predict(np.zeros((3, 1)), np.array([0, 1]))
