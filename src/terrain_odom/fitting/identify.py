@@ -82,7 +82,8 @@ class FitResult:
     seconds : float
         Wall time of the fit, s.
     generations, evaluations : int
-        Differential-evolution generations and parameter sets evaluated.
+        Differential-evolution generations, and parameter sets evaluated in
+        all (the population of each generation, each polishing step).
     at_bounds : tuple of str
         Parameters at or within 1 % of a search bound (:func:`at_bounds`):
         the optimum may lie beyond it, or the data do not determine them.
@@ -140,8 +141,10 @@ def fit_model(
     if segments.count == 0:
         raise ValueError("no training segment: the logs never reach the horizon")
     whitener = whitener_matrix(opt.sigma)
+    evaluated = [0]  # parameter sets evaluated (scipy counts a vectorised call as one)
 
     def loss(pop: np.ndarray) -> np.ndarray:
+        evaluated[0] += pop.shape[0]
         return squared_loss(residuals(m, pop, segments, whitener=whitener, track_width=track_width))
 
     k = len(m.param_names)
@@ -151,7 +154,7 @@ def fit_model(
         x = np.zeros(0)
         return FitResult(
             m.name, x, float(loss(x[None])[0]), segments.count, segments.length,
-            segments.duration, time.perf_counter() - started, 0, 1,
+            segments.duration, time.perf_counter() - started, 0, evaluated[0],
         )  # fmt: skip
     de = differential_evolution(
         lambda pop_t: loss(pop_t.T),  # scipy passes the population as (k, S)
@@ -165,11 +168,12 @@ def fit_model(
         updating="deferred",
         workers=1,
     )
-    x, best, nfev = np.asarray(de.x, dtype=float), float(de.fun), int(de.nfev)
+    x, best = np.asarray(de.x, dtype=float), float(de.fun)
     if opt.polish:
         lo, hi = np.array(m.bounds, dtype=float).T
 
         def flat(q: np.ndarray) -> np.ndarray:
+            evaluated[0] += 1
             res = residuals(m, q[None], segments, whitener=whitener, track_width=track_width)
             return np.nan_to_num(res.ravel(), nan=1e6, posinf=1e6, neginf=-1e6)
 
@@ -179,13 +183,12 @@ def fit_model(
             bounds=(lo, hi),
             x_scale="jac",
         )
-        nfev += int(ls.nfev)
         polished = float(loss(ls.x[None])[0])
         if polished < best:
             x, best = ls.x, polished
     return FitResult(
         m.name, x, best, segments.count, segments.length, segments.duration,
-        time.perf_counter() - started, int(de.nit), nfev, at_bounds(m, x),
+        time.perf_counter() - started, int(de.nit), evaluated[0], at_bounds(m, x),
     )  # fmt: skip
 
 

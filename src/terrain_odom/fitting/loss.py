@@ -86,7 +86,7 @@ def residuals(
         shape = (p.shape[0], *block.dt.shape)  # (S, W, K), also for idd (no parameter)
         v_x, v_y, omega, dt = (np.broadcast_to(c, shape) for c in (v_x, v_y, omega, block.dt))
         poses = integrate(v_x, v_y, omega, dt)
-        if block.fixes is None:
+        if block.fixes is None or block.measured is None:  # _block sets both or neither
             err = poses[..., -1, :] - block.target
             err[..., 2] = wrap_angle(err[..., 2])
         else:
@@ -99,7 +99,7 @@ def residuals(
 def _turned_error(
     poses: np.ndarray,
     fixes: np.ndarray,
-    measured: np.ndarray | None,
+    measured: np.ndarray,
     target: np.ndarray,
     antenna: tuple[float, float],
 ) -> np.ndarray:
@@ -108,11 +108,10 @@ def _turned_error(
     ``fixes``, ``measured`` and ``target`` as in a segment block; ``poses``
     ``(S, W, K + 1, 3)`` integrated from the origin.
     """
-    d = np.zeros(fixes.shape + (2,)) if measured is None else measured
     q = antenna_displacement(poses, antenna)  # (S, W, K + 1, 2)
-    theta = fitted_turn(q, d, fixes)
+    theta = fitted_turn(q, measured, fixes)
     c, s = np.cos(theta), np.sin(theta)
-    q_end, d_end = q[..., -1, :], d[:, -1]
+    q_end, d_end = q[..., -1, :], measured[:, -1]
     err = np.empty(poses.shape[:-2] + (3,))
     err[..., 0] = c * q_end[..., 0] - s * q_end[..., 1] - d_end[:, 0]
     err[..., 1] = s * q_end[..., 0] + c * q_end[..., 1] - d_end[:, 1]

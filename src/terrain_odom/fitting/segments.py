@@ -137,7 +137,8 @@ class SegmentBlock:
     segments without a start heading (``fixes`` set) only its heading change
     (NaN without headings); ``fixes`` (W, K + 1): where the pose before each
     step (and the end, last) has a position fix; ``measured`` (W, K + 1, 2):
-    each fix's displacement from the start fix in the world frame, m.
+    each fix's displacement from the start fix in the world frame, m (set
+    with ``fixes``).
     """
 
     v_l: np.ndarray
