@@ -4,7 +4,8 @@ The kernels are held to their numpy reference at 1e-12, which shares the
 arc's series: a coefficient of its last terms changed moves a step by less
 than that (mutation testing, docs/testing.md). Here the coefficients are
 held to their exact values (Taylor sums in rational arithmetic) within the
-truncation of the series. ``constrain`` reports a covariance gone
+truncation of the series. ``step_jacobian`` writes all of ``F``, also the
+entries its callers skip. ``constrain`` reports a covariance gone
 non-finite even where the state is finite.
 """
 
@@ -17,6 +18,7 @@ import numpy as np
 import pytest
 
 from terrain_odom.estimation import _kernels
+from terrain_odom.estimation.icr_model import icr_step_with_jacobian
 
 
 def _exact_arc(phi: float) -> tuple[float, float, float, float]:
@@ -45,6 +47,20 @@ def test_the_arc_series_is_exact_to_its_truncation(phi):
 def test_the_arc_closed_form_is_exact(phi):
     got, exact = _kernels._arc(phi), _exact_arc(phi)
     np.testing.assert_allclose(got, exact, rtol=1e-12, atol=1e-13)
+
+
+@pytest.mark.parametrize("n", [6, 7])
+@pytest.mark.parametrize(
+    ("v_l", "v_r", "dt"), [(0.4, 1.3, 0.05), (1.0, 1.0, 0.1), (-1.0, 1.0, 0.2)]
+)
+def test_step_jacobian_writes_the_whole_f_of_the_icr_step(n, v_l, v_r, dt):
+    """Every entry of ``jac`` is written: the identity and zeros the filters skip, too."""
+    x = np.array([1.0, -2.0, 3.0, 0.9, -0.8, 0.1, 0.95])[:n]
+    want_x, want_f = icr_step_with_jacobian(x, v_l, v_r, dt)
+    got, jac = x.copy(), np.full((n, n), np.nan)
+    _kernels.step_jacobian(got, v_l, v_r, dt, jac)
+    np.testing.assert_allclose(got, want_x, rtol=0, atol=1e-14)
+    np.testing.assert_allclose(jac, want_f, rtol=1e-12, atol=1e-14)
 
 
 LIMITS = np.array([0.1, 2.0, 1.0, 0.5, 1.5])
