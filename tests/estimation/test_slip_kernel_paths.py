@@ -20,6 +20,7 @@ import pytest
 
 from terrain_odom.config import IcrLimits, SlipEkfConfig, SlipParams
 from terrain_odom.errors import EstimationError
+from terrain_odom.estimation import _slip_kernels
 from terrain_odom.estimation.pose_measurement import chord_turn
 from terrain_odom.estimation.slip_ekf import SlipEkf
 from terrain_odom.estimation.slip_ekf_reference import FilterpySlipEkf
@@ -95,8 +96,8 @@ def test_every_path_equals_the_reference(case):
         np.testing.assert_allclose(poses[0], poses[1], rtol=0, atol=TOLERANCE)
         z = model.pose_change(truth, *samples) + rng.normal(0.0, 0.01, 3)
         z[2] += 2.0 * math.pi * (k % 3 - 1)  # the same heading change, to be wrapped
-        if k == 3:
-            z[:2] += [3.0, -2.0]  # an outlier: inflated where robust
+        if k == 4 and config.robust:  # positions alone, an outlier: inflated, and not wrapped
+            z[:2] += [4.0, -3.5]
         z[~np.array(measured)] = NAN
         nis = [ekf.update(z, *samples, R=r) for ekf in (fast, slow)]
         assert nis[0] == pytest.approx(nis[1], rel=1e-10), k
@@ -120,6 +121,19 @@ def test_predict_is_a_random_walk_of_the_parameters():
     np.testing.assert_allclose(ekf.P, before + np.diag(q) * 0.25, rtol=1e-15, atol=0)
     ekf.predict(0.0)
     np.testing.assert_allclose(ekf.P, before + np.diag(q) * 0.25, rtol=1e-15, atol=0)
+
+
+def test_a_change_measuring_nothing_changes_nothing():
+    """The kernel returns NaN and 'finite' for an all-NaN change, ``x`` and ``P`` untouched."""
+    ekf = SlipEkf(SlipEkfConfig(), TRACK_WIDTH)
+    x, p = ekf.x, ekf.P
+    samples = _samples(4, np.random.default_rng(0))
+    nis, finite = _slip_kernels.slip_update(
+        x, p, np.full(3, NAN), np.ones(3), samples, -1, ekf._model, np.zeros(2), 3, True
+    )
+    assert math.isnan(nis) and finite is True
+    np.testing.assert_array_equal(x, ekf.x)
+    np.testing.assert_array_equal(p, ekf.P)
 
 
 def test_a_chord_without_samples_is_not_fused():
