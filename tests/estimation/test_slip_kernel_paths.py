@@ -136,6 +136,27 @@ def test_a_change_measuring_nothing_changes_nothing():
     np.testing.assert_array_equal(p, ekf.P)
 
 
+def test_an_update_whose_covariance_alone_overflows_is_not_finite():
+    """``finite`` is False where ``P`` overflows though ``x`` stays finite.
+
+    Without the lateral acceleration, ``l1`` and ``l3`` are unobserved (zero
+    Jacobian columns, zero gain): their huge covariance is kept, and its mean
+    with its transpose overflows.
+    """
+    config = SlipEkfConfig(lateral_acceleration=False)
+    ekf = SlipEkf(config, TRACK_WIDTH)
+    x, p = ekf.x, np.eye(7)
+    p[0, 2] = p[2, 0] = 1e308
+    samples = _samples(4, np.random.default_rng(0))
+    z = np.array([0.3, 0.01, 0.05])
+    with np.errstate(all="ignore"):  # as compiled: inf, no warning
+        _, finite = _slip_kernels.slip_update(
+            x, p, z, np.full(3, 1e-4), samples, -1, ekf._model, np.zeros(2), 1, False
+        )
+    assert np.all(np.isfinite(x)) and not np.all(np.isfinite(p))
+    assert finite is False
+
+
 def test_a_chord_without_samples_is_not_fused():
     """A chord of no samples has no direction: the update fails rather than fusing anything."""
     ekf = SlipEkf(SlipEkfConfig(), TRACK_WIDTH)
