@@ -58,10 +58,8 @@ STEPS = [  # (what, offset of z from the predicted measurement: x, y, yaw; in m 
 def _filters(alpha: bool, bias: bool, gate: PoseGate) -> tuple[IcrEkf, FilterpyIcrEkf]:
     config = dataclasses.replace(EkfConfig(), estimate_alpha=alpha, gate=gate)
     heading_bias = HeadingBias(sigma=0.2, tau=25.0) if bias else None
-    return tuple(  # type: ignore[return-value]
-        cls(config, mounting=MOUNTING, heading_bias=heading_bias)
-        for cls in (IcrEkf, FilterpyIcrEkf)
-    )
+    fast = IcrEkf(config, mounting=MOUNTING, heading_bias=heading_bias)
+    return fast, FilterpyIcrEkf(config, mounting=MOUNTING, heading_bias=heading_bias)
 
 
 def _predicted(ekf: IcrEkf) -> np.ndarray:
