@@ -1,8 +1,9 @@
 """The ICR EKF's kernels equal the filterpy reference on every path of an update.
 
 Mutation testing of the kernels (docs/testing.md) found branches the kernel
-tests never take: they drive alpha estimated, no heading bias, and a gate
-that seldom fires. These scripted steps take each branch (alpha on and off,
+tests never take: they run without a heading bias, with headings not gated,
+positions seldom rejected and alpha off only where every row has a position.
+These scripted steps take each branch (alpha on and off,
 a heading bias on and off; a position or a heading rejected alone or both
 at once, re-acquired after rejections in a row or after seconds of them,
 with and without the pose variances grown; heading-only, position-only,
