@@ -6,8 +6,10 @@ or three iterations, ICRs inside their limits). Mutation testing
 Gauss-Newton iteration, no noise inflation, parameters that put every ICR
 and alpha beyond its limit (clipped in the estimate and the dead
 reckoning), measurements of one or two components, headings to be
-wrapped, chords with and without alpha; and for the guards: a chord without
-samples fails instead of being fused as a pose change.
+wrapped, chords with and without alpha. And what the reference cannot
+check: the random walk of ``predict`` (which it shares), a change measuring
+nothing, a covariance that alone overflows, a chord without samples (it
+fails instead of being fused as a pose change).
 """
 
 from __future__ import annotations
