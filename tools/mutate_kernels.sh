@@ -40,7 +40,7 @@ awk '/^\[/ { skip = ($0 == "[tool.mutmut]") } !skip' pyproject.toml > "$scratch/
 { echo; cat tools/mutmut_kernels.toml; } >> "$scratch/pyproject.toml"  # as committed
 mv "$scratch/pyproject.toml" pyproject.toml
 
-NUMBA_DISABLE_JIT=1 OPENCV_FOR_THREADS_NUM=1 mutmut run --max-children 1 "$@"
+NUMBA_DISABLE_JIT=1 OPENCV_FOR_THREADS_NUM=1 OMP_NUM_THREADS=1 mutmut run --max-children 1 "$@"
 survivors=$(mutmut results | grep -v ': not checked$' || true)  # survivors, timeouts, by name
 echo "$survivors"
 for name in $(echo "$survivors" | sed -n 's/^ *\([^ :]*\): survived$/\1/p'); do
