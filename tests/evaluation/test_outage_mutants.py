@@ -15,6 +15,7 @@ from terrain_odom.evaluation import (
     is_sparse,
     model_twist,
     outage_errors,
+    outage_spacing,
     outage_starts,
     outage_table,
     outage_windows,
@@ -114,3 +115,13 @@ def test_sparse_at_its_thresholds():
     # full poses every 0.15 s exactly are sparse (the bound), every 0.125 s are not
     assert is_sparse(_poses(np.arange(3) * 0.15, np.ones(3, bool)))
     assert not is_sparse(_poses(np.arange(3) * 0.125, np.ones(3, bool)))
+
+
+def test_a_long_log_spaces_its_windows_over_the_fixes_time_in_each_segment():
+    """Two 30-min segments 30 min apart: 3600 s of fixes over 120 windows, the gap not counted."""
+    t = np.r_[np.arange(0.0, 1800.5, 0.5), np.arange(3600.0, 5400.5, 0.5)]
+    pose = np.c_[t, 0 * t, np.full(t.size, np.nan)]
+    log = WheelLog(t, np.ones(t.size), np.ones(t.size), pose, None, (t > 2000.0).astype(int))
+    assert outage_spacing(log) == pytest.approx(3600.0 / 120)
+    assert outage_spacing(log.take(t <= 600.0)) == 10.0  # shorter: the default spacing
+    assert outage_spacing(log, every=40.0) == 40.0  # wider than the log's share: kept
