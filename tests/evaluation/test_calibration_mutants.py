@@ -1,0 +1,77 @@
+"""Self-calibration's estimates when the log cannot give them: NaN, not observable, and why.
+
+Written for the survivors of a mutation run (docs/testing.md). Two minutes
+of ideal differential drive (speeds changing every 0.5 s) with a GPS and
+an IMU injected by :func:`~terrain_odom.sim.degrade.degrade_log`, noise-free.
+"""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from terrain_odom.evaluation.calibration import CalibrationLimits, Estimate, LeverArm, fit_sensors
+from terrain_odom.evaluation.mounting import MountingFit, mounting_findings
+from terrain_odom.records import WheelLog
+from terrain_odom.sim.degrade import Degradation, degrade_log
+from terrain_odom.sim.model_log import constant_model_log
+
+QUIET = {"gps_noise": 0.0, "gps_walk": 0.0, "heading_wander": 0.0, "heading_noise": 0.0}
+
+
+@pytest.fixture(scope="module")
+def clean() -> WheelLog:
+    return constant_model_log("idd", [], seconds=120.0, track_width=1.0, noise=(0.0, 0.0, 0.0))
+
+
+def _unknown(est: Estimate, how: str) -> None:
+    assert math.isnan(est.value) and math.isnan(est.std)
+    assert est.observable is False
+    assert est.how == how
+
+
+def test_a_delay_at_the_edge_of_the_search_is_not_observable(clean):
+    log = degrade_log(clean, Degradation(latency=0.4, seed=0, **QUIET)).log
+    fit = fit_sensors(log, 1.0, limits=CalibrationLimits(max_delay=0.2))
+    _unknown(
+        fit.position_delay,
+        "the best position delay lies at the edge of +-0.2 s: drive with starts, stops and "
+        "turns, or give the delay in seconds",
+    )
+
+
+def test_without_headings_the_heading_estimates_say_so(clean):
+    log = degrade_log(clean, Degradation(imu_rate=0.0, latency=0.4, seed=0, **QUIET)).log
+    fit = fit_sensors(log, 1.0)
+    for est in (fit.heading_offset, fit.heading_noise, fit.heading_wander):
+        _unknown(est, "the log has no headings")
+
+
+def test_too_few_windows_leave_every_estimate_unknown(clean):
+    log = degrade_log(clean.take(slice(0, 600)), Degradation(seed=0, **QUIET)).log  # 30 s
+    fit = fit_sensors(log, 1.0)
+    assert fit.windows == 3
+    why = (
+        "only 3 windows of 10 s with 5 positions over 5 s or more (at least 8; runs of the log "
+        "shorter than that count none): record longer with positions while driving"
+    )
+    for name in ("position_delay", "heading_offset", "antenna_x", "antenna_y",
+                 "position_noise", "heading_noise", "heading_wander"):  # fmt: skip
+        _unknown(getattr(fit, name), why)
+
+
+def test_the_heading_offset_calibrate_leaves_is_reported_in_full():
+    fit = MountingFit(
+        float("nan"), float("nan"), 0, LeverArm(0.0, 0.0, 0.01, 0.01, 1.0),
+        windowed=Estimate(math.radians(10.0), math.radians(0.5), True, "windows"),
+    )  # fmt: skip
+    assert mounting_findings(fit, 1.0) == [
+        (
+            "heading_offset",
+            "the measured heading is +10.0 deg (+-0.5) off the robot's against the wheel path "
+            "in windows of positions: a heading sensor mounted turned, or magnetic declination; "
+            "add it to pose_sensor.heading_offset (radians), or set auto (terrain-odom "
+            "calibrate finds it)",
+        )
+    ]
