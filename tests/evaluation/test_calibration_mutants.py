@@ -7,6 +7,7 @@ an IMU injected by :func:`~terrain_odom.sim.degrade.degrade_log`, noise-free.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import pytest
@@ -59,6 +60,20 @@ def test_too_few_windows_leave_every_estimate_unknown(clean):
     for name in ("position_delay", "heading_offset", "antenna_x", "antenna_y",
                  "position_noise", "heading_noise", "heading_wander"):  # fmt: skip
         _unknown(getattr(fit, name), why)
+
+
+def test_windows_that_hardly_move_give_no_heading_offset(clean):
+    """The same run 50 times smaller (track width 2 cm): every window's path spans < 0.5 m."""
+    small = dataclasses.replace(
+        clean, v_l=clean.v_l / 50, v_r=clean.v_r / 50, pose=clean.pose * [0.02, 0.02, 1.0]
+    )
+    fit = fit_sensors(degrade_log(small, Degradation(seed=0, **QUIET)).log, 0.02)
+    assert fit.windows >= 8
+    _unknown(
+        fit.heading_offset,
+        "fewer than 8 windows of 10 s moving 0.5 m: drive further with positions and headings",
+    )
+    _unknown(fit.heading_wander, "too few moving windows")
 
 
 def test_the_heading_offset_calibrate_leaves_is_reported_in_full():

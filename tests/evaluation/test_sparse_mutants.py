@@ -6,9 +6,14 @@ states a property with a known answer.
 
 from __future__ import annotations
 
+import dataclasses
+import math
+
 import numpy as np
 import pytest
 
+from terrain_odom.config import Config
+from terrain_odom.errors import ConfigError
 from terrain_odom.evaluation import (
     Windows,
     heading_at,
@@ -19,7 +24,7 @@ from terrain_odom.evaluation import (
     spatial_windows,
     window_errors,
 )
-from terrain_odom.evaluation.sparse import anchored_window_errors
+from terrain_odom.evaluation.sparse import anchored_window_errors, antenna_of
 from terrain_odom.kinematics import get_model, integrate, twist_icr
 from terrain_odom.records import WheelLog
 
@@ -156,3 +161,17 @@ def test_a_window_without_turn_predicts_a_heading_change_of_plus_zero():
     for anchor in ("position", "heading"):
         turn = sparse_window_errors(log, w, minus_zero_turn, anchor=anchor).predicted[:, 2]
         assert turn.tolist() == [0.0, 0.0] and not np.signbit(turn).any()
+
+
+@pytest.mark.parametrize(("name", "value"), [("antenna_x", "auto"), ("antenna_y", math.nan)])
+def test_a_lever_arm_that_is_no_number_yet_is_refused_by_name(name, value):
+    config = Config()
+    config = dataclasses.replace(
+        config, pose_sensor=dataclasses.replace(config.pose_sensor, **{name: value})
+    )
+    with pytest.raises(ConfigError) as err:
+        antenna_of(config)
+    assert str(err.value) == (
+        f"pose_sensor.{name} is {value!r}: scoring needs the lever arm in metres (a run's "
+        "config.yaml has the value it used)"
+    )
