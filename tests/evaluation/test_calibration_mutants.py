@@ -76,6 +76,22 @@ def test_windows_that_hardly_move_give_no_heading_offset(clean):
     _unknown(fit.heading_wander, "too few moving windows")
 
 
+def test_white_heading_noise_is_measured_within_3_percent(clean):
+    """6,000 heading increments at 50 Hz: the robust estimate's own error is ~1.3 %."""
+    d = Degradation(seed=0, **{**QUIET, "heading_noise": 0.01})
+    est = fit_sensors(degrade_log(clean, d).log, 1.0).heading_noise
+    assert est.observable and est.value == pytest.approx(0.01, rel=0.03)
+    assert est.std == pytest.approx(est.value / math.sqrt(5994), rel=1e-9)
+    assert est.how == "robust std of 5994 consecutive heading increments about the wheels' turn"
+
+
+def test_a_few_headings_give_an_offset_but_no_heading_noise(clean):
+    log = degrade_log(clean, Degradation(imu_rate=0.1, seed=0, **QUIET)).log  # 12 headings
+    fit = fit_sensors(log, 1.0)
+    assert fit.heading_offset.observable
+    _unknown(fit.heading_noise, "fewer than 20 heading increments")
+
+
 def test_the_heading_offset_calibrate_leaves_is_reported_in_full():
     fit = MountingFit(
         float("nan"), float("nan"), 0, LeverArm(0.0, 0.0, 0.01, 0.01, 1.0),
