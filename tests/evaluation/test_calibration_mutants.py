@@ -10,10 +10,19 @@ from __future__ import annotations
 import dataclasses
 import math
 
+import numpy as np
 import pytest
 
-from terrain_odom.evaluation.calibration import CalibrationLimits, Estimate, LeverArm, fit_sensors
+from terrain_odom.evaluation.calibration import (
+    CalibrationLimits,
+    Estimate,
+    LeverArm,
+    _heading_wander,
+    fit_sensors,
+)
 from terrain_odom.evaluation.mounting import MountingFit, mounting_findings
+from terrain_odom.evaluation.robust import MAD_TO_STD, correlation_time
+from terrain_odom.evaluation.wheel_path import Fixes, WindowFit
 from terrain_odom.records import WheelLog
 from terrain_odom.sim.degrade import Degradation, degrade_log
 from terrain_odom.sim.model_log import constant_model_log
@@ -106,3 +115,30 @@ def test_the_heading_offset_calibrate_leaves_is_reported_in_full():
             "calibrate finds it)",
         )
     ]
+
+
+def _eight_windows(cost: float) -> tuple[WindowFit, np.ndarray, Fixes]:
+    """Eight windows of five fixes; the three lowest offsets weigh ten times more."""
+    window = np.repeat(np.arange(8), 5)
+    fixes = Fixes(np.arange(40.0), np.zeros(40, complex), window)
+    info = np.array([100.0, 100.0, 100.0, 10.0, 10.0, 10.0, 10.0, 10.0])
+    fit = WindowFit(cost, np.zeros(40, complex), np.ones(8, complex), info, 0j, np.eye(2), 1.0)
+    offsets = np.array([-0.03, -0.02, -0.01, 0.0, 0.0, 0.01, 0.02, 0.03])
+    return fit, offsets, fixes
+
+
+def test_heading_wander_is_the_spread_about_the_weighted_median_beyond_the_fits_own():
+    """Check the wander by hand.
+
+    2 * 40 - 4 * 8 - 2 = 46 degrees of freedom (two per fix, four per window, two for the
+    lever arm); the weighted median is -0.02, the median distance from it 0.02.
+    """
+    fit, offsets, fixes = _eight_windows(cost=46 * 2e-5)
+    est = _heading_wander(fit, offsets, fixes, CalibrationLimits())
+    own = 2e-5 / 10.0  # the median window's variance: cost / dof / its information
+    assert est.value == pytest.approx(math.sqrt((MAD_TO_STD * 0.02) ** 2 - own), rel=1e-9)
+    dev = offsets + 0.02
+    assert est.std == pytest.approx(
+        est.value / math.sqrt(2.0 * max(8 / correlation_time(dev), 1.0)), rel=1e-9
+    )
+    assert est.how == "spread of the heading offset over 8 windows beyond their own error"
