@@ -17,6 +17,7 @@ from terrain_odom.evaluation.calibration import (
     CalibrationLimits,
     Estimate,
     LeverArm,
+    _heading_offset,
     _heading_wander,
     fit_sensors,
 )
@@ -142,3 +143,17 @@ def test_heading_wander_is_the_spread_about_the_weighted_median_beyond_the_fits_
         est.value / math.sqrt(2.0 * max(8 / correlation_time(dev), 1.0)), rel=1e-9
     )
     assert est.how == "spread of the heading offset over 8 windows beyond their own error"
+
+
+def test_heading_offset_is_the_weighted_circular_median_of_the_moving_windows():
+    """By hand, the last window exactly at the least extent (1.25 m^2 over 5 fixes = 0.5^2)."""
+    fit, offsets, fixes = _eight_windows(cost=1.0)
+    fit = dataclasses.replace(fit, info=np.r_[fit.info[:7], 1.25])
+    est = _heading_offset(fit, offsets, fixes, CalibrationLimits())
+    assert est.value == pytest.approx(-0.02, abs=1e-12)
+    dev = offsets + 0.02  # median distance 0.02
+    spread = MAD_TO_STD * 0.02
+    assert est.std == pytest.approx(spread * math.sqrt(correlation_time(dev) / 8), rel=1e-9)
+    assert est.how == "circular median of measured heading minus the wheel path's over 8 windows"
+    below = dataclasses.replace(fit, info=np.r_[fit.info[:7], 1.2499])
+    assert not _heading_offset(below, offsets, fixes, CalibrationLimits()).observable
