@@ -16,12 +16,10 @@ import pytest
 from terrain_odom.evaluation.calibration import (
     CalibrationLimits,
     Estimate,
-    LeverArm,
     _heading_offset,
     _heading_wander,
     fit_sensors,
 )
-from terrain_odom.evaluation.mounting import MountingFit, mounting_findings
 from terrain_odom.evaluation.robust import MAD_TO_STD, correlation_time
 from terrain_odom.evaluation.wheel_path import Fixes, WindowFit
 from terrain_odom.records import WheelLog
@@ -100,22 +98,6 @@ def test_a_few_headings_give_an_offset_but_no_heading_noise(clean):
     fit = fit_sensors(log, 1.0)
     assert fit.heading_offset.observable
     _unknown(fit.heading_noise, "fewer than 20 heading increments")
-
-
-def test_the_heading_offset_calibrate_leaves_is_reported_in_full():
-    fit = MountingFit(
-        float("nan"), float("nan"), 0, LeverArm(0.0, 0.0, 0.01, 0.01, 1.0),
-        windowed=Estimate(math.radians(10.0), math.radians(0.5), True, "windows"),
-    )  # fmt: skip
-    assert mounting_findings(fit, 1.0) == [
-        (
-            "heading_offset",
-            "the measured heading is +10.0 deg (+-0.5) off the robot's against the wheel path "
-            "in windows of positions: a heading sensor mounted turned, or magnetic declination; "
-            "add it to pose_sensor.heading_offset (radians), or set auto (terrain-odom "
-            "calibrate finds it)",
-        )
-    ]
 
 
 def _eight_windows(cost: float) -> tuple[WindowFit, np.ndarray, Fixes]:

@@ -1,0 +1,106 @@
+"""The mounting findings at their thresholds and in full (written for mutation survivors).
+
+A finding is reported beyond ``heading_offset`` (5 deg) and 3.76 standard
+errors; the chords' offset only with ``min_judged`` (20) straight chords and
+only where calibrate's own fit (``windowed``) is not given.
+"""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from terrain_odom.evaluation.calibration import Estimate, LeverArm
+from terrain_odom.evaluation.mounting import MountingFit, mounting_findings
+
+NO_LEVER = LeverArm(0.0, 0.0, 0.01, 0.01, 1.0)
+
+
+def _chords(offset_deg: float, spread_deg: float, n: int, correlation: float = 1.0) -> MountingFit:
+    return MountingFit(
+        math.radians(offset_deg), math.radians(spread_deg), n, NO_LEVER, (0.0, 0.0), correlation
+    )
+
+
+def test_the_chords_offset_is_reported_in_full():
+    assert mounting_findings(_chords(8.0, 5.0, 20), 0.5) == [
+        (
+            "heading_offset",
+            "the measured heading is +8.0 deg off the course of the positions on 20 straight "
+            "stretches (spread 5.0 deg): a heading sensor mounted turned, or magnetic "
+            "declination; set pose_sensor.heading_offset (radians, or auto)",
+        )
+    ]
+
+
+def test_the_chords_offset_needs_min_judged_chords():
+    assert mounting_findings(_chords(8.0, 5.0, 19), 0.5) == []
+    assert mounting_findings(_chords(8.0, 5.0, 0), 0.5) == []
+
+
+def test_the_offset_must_exceed_5_deg():
+    assert mounting_findings(_chords(5.0, 0.1, 100), 0.5) == []  # exactly the limit
+    assert len(mounting_findings(_chords(5.001, 0.1, 100), 0.5)) == 1
+    assert len(mounting_findings(_chords(-5.001, 0.1, 100), 0.5)) == 1
+
+
+@pytest.mark.parametrize("correlation", [1.0, 4.0])
+def test_the_offset_must_exceed_3_76_standard_errors_of_correlated_chords(correlation):
+    """The standard error is spread sqrt(correlation / n): 100 chords, 8 deg, at 3.76 of them."""
+    spread = 8.0 / 3.76 * math.sqrt(100 / correlation)
+    assert mounting_findings(_chords(8.0, spread * 1.001, 100, correlation), 0.5) == []
+    assert len(mounting_findings(_chords(8.0, spread * 0.999, 100, correlation), 0.5)) == 1
+
+
+def _windowed(offset_deg: float, std_deg: float, chords_deg: float = 20.0) -> MountingFit:
+    est = Estimate(math.radians(offset_deg), math.radians(std_deg), True, "windows")
+    return MountingFit(
+        math.radians(chords_deg), math.radians(1.0), 100, NO_LEVER, (0.0, 0.0), 1.0, est
+    )
+
+
+def test_calibrates_own_offset_replaces_the_chords():
+    # the chords say 20 deg, calibrate's fit 1 deg: nothing to report
+    assert mounting_findings(_windowed(1.0, 0.1), 0.5) == []
+    assert mounting_findings(_windowed(5.0, 0.1), 0.5) == []  # exactly the limit
+    assert mounting_findings(_windowed(-8.0, 8.0 / 3.76 * 1.001), 0.5) == []
+    ((check, message),) = mounting_findings(_windowed(-8.0, 8.0 / 3.76 * 0.999), 0.5)
+    assert check == "heading_offset" and message.startswith("the measured heading is -8.0 deg")
+
+
+def test_the_heading_offset_calibrate_leaves_is_reported_in_full():
+    assert mounting_findings(_windowed(10.0, 0.5, chords_deg=0.0), 1.0) == [
+        (
+            "heading_offset",
+            "the measured heading is +10.0 deg (+-0.5) off the robot's against the wheel path "
+            "in windows of positions: a heading sensor mounted turned, or magnetic declination; "
+            "add it to pose_sensor.heading_offset (radians), or set auto (terrain-odom "
+            "calibrate finds it)",
+        )
+    ]
+
+
+def _lever(x: float, y: float, std: float, antenna=(0.0, 0.0)) -> MountingFit:
+    return MountingFit(0.0, 0.01, 100, LeverArm(x, y, std, std, 0.5), antenna, 1.0)
+
+
+def test_a_lever_arm_left_is_reported_in_full_for_each_axis():
+    assert mounting_findings(_lever(0.0, 0.6, 0.05), 0.5) == [
+        (
+            "lever_arm",
+            "in turns the positions swing as from an antenna at y = +0.60 m (+-0.05) from the "
+            "point that does not slide sideways, +0.60 m from pose_sensor.antenna_y +0.00: set "
+            "it to +0.60, or to auto (terrain-odom calibrate finds it)",
+        )
+    ]
+    assert mounting_findings(_lever(-0.6, 0.0, 0.2, antenna=(-5.0, 0.0)), 0.5) == [
+        (
+            "lever_arm",
+            "in turns the positions swing as from an antenna at x = -0.60 m (+-0.20) from the "
+            "point that does not slide sideways, +4.40 m from pose_sensor.antenna_x -5.00: "
+            "measure the antenna (the log cannot tell it from 0), or set 0",
+        )
+    ]
+    both = mounting_findings(_lever(0.5, -0.5, 0.05), 0.5)
+    assert [m.split(" m (")[0][-9:] for _, m in both] == ["x = +0.50", "y = -0.50"]
