@@ -9,10 +9,11 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 
 from terrain_odom.evaluation.calibration import Estimate, LeverArm
-from terrain_odom.evaluation.mounting import MountingFit, mounting_findings
+from terrain_odom.evaluation.mounting import MountingFit, _heading_at, mounting_findings
 
 NO_LEVER = LeverArm(0.0, 0.0, 0.01, 0.01, 1.0)
 
@@ -104,3 +105,20 @@ def test_a_lever_arm_left_is_reported_in_full_for_each_axis():
     ]
     both = mounting_findings(_lever(0.5, -0.5, 0.05), 0.5)
     assert [m.split(" m (")[0][-9:] for _, m in both] == ["x = +0.50", "y = -0.50"]
+
+
+def test_headings_at_times_interpolate_unwrapped_within_the_gap():
+    t = np.array([0.0, 1.0, 2.0, 3.0])
+    yaw = np.array([3.0, np.nan, -3.0, -2.9])  # through +-pi; row 1 has no heading
+    at = np.array([-0.5, -0.75, 1.0, 1.5, 3.5, 3.75])
+    got = _heading_at(t, yaw, at, 0.5)
+    turn = 2 * np.pi - 6.0  # from 3.0 to -3.0 the short way, over 2 s
+    np.testing.assert_allclose(
+        got, [3.0, np.nan, np.nan, 3.0 + 0.75 * turn, 3.0 + turn + 0.1, np.nan],
+        atol=1e-12,
+    )  # fmt: skip
+    # the gap is measured to the nearer heading, before or after (both 1 s from 1.0 s)
+    assert _heading_at(t, yaw, np.array([1.0]), 1.0)[0] == pytest.approx(3.0 + turn / 2)
+    assert np.isnan(_heading_at(t, yaw, np.array([1.0]), 0.9)[0])
+    assert np.isnan(_heading_at(t, np.full(4, np.nan), np.array([0.0, 1.0]), 0.5)).all()
+    assert _heading_at(t, np.full(4, np.nan), np.array([0.0, 1.0]), 0.5).dtype == float
