@@ -13,6 +13,8 @@ import pytest
 
 from terrain_odom.evaluation.wheel_path import (
     Fixes,
+    Track,
+    fit_windows,
     ideal_yaw,
     run_time,
     wheel_track,
@@ -68,3 +70,39 @@ def test_without_positions_or_turns_the_scale_is_what_the_search_cannot_move():
     got = yaw_scale_from_positions(log, time, 1.0, fixes, (0.3, 1.5))
     assert 0.3 <= got <= 1.5
     assert np.isclose(got / 0.05, round(got / 0.05), atol=1e-9)  # a grid point, not moved
+
+
+def test_fit_windows_on_a_straight_line_by_hand():
+    """1 m/s along x, fixes at 0..4 s in two windows: info sum (t - 2)^2 = 10, nothing to turn."""
+    t = np.arange(0.0, 20.0, 0.5)
+    track = Track(t, t + 0j, np.zeros(t.size))
+    ft = np.r_[np.arange(5.0), 10.0 + np.arange(5.0)]
+    fixes = Fixes(ft, ft + 3.0 + 1j, np.repeat([0, 1], 5))  # shifted by (3, 1): T absorbs it
+    fit = fit_windows(track, fixes, 0.0, lever=True)
+    np.testing.assert_allclose(fit.info, [10.0, 10.0], atol=1e-12)
+    np.testing.assert_allclose(fit.c, [1.0, 1.0], atol=1e-12)
+    np.testing.assert_allclose(fit.residual, np.zeros(10), atol=1e-12)
+    assert fit.residual.shape == (10,) and fit.cost == pytest.approx(0.0, abs=1e-20)
+    # a straight line turns nowhere: no information on the lever arm, none of the turning kept
+    assert fit.u_kept == 0.0 and fit.a == 0j
+    np.testing.assert_array_equal(fit.a_info, np.zeros((2, 2)))
+
+
+def test_fit_windows_at_the_positions_own_delay_fits_exactly():
+    """Positions drawn at wheel time t - 0.3 s: exact at delay 0.3, not at 0."""
+    t = np.arange(6000) * 0.01
+    psi = 0.8 * np.sin(0.5 * t) + 0.3 * np.sin(1.7 * t)
+    q = np.r_[0.0, np.cumsum(np.exp(1j * 0.5 * (psi[1:] + psi[:-1])) * np.diff(t))]
+    track = Track(t, q, psi)
+    rows = np.arange(100, t.size, 20)
+    fixes = Fixes(t[rows] + 0.3, q[rows] * np.exp(0.4j), (t[rows] // 10.0).astype(int))
+    at = fit_windows(track, fixes, 0.3, lever=True)
+    assert at.cost < 1e-12 and at.a == pytest.approx(0j, abs=1e-6)
+    np.testing.assert_allclose(at.c, np.exp(0.4j), atol=1e-9)
+    assert fit_windows(track, fixes, 0.0, lever=True).cost > 1e6 * max(at.cost, 1e-20)
+    # the information matrix of (a_x, a_y) is |u|^2 times the identity (the design's columns
+    # are orthogonal and as long), and a share of the turning is kept
+    info = at.a_info
+    assert info[0, 1] == pytest.approx(0.0, abs=1e-9) and info[1, 0] == pytest.approx(0.0, abs=1e-9)
+    assert info[0, 0] == pytest.approx(info[1, 1], rel=1e-12) and info[0, 0] > 0.0
+    assert 0.0 < at.u_kept < 1.0
