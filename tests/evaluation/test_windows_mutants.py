@@ -5,7 +5,17 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from terrain_odom.evaluation import log_anchor, prediction_windows, time_windows, wheel_path
+from terrain_odom.evaluation import (
+    Windows,
+    anchor_mask,
+    log_anchor,
+    non_overlapping,
+    padded_steps,
+    prediction_windows,
+    spatial_windows,
+    time_windows,
+    wheel_path,
+)
 from terrain_odom.records import WheelLog
 
 
@@ -85,3 +95,53 @@ def test_prediction_windows_of_a_single_pose_and_of_no_horizon():
     assert len(prediction_windows(_poses_at(np.zeros(1), np.zeros(1, int)), 1.0)) == 0
     with pytest.raises(ValueError, match="prediction horizon must be > 0 s, got 0.0"):
         prediction_windows(_poses_at(np.arange(3.0), np.zeros(3, int)), 0.0)
+
+
+def test_non_overlapping_chains_windows_end_to_start():
+    w = Windows(np.array([0, 1, 2, 3, 4]), np.array([2, 3, 4, 6, 6]), np.arange(1.0, 6.0))
+    kept = non_overlapping(w)
+    assert kept.start.tolist() == [0, 2, 4] and kept.end.tolist() == [2, 4, 6]
+    assert kept.length.tolist() == [1.0, 3.0, 5.0]
+    none = Windows(np.zeros(0, int), np.zeros(0, int), np.zeros(0))
+    assert len(non_overlapping(none)) == 0
+
+
+def test_padded_steps_by_hand():
+    t = np.array([0.0, 1.0, 3.0, 6.0, 10.0])
+    log = WheelLog(t, np.ones(5), np.ones(5), np.zeros((5, 3)), None, np.zeros(5, int))
+    w = Windows(np.array([0, 1]), np.array([2, 4]), np.ones(2))
+    rows, valid, dt = padded_steps(log, w, np.array([0, 1]))
+    assert rows.tolist() == [[0, 1, 1], [1, 2, 3]]  # padding repeats the last real row
+    assert valid.tolist() == [[True, True, False], [True, True, True]]
+    assert dt.tolist() == [[1.0, 2.0, 0.0], [2.0, 3.0, 4.0]]
+    rows, valid, dt = padded_steps(log, w, np.array([1]))
+    assert rows.tolist() == [[1, 2, 3]] and dt.tolist() == [[2.0, 3.0, 4.0]]
+
+
+def test_anchor_mask_of_each_anchor_and_a_wrong_one():
+    pose = np.array([[0.0, 0.0, np.nan], [np.nan, np.nan, 0.1], [1.0, 0.0, 0.2]])
+    log = WheelLog(np.arange(3.0), np.ones(3), np.ones(3), pose, None, np.zeros(3, int))
+    assert anchor_mask(log, "pose").tolist() == [False, False, True]
+    assert anchor_mask(log, "position").tolist() == [True, False, True]
+    assert anchor_mask(log, "heading").tolist() == [False, True, True]
+    with pytest.raises(ValueError) as err:
+        anchor_mask(log, "gps")
+    assert (
+        str(err.value) == "window anchor must be one of ('pose', 'position', 'heading'), got 'gps'"
+    )
+
+
+def test_spatial_windows_need_a_horizon_of_a_millimetre():
+    log = _half_speed_poses()
+    assert len(spatial_windows(log, 1e-3)) == 8  # MIN_HORIZON itself: the next pose
+    for bad in (5e-4, 0.0, float("nan")):
+        with pytest.raises(ValueError) as err:
+            spatial_windows(log, bad)
+        assert str(err.value) == f"window horizon must be >= 0.001 m, got {bad}"
+
+
+def test_spatial_windows_by_default_are_2_m_between_poses():
+    w = spatial_windows(_half_speed_poses())  # poses 0.5 m apart
+    assert (w.end - w.start).tolist() == [4] * 5 and w.length.tolist() == [2.0] * 5
+    by_wheels = spatial_windows(_half_speed_poses(), anchor="position")  # the wheels: 1 m/s
+    assert (by_wheels.end - by_wheels.start).tolist() == [2] * 7
