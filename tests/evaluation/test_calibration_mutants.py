@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 
 import numpy as np
 import pytest
@@ -48,6 +49,9 @@ def test_a_delay_at_the_edge_of_the_search_is_not_observable(clean):
         "the best position delay lies at the edge of +-0.2 s: drive with starts, stops and "
         "turns, or give the delay in seconds",
     )
+    # a lever arm at an untimed delay can be anything
+    assert fit.lever.std_x == fit.lever.std_y == math.inf
+    assert not fit.antenna_x.observable and not fit.antenna_y.observable
 
 
 def test_without_headings_the_heading_estimates_say_so(clean):
@@ -139,3 +143,73 @@ def test_heading_offset_is_the_weighted_circular_median_of_the_moving_windows():
     assert est.how == "circular median of measured heading minus the wheel path's over 8 windows"
     below = dataclasses.replace(fit, info=np.r_[fit.info[:7], 1.2499])
     assert not _heading_offset(below, offsets, fixes, CalibrationLimits()).observable
+
+
+@pytest.fixture(scope="module")
+def mounted(clean) -> WheelLog:
+    """Return the run read by a GPS 0.4 s late, antenna at (-0.8, 0.3) m, an IMU turned 3 rad."""
+    d = Degradation(latency=0.4, antenna=(-0.8, 0.3), heading_offset=3.0, seed=0, **QUIET)
+    return degrade_log(clean, d).log
+
+
+def test_a_given_delay_is_taken_as_exact(mounted):
+    given = fit_sensors(mounted, 1.0, position_delay=0.4)
+    assert given.position_delay == Estimate(0.4, 0.0, True, "given")
+    fitted = fit_sensors(mounted, 1.0)
+    assert fitted.position_delay.value == pytest.approx(0.4, abs=0.01)
+    assert re.fullmatch(
+        r"least squares of \d+ positions against the wheel path, delays \+-1.5 s",
+        fitted.position_delay.how,
+    )
+    # the estimated delay's error adds to the lever arm's; a given one adds none
+    assert fitted.lever.std_x > 1.1 * given.lever.std_x
+    assert given.antenna_x.std == given.lever.std_x
+
+
+def test_a_delay_too_uncertain_keeps_its_value_and_standard_error(mounted):
+    fit = fit_sensors(mounted, 1.0, limits=CalibrationLimits(max_delay_std=1e-6))
+    delay = fit.position_delay
+    assert delay.value == pytest.approx(0.4, abs=0.01) and 1e-6 < delay.std < 0.01
+    assert delay.observable is False
+    assert delay.how == (
+        "too little change of speed and heading against the position noise to time the "
+        "positions (standard error 0.00 s > 1e-06 s): drive with starts, stops and turns, or "
+        "give the delay in seconds"
+    )
+    assert math.isfinite(fit.lever.std_x)  # the lever arm's error includes it
+
+
+def test_a_coarse_lever_arm_is_applied_only_where_significant(mounted):
+    fit = fit_sensors(mounted, 1.0, limits=CalibrationLimits(max_antenna_std=1e-5))
+    what = "(from the point that does not slide sideways: only antenna - x_icr is observable)"
+    x, y = fit.antenna_x, fit.antenna_y
+    assert x.observable and x.value == pytest.approx(-0.8, abs=0.02)  # beyond B / 2 = 0.5 m
+    assert x.how == (
+        "coarse (standard error > 1e-05 m), applied as it is significant: least squares of "
+        f"positions against the wheel path {what}; measure the antenna for better"
+    )
+    assert not y.observable and math.isnan(y.value) and math.isnan(y.std)  # 0.3 m: within
+    assert re.fullmatch(
+        r"standard error of antenna_y 0\.00 m > 1e-05 m and least squares gives \+0\.30 m, "
+        r"within the noise or a robot's own x_icr \(\d+ % of the turning is neither straight "
+        r"driving nor steady arcs\): drive longer, with S-bends and turns of changing "
+        r"sharpness, or measure the antenna",
+        y.how,
+    )
+    calibrated = fit_sensors(mounted, 1.0).antenna_y
+    assert calibrated.observable and calibrated.value == pytest.approx(0.3, abs=0.02)
+    assert calibrated.how == (
+        f"least squares of positions against the wheel path in uneven turns {what}"
+    )
+
+
+def test_position_noise_and_its_standard_error(clean):
+    d = Degradation(latency=0.4, seed=0, **{**QUIET, "gps_noise": 0.2})
+    fit = fit_sensors(degrade_log(clean, d).log, 1.0)
+    noise = fit.position_noise
+    assert noise.observable and noise.value == pytest.approx(0.2, rel=0.1)
+    m = re.fullmatch(r"robust std of (\d+) positions about the wheel path \((\d+) windows\)",
+                     noise.how)  # fmt: skip
+    assert m is not None and int(m.group(2)) == fit.windows
+    dof = 2 * int(m.group(1)) - 4 * fit.windows - 2
+    assert noise.std == pytest.approx(noise.value / math.sqrt(2.0 * dof), rel=1e-12)
