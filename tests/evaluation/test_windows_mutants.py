@@ -145,3 +145,13 @@ def test_spatial_windows_by_default_are_2_m_between_poses():
     assert (w.end - w.start).tolist() == [4] * 5 and w.length.tolist() == [2.0] * 5
     by_wheels = spatial_windows(_half_speed_poses(), anchor="position")  # the wheels: 1 m/s
     assert (by_wheels.end - by_wheels.start).tolist() == [2] * 7
+
+
+def test_spatial_windows_measure_only_positions_and_only_within_their_segment():
+    """Poses 0.5 m apart turning 1 rad a row; the second segment starts 100 m away."""
+    x = np.r_[0.5 * np.arange(4), 100.0 + 0.5 * np.arange(4)]
+    pose = np.c_[x, 0 * x, np.angle(np.exp(1j * np.arange(8.0)))]
+    log = WheelLog(np.arange(8.0), np.ones(8), np.ones(8), pose, None, np.repeat([0, 1], 4))
+    w = spatial_windows(log, 1.0)
+    assert w.start.tolist() == [0, 1, 4, 5] and w.end.tolist() == [2, 3, 6, 7]
+    assert w.length.tolist() == [1.0] * 4
