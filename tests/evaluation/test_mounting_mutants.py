@@ -117,6 +117,8 @@ def test_headings_at_times_interpolate_unwrapped_within_the_gap():
         got, [3.0, np.nan, np.nan, 3.0 + 0.75 * turn, 3.0 + turn + 0.1, np.nan],
         atol=1e-12,
     )  # fmt: skip
+    # 0.4 s after a heading and 0.6 s before the next: near enough
+    assert _heading_at(t, yaw, np.array([2.4]), 0.5)[0] == pytest.approx(3.0 + turn + 0.04)
     # the gap is measured to the nearer heading, before or after (both 1 s from 1.0 s)
     assert _heading_at(t, yaw, np.array([1.0]), 1.0)[0] == pytest.approx(3.0 + turn / 2)
     assert np.isnan(_heading_at(t, yaw, np.array([1.0]), 0.9)[0])

@@ -25,6 +25,15 @@ def test_weighted_circular_median_by_hand():
     assert got == pytest.approx(-3.0, abs=1e-12)
 
 
+@pytest.mark.parametrize("centre", [1.5, -1.5, np.pi, 0.0])
+def test_a_cluster_is_never_split_by_the_wrap_wherever_it_lies(centre):
+    """Unwrapped around the cluster's own circular mean, not around any other angle."""
+    spread = np.array([-0.2, -0.1, 0.0, 0.1, 0.25])
+    angles = np.angle(np.exp(1j * (centre + spread)))
+    got = circular_median(angles[::-1])
+    assert np.angle(np.exp(1j * (got - centre))) == pytest.approx(0.0, abs=1e-12)
+
+
 def test_correlation_time_by_hand():
     # centred -1.5, -0.5, 0.5, 1.5: variance sum 5, lag 1 sum 1.25: 1 + 2 * 0.25
     assert correlation_time(np.array([1.0, 2.0, 3.0, 4.0])) == pytest.approx(1.5, abs=1e-12)
