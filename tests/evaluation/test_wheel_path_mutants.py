@@ -105,4 +105,17 @@ def test_fit_windows_at_the_positions_own_delay_fits_exactly():
     info = at.a_info
     assert info[0, 1] == pytest.approx(0.0, abs=1e-9) and info[1, 0] == pytest.approx(0.0, abs=1e-9)
     assert info[0, 0] == pytest.approx(info[1, 1], rel=1e-12) and info[0, 0] > 0.0
+    # the share kept: |u|^2 over |u~|^2, u~ the heading's unit vector centred per window
+    e = np.exp(1j * (psi[rows] + 0.4))
+    centred = (
+        e
+        - (np.bincount(fixes.window, e.real) + 1j * np.bincount(fixes.window, e.imag))[fixes.window]
+        / np.bincount(fixes.window)[fixes.window]
+    )
+    assert at.u_kept == pytest.approx(info[0, 0] / np.sum(np.abs(centred) ** 2), rel=1e-6)
     assert 0.0 < at.u_kept < 1.0
+    # without the lever arm nothing of it is fitted
+    plain = fit_windows(track, fixes, 0.3, lever=False)
+    assert plain.a == 0j and plain.u_kept == 0.0
+    np.testing.assert_array_equal(plain.a_info, np.zeros((2, 2)))
+    assert plain.cost < 1e-12
