@@ -13,7 +13,14 @@ import numpy as np
 import pytest
 
 from terrain_odom.evaluation.calibration import Estimate, LeverArm
-from terrain_odom.evaluation.mounting import MountingFit, _heading_at, mounting_findings
+from terrain_odom.evaluation.mounting import (
+    MountingFit,
+    MountingLimits,
+    _heading_at,
+    fit_mounting,
+    mounting_findings,
+)
+from terrain_odom.records import WheelLog
 
 NO_LEVER = LeverArm(0.0, 0.0, 0.01, 0.01, 1.0)
 
@@ -124,3 +131,50 @@ def test_headings_at_times_interpolate_unwrapped_within_the_gap():
     assert np.isnan(_heading_at(t, yaw, np.array([1.0]), 0.9)[0])
     assert np.isnan(_heading_at(t, np.full(4, np.nan), np.array([0.0, 1.0]), 0.5)).all()
     assert _heading_at(t, np.full(4, np.nan), np.array([0.0, 1.0]), 0.5).dtype == float
+
+
+def _straight_run(speed: float, offset: float, seconds: float = 20.0, heading_every: int = 1):
+    """Along x at ``speed`` m/s, rows every 0.125 s (exact), headings ``offset`` rad off."""
+    t = np.arange(0.0, seconds + 1e-9, 0.125)
+    yaw = np.full(t.size, offset)
+    yaw[np.arange(t.size) % heading_every != 0] = np.nan
+    pose = np.c_[speed * t, 0 * t, yaw]
+    v = np.full(t.size, speed)
+    return WheelLog(t, v, v.copy(), pose, None, np.zeros(t.size, int))
+
+
+def test_straight_chords_of_a_straight_run_by_hand():
+    """3-m chords every row: 24 rows each at 1 m/s; 161 rows give 137 chords, all 0.1 rad off."""
+    fit = fit_mounting(_straight_run(1.0, 0.1), 1.0)
+    assert fit.straight == 137
+    assert fit.heading_offset == pytest.approx(0.1, abs=1e-12)
+    assert fit.heading_spread == pytest.approx(0.0, abs=1e-12)
+    assert fit.antenna == (0.0, 0.0) and fit.windowed is None  # 20 s: too short for windows
+    configured = fit_mounting(_straight_run(1.0, 0.1), 1.0, offset=0.25, antenna=(0.5, -0.2))
+    assert configured.heading_offset == pytest.approx(-0.15, abs=1e-12)
+    assert configured.antenna == (0.5, -0.2)
+
+
+def test_chords_longer_than_max_chord_time_are_dropped():
+    """At 0.125 m/s a 3-m chord takes exactly 24 s."""
+    slow = _straight_run(0.125, 0.1, seconds=40.0)
+    assert fit_mounting(slow, 1.0).straight == 0  # 24 s > 20 s
+    limits = MountingLimits(max_chord_time=24.0)
+    assert fit_mounting(slow, 1.0, limits=limits).straight == 129  # 321 rows - 192 steps
+
+
+def test_positions_far_from_a_heading_make_no_chord():
+    """Headings every 1 s: a position more than 0.5 s from one has no heading."""
+    run = _straight_run(1.0, 0.1, heading_every=8)
+    assert fit_mounting(run, 1.0).straight == 137  # every row within 0.5 s of a heading
+    tight = MountingLimits(yaw_gap=0.375)
+    assert fit_mounting(run, 1.0, limits=tight).straight == 0  # rows 4, 12, ... have none
+
+
+def test_too_few_straight_chords_give_no_offset():
+    short = _straight_run(1.0, 0.1, seconds=3.5)  # 29 rows: chords from rows 0 .. 4
+    fit = fit_mounting(short, 1.0)
+    assert fit.straight == 5 and fit.heading_offset == pytest.approx(0.1, abs=1e-12)
+    fewer = fit_mounting(short, 1.0, limits=MountingLimits(min_straight=6))
+    assert fewer.straight == 5 and np.isnan(fewer.heading_offset)
+    assert np.isnan(fewer.heading_spread) and fewer.correlation == 1.0
