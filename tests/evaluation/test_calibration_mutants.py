@@ -49,8 +49,10 @@ def test_a_delay_at_the_edge_of_the_search_is_not_observable(clean):
         "the best position delay lies at the edge of +-0.2 s: drive with starts, stops and "
         "turns, or give the delay in seconds",
     )
-    # a lever arm at an untimed delay can be anything
+    # a lever arm at an untimed delay can be anything: fitted as at delay 0, error unknown
     assert fit.lever.std_x == fit.lever.std_y == math.inf
+    at_zero = fit_sensors(log, 1.0, position_delay=0.0, limits=CalibrationLimits(max_delay=0.2))
+    assert (fit.lever.x, fit.lever.y) == (at_zero.lever.x, at_zero.lever.y)
     assert not fit.antenna_x.observable and not fit.antenna_y.observable
 
 
@@ -59,6 +61,16 @@ def test_without_headings_the_heading_estimates_say_so(clean):
     fit = fit_sensors(log, 1.0)
     for est in (fit.heading_offset, fit.heading_noise, fit.heading_wander):
         _unknown(est, "the log has no headings")
+
+
+def test_eight_windows_are_enough_and_two_headings_are_headings(clean):
+    log = degrade_log(clean.take(slice(0, 1600)), Degradation(seed=0, **QUIET)).log  # 80 s
+    fit = fit_sensors(log, 1.0)
+    assert fit.windows == 8 and fit.position_noise.observable
+    two = dataclasses.replace(log, pose=log.pose.copy())
+    rows = np.flatnonzero(np.isfinite(two.pose[:, 2]))
+    two.pose[rows[2:], 2] = np.nan  # two headings left
+    assert fit_sensors(two, 1.0).heading_offset.how != "the log has no headings"
 
 
 def test_too_few_windows_leave_every_estimate_unknown(clean):
