@@ -20,6 +20,8 @@ from terrain_odom.evaluation.calibration import (
     _heading_offset,
     _heading_wander,
     fit_sensors,
+    lever_significant,
+    x_icr_limit,
 )
 from terrain_odom.evaluation.robust import MAD_TO_STD, correlation_time
 from terrain_odom.evaluation.wheel_path import Fixes, WindowFit
@@ -225,3 +227,38 @@ def test_position_noise_and_its_standard_error(clean):
     assert m is not None and int(m.group(2)) == fit.windows
     dof = 2 * int(m.group(1)) - 4 * fit.windows - 2
     assert noise.std == pytest.approx(noise.value / math.sqrt(2.0 * dof), rel=1e-12)
+
+
+def test_the_lever_arms_error_adds_the_delays_through_the_slope(mounted):
+    """std^2 = (least squares' own)^2 + (d a / d delay * std_delay)^2, the slope over +-0.05 s."""
+    fit = fit_sensors(mounted, 1.0)
+    best, std = fit.position_delay.value, fit.position_delay.std
+    plain = fit_sensors(mounted, 1.0, position_delay=best).lever
+    up = fit_sensors(mounted, 1.0, position_delay=best + 0.05).lever
+    down = fit_sensors(mounted, 1.0, position_delay=best - 0.05).lever
+    slope_x, slope_y = (up.x - down.x) / 0.1, (up.y - down.y) / 0.1
+    assert (fit.lever.x, fit.lever.y) == (plain.x, plain.y)
+    assert fit.lever.std_x == pytest.approx(math.hypot(plain.std_x, slope_x * std), rel=1e-9)
+    assert fit.lever.std_y == pytest.approx(math.hypot(plain.std_y, slope_y * std), rel=1e-9)
+
+
+def test_lever_significance_by_its_own_limits():
+    lim = CalibrationLimits()
+    assert x_icr_limit(1.0) == 0.5 and x_icr_limit(0.5) == 0.35  # B / 2, at least 0.35 m
+    wide = CalibrationLimits(lever_fraction=0.25, min_lever=1.0)
+    assert x_icr_limit(1.0, wide) == 1.0 and x_icr_limit(8.0, wide) == 2.0
+    assert lever_significant(-0.8, 0.05, 1.0, lim)
+    assert not lever_significant(-0.8, 0.05, 1.0, wide)  # within its 1 m
+    assert not lever_significant(0.5, 0.05, 1.0, lim)  # exactly B / 2: not beyond
+    assert not lever_significant(0.8, 0.27, 1.0, lim)  # 3 std = 0.81
+    assert lever_significant(0.8, 0.26, 1.0, lim)
+    assert not lever_significant(5.0, 1.01, 1.0, lim)  # std beyond max_coarse_std
+    assert lever_significant(5.0, 1.0, 1.0, lim)
+    assert not lever_significant(float("nan"), 0.01, 1.0, lim)
+
+
+@pytest.mark.parametrize("latency", [0.405, 0.407])
+def test_a_delay_between_grid_points_is_found_by_the_parabola(clean, latency):
+    """The fine grid steps 0.01 s; the vertex finds 0.405 and 0.407 s within 2.5 ms."""
+    log = degrade_log(clean, Degradation(latency=latency, seed=0, **QUIET)).log
+    assert fit_sensors(log, 1.0).position_delay.value == pytest.approx(latency, abs=2.5e-3)
