@@ -7,6 +7,7 @@ only where calibrate's own fit (``windowed``) is not given.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -178,3 +179,54 @@ def test_too_few_straight_chords_give_no_offset():
     fewer = fit_mounting(short, 1.0, limits=MountingLimits(min_straight=6))
     assert fewer.straight == 5 and np.isnan(fewer.heading_offset)
     assert np.isnan(fewer.heading_spread) and fewer.correlation == 1.0
+
+
+def test_chords_are_3_m_of_wheel_travel_at_any_speed():
+    """1 m/s for 10 s, then 0.5 m/s: 15 m in all, a chord from every row up to 12 m (14 s)."""
+    run = _straight_run(1.0, 0.1)
+    slow = run.t >= 10.0
+    v = np.where(slow, 0.5, 1.0)
+    x = np.where(slow, 10.0 + 0.5 * (run.t - 10.0), run.t)
+    run = dataclasses.replace(run, v_l=v, v_r=v.copy(), pose=np.c_[x, 0 * x, run.pose[:, 2]])
+    fit = fit_mounting(run, 1.0)
+    assert fit.straight == 113 and fit.heading_offset == pytest.approx(0.1, abs=1e-12)
+
+
+def test_no_chord_crosses_from_one_run_to_the_next():
+    one = _straight_run(1.0, 0.1, seconds=10.0)  # 81 rows: 57 chords
+    two = dataclasses.replace(
+        one,
+        t=np.r_[one.t, one.t],  # the second run starts again at 0 s, 100 m away
+        v_l=np.r_[one.v_l, one.v_l],
+        v_r=np.r_[one.v_r, one.v_r],
+        pose=np.r_[one.pose, one.pose + [100.0, 0.0, 0.0]],
+        segment=np.repeat([0, 1], one.t.size),
+    )
+    assert fit_mounting(one, 1.0).straight == 57
+    assert fit_mounting(two, 1.0).straight == 114
+
+
+def test_a_row_with_x_but_no_y_is_no_position():
+    run = _straight_run(1.0, 0.1)
+    rows = np.arange(10, 150, 7)
+    half, none = run.pose.copy(), run.pose.copy()
+    half[rows, 1] = np.nan
+    none[rows, :2] = np.nan
+    got = fit_mounting(dataclasses.replace(run, pose=half), 1.0)
+    assert got.straight == fit_mounting(dataclasses.replace(run, pose=none), 1.0).straight
+    assert got.heading_offset == pytest.approx(0.1, abs=1e-12)
+
+
+def test_a_chord_over_a_position_without_heading_is_dropped():
+    """Headings missing for 9 rows around row 80: only row 80 is over 0.5 s from one."""
+    run = _straight_run(1.0, 0.1)
+    run.pose[76:85, 2] = np.nan
+    # the 25 chords from rows 56 .. 80 (24 rows each) hold row 80
+    assert fit_mounting(run, 1.0).straight == 137 - 25
+
+
+def test_a_log_of_one_row_has_no_chord():
+    one = _straight_run(1.0, 0.1, seconds=0.0)
+    assert len(one) == 1
+    fit = fit_mounting(one, 1.0)
+    assert fit.straight == 0 and np.isnan(fit.heading_offset)
