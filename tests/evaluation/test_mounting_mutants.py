@@ -230,3 +230,23 @@ def test_a_log_of_one_row_has_no_chord():
     assert len(one) == 1
     fit = fit_mounting(one, 1.0)
     assert fit.straight == 0 and np.isnan(fit.heading_offset)
+
+
+def test_the_configured_antenna_is_taken_off_before_the_course():
+    """Drive a 100-m circle at 1 m/s, read by an antenna at (1.0, 0.5) m.
+
+    3-m chords turn 0.03 rad (straight): with the antenna configured the offset is 0; without,
+    its swing biases the course.
+    """
+    t = np.arange(0.0, 40.0 + 1e-9, 0.125)
+    omega, radius, antenna = 0.01, 100.0, np.array([1.0, 0.5])
+    yaw = omega * t
+    c, s = np.cos(yaw), np.sin(yaw)
+    x = radius * s + c * antenna[0] - s * antenna[1]
+    y = radius * (1.0 - c) + s * antenna[0] + c * antenna[1]
+    v_l, v_r = np.full(t.size, 1.0 - omega / 2), np.full(t.size, 1.0 + omega / 2)
+    log = WheelLog(t, v_l, v_r, np.c_[x, y, yaw], None, np.zeros(t.size, int))
+    configured = fit_mounting(log, 1.0, antenna=(1.0, 0.5))
+    assert configured.straight == 297
+    assert configured.heading_offset == pytest.approx(0.0, abs=1e-6)
+    assert abs(fit_mounting(log, 1.0).heading_offset) > 1e-3
