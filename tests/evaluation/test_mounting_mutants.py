@@ -13,7 +13,7 @@ import math
 import numpy as np
 import pytest
 
-from terrain_odom.evaluation.calibration import Estimate, LeverArm
+from terrain_odom.evaluation.calibration import CalibrationLimits, Estimate, LeverArm
 from terrain_odom.evaluation.mounting import (
     MountingFit,
     MountingLimits,
@@ -250,3 +250,16 @@ def test_the_configured_antenna_is_taken_off_before_the_course():
     assert configured.straight == 297
     assert configured.heading_offset == pytest.approx(0.0, abs=1e-6)
     assert abs(fit_mounting(log, 1.0).heading_offset) > 1e-3
+
+
+def test_calibrates_own_offset_uses_the_given_limits_and_the_configured_offset():
+    """40 s straight: four 10-s windows, enough only if calibrate's limits ask for two."""
+    run = _straight_run(1.0, 0.1, seconds=40.0)
+    assert fit_mounting(run, 1.0, offset=0.02).windowed is None  # 8 windows by default
+    lim = MountingLimits(lever=CalibrationLimits(min_windows=2))
+    windowed = fit_mounting(run, 1.0, offset=0.02, limits=lim).windowed
+    assert windowed is not None and windowed.observable is True
+    assert windowed.value == pytest.approx(0.08, abs=1e-9)  # 0.1 measured, 0.02 configured
+    assert (
+        windowed.how == "circular median of measured heading minus the wheel path's over 4 windows"
+    )
