@@ -262,3 +262,11 @@ def test_a_delay_between_grid_points_is_found_by_the_parabola(clean, latency):
     """The fine grid steps 0.01 s; the vertex finds 0.405 and 0.407 s within 2.5 ms."""
     log = degrade_log(clean, Degradation(latency=latency, seed=0, **QUIET)).log
     assert fit_sensors(log, 1.0).position_delay.value == pytest.approx(latency, abs=2.5e-3)
+
+
+def test_positions_of_pure_noise_give_a_delay_of_unknown_error(clean):
+    """30-m GPS noise: the costs near the best delay bend the wrong way: no curvature, no error."""
+    d = Degradation(seed=1, **{**QUIET, "gps_noise": 30.0})
+    delay = fit_sensors(degrade_log(clean, d).log, 1.0).position_delay
+    assert delay.std == math.inf and delay.observable is False
+    assert "(standard error inf s > 0.15 s)" in delay.how
