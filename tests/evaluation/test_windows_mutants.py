@@ -113,7 +113,7 @@ def test_padded_steps_by_hand():
     rows, valid, dt = padded_steps(log, w, np.array([0, 1]))
     assert rows.tolist() == [[0, 1, 1], [1, 2, 3]]  # padding repeats the last real row
     assert valid.tolist() == [[True, True, False], [True, True, True]]
-    assert dt.tolist() == [[1.0, 2.0, 0.0], [2.0, 3.0, 4.0]]
+    assert dt.tolist() == [[1.0, 2.0, 0.0], [2.0, 3.0, 4.0]] and dt.dtype == np.float64
     rows, valid, dt = padded_steps(log, w, np.array([1]))
     assert rows.tolist() == [[1, 2, 3]] and dt.tolist() == [[2.0, 3.0, 4.0]]
 
@@ -155,3 +155,18 @@ def test_spatial_windows_measure_only_positions_and_only_within_their_segment():
     w = spatial_windows(log, 1.0)
     assert w.start.tolist() == [0, 1, 4, 5] and w.end.tolist() == [2, 3, 6, 7]
     assert w.length.tolist() == [1.0] * 4
+
+
+def test_prediction_windows_of_a_run_at_negative_times():
+    """A log's time need only increase within a segment: the second run may start at -100 s."""
+    t = np.r_[np.arange(5.0), -100.0 + np.arange(5.0)]
+    segment = np.repeat([0, 1], 5)
+    w = prediction_windows(_poses_at(t, segment), 1.0)
+    assert w.start.tolist() == [0, 1, 2, 3, 5, 6, 7, 8]
+    assert w.end.tolist() == [1, 2, 3, 4, 6, 7, 8, 9]
+
+
+def test_a_window_never_ends_on_its_own_start():
+    """Rows 1 s apart, horizon 0.25 s: the nearest row is the start itself, within 0.3 s."""
+    assert len(prediction_windows(_poses_at(np.arange(5.0), np.zeros(5, int)), 0.25,
+                                  tolerance=0.3)) == 0  # fmt: skip
