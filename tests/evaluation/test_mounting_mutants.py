@@ -263,3 +263,14 @@ def test_calibrates_own_offset_uses_the_given_limits_and_the_configured_offset()
     assert (
         windowed.how == "circular median of measured heading minus the wheel path's over 4 windows"
     )
+
+
+def test_positions_and_headings_on_different_rows_make_chords():
+    """A GPS on even rows without heading, an IMU on odd rows: the headings are interpolated."""
+    run = _straight_run(1.0, 0.1)
+    pose = run.pose.copy()
+    pose[0::2, 2] = np.nan
+    pose[1::2, :2] = np.nan
+    fit = fit_mounting(dataclasses.replace(run, pose=pose), 1.0)
+    assert fit.straight == 69  # fixes every 0.25 s: 3-m chords of 12 fixes, from 81 fixes
+    assert fit.heading_offset == pytest.approx(0.1, abs=1e-12)

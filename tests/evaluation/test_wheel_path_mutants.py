@@ -19,9 +19,12 @@ from terrain_odom.evaluation.wheel_path import (
     run_time,
     wheel_track,
     window_fixes,
+    yaw_scale_from_headings,
     yaw_scale_from_positions,
 )
 from terrain_odom.records import WheelLog
+from terrain_odom.sim.degrade import Degradation, degrade_log
+from terrain_odom.sim.model_log import constant_model_log
 
 
 def _drawn_with(
@@ -119,3 +122,17 @@ def test_fit_windows_at_the_positions_own_delay_fits_exactly():
     assert plain.a == 0j and plain.u_kept == 0.0
     np.testing.assert_array_equal(plain.a_info, np.zeros((2, 2)))
     assert plain.cost < 1e-12
+
+
+def test_the_heading_scale_is_taken_over_1_s_chains_not_consecutive_headings():
+    """Check an IMU 0.1 s late, not compensated.
+
+    Over 1-s intervals the turns still mostly agree (scale 0.895); between consecutive
+    headings 0.02 s apart they decorrelate (0.79). With the delay given: 1.
+    """
+    clean = constant_model_log("idd", [], seconds=120.0, track_width=1.0, noise=(0.0, 0.0, 0.0))
+    quiet = {"gps_noise": 0.0, "gps_walk": 0.0, "heading_wander": 0.0, "heading_noise": 0.0}
+    log = degrade_log(clean, Degradation(imu_latency=0.1, seed=0, **quiet)).log
+    time = run_time(log)
+    assert yaw_scale_from_headings(log, time, 1.0, 0.0) > 0.85
+    assert yaw_scale_from_headings(log, time, 1.0, 0.1) == pytest.approx(1.0, abs=0.02)
