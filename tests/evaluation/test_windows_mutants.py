@@ -68,6 +68,7 @@ def test_prediction_windows_end_on_the_nearest_pose_the_earlier_on_a_tie():
     log = _poses_at(np.arange(0.0, 5.0, 0.5), np.zeros(10, int))
     near = prediction_windows(log, 1.6)  # t + 1.5 is 0.1 s off, t + 2.0 0.4 s
     assert (near.end - near.start).tolist() == [3] * 7
+    assert near.length.tolist() == [1.5] * 7  # the poses' path, 1 m/s for 1.5 s
     tie = prediction_windows(log, 1.25)  # t + 1.0 and t + 1.5 both 0.25 s off: the earlier
     assert (tie.end - tie.start).tolist() == [2] * 8
 
