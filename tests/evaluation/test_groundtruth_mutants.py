@@ -33,7 +33,7 @@ ICR = {
 
 
 def _gt(terrain_at, seconds: float = 20.0, dt: float = 0.5) -> GroundTruth:
-    """1 m/s along x, ``x = t``; terrain per row from its time; y = 2 t and yaw 0.1 apart."""
+    """Drive 1 m/s along x (``x = t``, y and yaw 0); the terrain of each row from its time."""
     t = np.arange(0.0, seconds, dt)
     terrain = np.array([terrain_at(v) for v in t])
     icr = np.array([ICR[k] for k in terrain])

@@ -1,8 +1,10 @@
-"""The mounting findings at their thresholds and in full (written for mutation survivors).
+"""The mounting the log shows, by hand: chords of exact runs, and the findings at their thresholds.
 
-A finding is reported beyond ``heading_offset`` (5 deg) and 3.76 standard
-errors; the chords' offset only with ``min_judged`` (20) straight chords and
-only where calibrate's own fit (``windowed``) is not given.
+Written for mutation survivors (docs/testing.md). A finding is reported
+beyond ``heading_offset`` (5 deg) and 3.76 standard errors; the chords'
+offset only with ``min_judged`` (20) straight chords and only where
+calibrate's own fit (``windowed``) is not given. The chords are counted by
+hand on straight runs whose times and positions are exact in binary.
 """
 
 from __future__ import annotations

@@ -1,9 +1,11 @@
-"""The yaw scale found from positions alone, against the scale the positions were drawn with.
+"""The wheel path's least squares against positions drawn from it with known answers.
 
-Written for the survivors of a mutation run (docs/testing.md). The
-positions are the wheel path itself with the ideal yaw scaled by a known
-``k`` (noise-free), so the least squares is exact at ``k`` and the
-parabola through the grid's costs must find it between grid points.
+Written for the survivors of a mutation run (docs/testing.md). The yaw
+scale: positions are the wheel path itself with the ideal yaw scaled by a
+known ``k`` (noise-free), so the least squares is exact at ``k`` and the
+parabola through the grid's costs must find it between grid points. The
+windows' fit: a straight line and an uneven turn, by hand. The heading's
+scale: over 1-s chains, with an IMU late.
 """
 
 from __future__ import annotations
