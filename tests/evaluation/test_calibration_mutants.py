@@ -56,6 +56,8 @@ def test_a_delay_at_the_edge_of_the_search_is_not_observable(clean):
     assert fit.lever.std_x == fit.lever.std_y == math.inf
     at_zero = fit_sensors(log, 1.0, position_delay=0.0, limits=CalibrationLimits(max_delay=0.2))
     assert (fit.lever.x, fit.lever.y) == (at_zero.lever.x, at_zero.lever.y)
+    # and the headings are compared at delay 0 as well
+    assert fit.heading_offset.value == at_zero.heading_offset.value
     assert not fit.antenna_x.observable and not fit.antenna_y.observable
 
 
@@ -172,6 +174,7 @@ def test_a_given_delay_is_taken_as_exact(mounted):
     assert given.position_delay == Estimate(0.4, 0.0, True, "given")
     fitted = fit_sensors(mounted, 1.0)
     assert fitted.position_delay.value == pytest.approx(0.4, abs=0.01)
+    assert fitted.position_delay.observable is True
     assert re.fullmatch(
         r"least squares of \d+ positions against the wheel path, delays \+-1.5 s",
         fitted.position_delay.how,
@@ -199,6 +202,7 @@ def test_a_coarse_lever_arm_is_applied_only_where_significant(mounted):
     what = "(from the point that does not slide sideways: only antenna - x_icr is observable)"
     x, y = fit.antenna_x, fit.antenna_y
     assert x.observable and x.value == pytest.approx(-0.8, abs=0.02)  # beyond B / 2 = 0.5 m
+    assert x.std == fit.lever.std_x
     assert x.how == (
         "coarse (standard error > 1e-05 m), applied as it is significant: least squares of "
         f"positions against the wheel path {what}; measure the antenna for better"
@@ -213,6 +217,7 @@ def test_a_coarse_lever_arm_is_applied_only_where_significant(mounted):
     )
     calibrated = fit_sensors(mounted, 1.0).antenna_y
     assert calibrated.observable and calibrated.value == pytest.approx(0.3, abs=0.02)
+    assert calibrated.std == fit.lever.std_y
     assert calibrated.how == (
         f"least squares of positions against the wheel path in uneven turns {what}"
     )
@@ -271,3 +276,13 @@ def test_positions_of_pure_noise_give_a_delay_of_unknown_error(clean):
     delay = fit_sensors(degrade_log(clean, d).log, 1.0).position_delay
     assert delay.std == math.inf and delay.observable is False
     assert "(standard error inf s > 0.15 s)" in delay.how
+
+
+def test_heading_noise_ignores_a_steady_heading_drift(clean):
+    """A heading drifting 0.5 rad/s (0.01 rad a 50-Hz step) beside white noise of 0.01 rad."""
+    d = Degradation(seed=0, **{**QUIET, "heading_noise": 0.01})
+    log = degrade_log(clean, d).log
+    pose = log.pose.copy()
+    pose[:, 2] = np.angle(np.exp(1j * (pose[:, 2] + 0.5 * log.t)))
+    est = fit_sensors(dataclasses.replace(log, pose=pose), 1.0).heading_noise
+    assert est.value == pytest.approx(0.01, rel=0.03)

@@ -23,6 +23,7 @@ from terrain_odom.evaluation.mounting import (
     fit_mounting,
     mounting_findings,
 )
+from terrain_odom.evaluation.mounting import _chords as mounting_chords
 from terrain_odom.records import WheelLog
 
 NO_LEVER = LeverArm(0.0, 0.0, 0.01, 0.01, 1.0)
@@ -276,3 +277,23 @@ def test_positions_and_headings_on_different_rows_make_chords():
     fit = fit_mounting(dataclasses.replace(run, pose=pose), 1.0)
     assert fit.straight == 69  # fixes every 0.25 s: 3-m chords of 12 fixes, from 81 fixes
     assert fit.heading_offset == pytest.approx(0.1, abs=1e-12)
+
+
+def test_a_chord_the_wheels_turn_exactly_straight_turn_is_not_straight():
+    """Wheels turning 1/32 rad/s: a 3-m chord (3 s) turns them 0.09375 rad exactly."""
+    run = _straight_run(1.0, 0.0)  # the GPS and the IMU say straight
+    turning = dataclasses.replace(run, v_l=run.v_l - 1 / 64, v_r=run.v_r + 1 / 64)
+    at = MountingLimits(straight_turn=0.09375)
+    assert fit_mounting(turning, 1.0, limits=at).straight == 0
+    assert fit_mounting(turning, 1.0, limits=MountingLimits(straight_turn=0.0938)).straight == 137
+
+
+def test_a_chord_driven_back_and_forth_is_not_straight():
+    """2.25 m forward, 0.75 m back: 3 m of wheel travel for 1.5 m of chord (moved 0.5 < 0.7)."""
+    t = np.arange(25) * 0.125
+    v = np.where(np.arange(25) < 18, 1.0, -1.0)
+    x = np.r_[0.0, np.cumsum(v[:-1] * 0.125)]
+    log = WheelLog(t, v, v.copy(), np.c_[x, 0 * x, 0 * x], None, np.zeros(25, int))
+    chords = mounting_chords(log, 1.0, np.zeros(2), 0.0, MountingLimits())
+    assert chords.moved.tolist() == [0.5]
+    assert fit_mounting(log, 1.0).straight == 0
