@@ -114,6 +114,15 @@ def test_white_heading_noise_is_measured_within_3_percent(clean):
     assert est.how == "robust std of 5994 consecutive heading increments about the wheels' turn"
 
 
+def test_twenty_heading_increments_are_enough(clean):
+    log = degrade_log(clean, Degradation(seed=0, **QUIET)).log
+    pose = log.pose.copy()
+    rows = np.flatnonzero(np.isfinite(pose[:, 2]))
+    pose[np.setdiff1d(rows, rows[::50][:21]), 2] = np.nan  # 21 headings a second apart
+    est = fit_sensors(dataclasses.replace(log, pose=pose), 1.0).heading_noise
+    assert est.observable and est.how.startswith("robust std of 20 consecutive heading")
+
+
 def test_a_few_headings_give_an_offset_but_no_heading_noise(clean):
     log = degrade_log(clean, Degradation(imu_rate=0.1, seed=0, **QUIET)).log  # 12 headings
     fit = fit_sensors(log, 1.0)

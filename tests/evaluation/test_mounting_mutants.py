@@ -228,6 +228,11 @@ def test_a_chord_over_a_position_without_heading_is_dropped():
     assert fit_mounting(run, 1.0).straight == 137 - 25
 
 
+def test_a_log_of_two_rows_3_m_apart_has_one_chord():
+    two = _straight_run(1.0, 0.1, seconds=24 * 0.125).take([0, 24])  # 3 m apart
+    assert len(two) == 2 and fit_mounting(two, 1.0).straight == 1
+
+
 def test_a_log_of_one_row_has_no_chord():
     one = _straight_run(1.0, 0.1, seconds=0.0)
     assert len(one) == 1
