@@ -209,7 +209,7 @@ def test_no_chord_crosses_from_one_run_to_the_next():
     assert fit_mounting(two, 1.0).straight == 114
 
 
-def test_a_row_with_x_but_no_y_is_no_position():
+def test_a_row_with_x_but_no_y_or_y_but_no_x_is_no_position():
     run = _straight_run(1.0, 0.1)
     rows = np.arange(10, 150, 7)
     half, none = run.pose.copy(), run.pose.copy()
@@ -218,6 +218,9 @@ def test_a_row_with_x_but_no_y_is_no_position():
     got = fit_mounting(dataclasses.replace(run, pose=half), 1.0)
     assert got.straight == fit_mounting(dataclasses.replace(run, pose=none), 1.0).straight
     assert got.heading_offset == pytest.approx(0.1, abs=1e-12)
+    half = run.pose.copy()
+    half[rows, 0] = np.nan  # and a y without x
+    assert fit_mounting(dataclasses.replace(run, pose=half), 1.0).straight == got.straight
 
 
 def test_a_chord_over_a_position_without_heading_is_dropped():
@@ -291,6 +294,12 @@ def test_a_chord_the_wheels_turn_exactly_straight_turn_is_not_straight():
     at = MountingLimits(straight_turn=0.09375)
     assert fit_mounting(turning, 1.0, limits=at).straight == 0
     assert fit_mounting(turning, 1.0, limits=MountingLimits(straight_turn=0.0938)).straight == 137
+    # the same turn measured by the IMU alone, the wheels straight
+    pose = run.pose.copy()
+    pose[:, 2] = run.t / 32
+    imu = dataclasses.replace(run, pose=pose)
+    assert fit_mounting(imu, 1.0, limits=at).straight == 0
+    assert fit_mounting(imu, 1.0, limits=MountingLimits(straight_turn=0.0938)).straight == 137
 
 
 def test_a_chord_driven_back_and_forth_is_not_straight():
