@@ -294,6 +294,10 @@ def test_a_chord_the_wheels_turn_exactly_straight_turn_is_not_straight():
     at = MountingLimits(straight_turn=0.09375)
     assert fit_mounting(turning, 1.0, limits=at).straight == 0
     assert fit_mounting(turning, 1.0, limits=MountingLimits(straight_turn=0.0938)).straight == 137
+    # on a track of 0.5 m, half the speed difference turns as much
+    narrow = dataclasses.replace(run, v_l=run.v_l - 1 / 128, v_r=run.v_r + 1 / 128)
+    assert fit_mounting(narrow, 0.5, limits=at).straight == 0
+    assert fit_mounting(narrow, 0.5, limits=MountingLimits(straight_turn=0.0938)).straight == 137
     # the same turn measured by the IMU alone, the wheels straight
     pose = run.pose.copy()
     pose[:, 2] = run.t / 32
