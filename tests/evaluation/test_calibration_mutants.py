@@ -193,6 +193,12 @@ def test_a_given_delay_is_taken_as_exact(mounted):
     assert given.antenna_x.std == given.lever.std_x
 
 
+def test_a_delay_whose_standard_error_is_exactly_the_limit_is_calibrated(mounted):
+    std = fit_sensors(mounted, 1.0).position_delay.std
+    at = fit_sensors(mounted, 1.0, limits=CalibrationLimits(max_delay_std=std)).position_delay
+    assert at.std == std and at.observable is True
+
+
 def test_a_delay_too_uncertain_keeps_its_value_and_standard_error(mounted):
     fit = fit_sensors(mounted, 1.0, limits=CalibrationLimits(max_delay_std=1e-6))
     delay = fit.position_delay
