@@ -315,3 +315,5 @@ def test_a_chord_driven_back_and_forth_is_not_straight():
     chords = mounting_chords(log, 1.0, np.zeros(2), 0.0, MountingLimits())
     assert chords.moved.tolist() == [0.5]
     assert fit_mounting(log, 1.0).straight == 0
+    assert fit_mounting(log, 1.0, limits=MountingLimits(min_moved=0.5)).straight == 0  # not beyond
+    assert fit_mounting(log, 1.0, limits=MountingLimits(min_moved=0.4999)).straight == 1
