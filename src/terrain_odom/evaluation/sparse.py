@@ -208,7 +208,7 @@ def sparse_window_errors(
     zero = np.zeros((n, 3))
     start_xy = log.pose[windows.start, :2]
     for idx, rows, valid, poses in window_poses(log, windows, twist_fn, start=zero):
-        predicted[idx, 2] = poses[:, -1, 2] + 0.0
+        predicted[idx, 2] = poses[:, -1, 2]
         if anchor == "heading":
             continue
         q = antenna_displacement(poses, antenna)  # (C, K + 1, 2)

@@ -127,29 +127,28 @@ class Windows:
         return int(self.start.shape[0])
 
 
-def _measured_path(log: WheelLog, runs: np.ndarray) -> np.ndarray:
+def _measured_path(log: WheelLog) -> np.ndarray:
     """Cumulative measured path length per row, shape (N,), m (NaN without position).
 
-    The distance between consecutive measured positions of different
-    segments counts as zero, so differences within a segment are path lengths.
+    Only differences within a segment run are path lengths (the step into a
+    new run is its jump): every window starts and ends in one run.
     """
     rows = np.flatnonzero(log.has_position)
     steps = np.zeros(rows.size)
     steps[1:] = np.linalg.norm(np.diff(log.pose[rows, :2], axis=0), axis=1)
-    steps[1:][runs[rows][1:] != runs[rows][:-1]] = 0.0
     path = np.full(len(log), np.nan)
     path[rows] = np.cumsum(steps)
     return path
 
 
-def _path(log: WheelLog, runs: np.ndarray, anchor: str) -> np.ndarray:
+def _path(log: WheelLog, anchor: str) -> np.ndarray:
     """Path length per row as windows between ``anchor`` rows measure it, m.
 
     Full poses measure it along their positions; windows between position
     fixes or heading rows by the wheels (a GPS's noise lengthens the path of
     its fixes several times over on a slow robot).
     """
-    return _measured_path(log, runs) if anchor == "pose" else wheel_path(log)
+    return _measured_path(log) if anchor == "pose" else wheel_path(log)
 
 
 def spatial_windows(
@@ -189,7 +188,7 @@ def spatial_windows(
         raise ValueError(f"window horizon must be >= {MIN_HORIZON:g} m, got {horizon}")
     rows = anchor_mask(log, anchor)
     runs = log.segment_runs()
-    path = _path(log, runs, anchor)
+    path = _path(log, anchor)
     return _windows_reaching(rows, runs, path, path, horizon)
 
 
@@ -227,7 +226,7 @@ def time_windows(log: WheelLog, duration: float, *, anchor: str = "pose") -> Win
     runs = log.segment_runs()
     same_run = runs[1:] == runs[:-1]
     clock = np.concatenate([[0.0], np.cumsum(np.where(same_run, np.diff(log.t), 0.0))])
-    path = _path(log, runs, anchor)
+    path = _path(log, anchor)
     return _windows_reaching(anchor_mask(log, anchor), runs, clock, path, duration)
 
 
@@ -340,7 +339,7 @@ def prediction_windows(
         & (runs[end] == runs[cand])
         & (np.abs(clock[end] - target) <= tolerance)
     )  # fmt: skip
-    path = _path(log, runs, anchor)
+    path = _path(log, anchor)
     start, end = cand[keep], end[keep]
     return Windows(start=start, end=end, length=path[end] - path[start])
 
