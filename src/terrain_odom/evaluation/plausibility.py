@@ -383,7 +383,7 @@ def _yaw_fit(iv: _Intervals, yaw: np.ndarray) -> tuple[float, float]:
     m, w = iv.pose_turn[yaw], iv.wheel_turn[yaw]
     m_top = float(np.max(np.abs(m), initial=0.0))
     w_top = float(np.max(np.abs(w), initial=0.0))
-    if not (0.0 < m_top < np.inf and 0.0 < w_top < np.inf):
+    if not (0.0 < m_top and 0.0 < w_top < np.inf):  # m: wrapped heading changes, |m| <= pi
         return float("nan"), float("nan")
     m, w = m / m_top, w / w_top
     mw, ww, mm = float(m @ w), float(w @ w), float(m @ m)
