@@ -86,10 +86,11 @@ def residuals(
         shape = (p.shape[0], *block.dt.shape)  # (S, W, K), also for idd (no parameter)
         v_x, v_y, omega, dt = (np.broadcast_to(c, shape) for c in (v_x, v_y, omega, block.dt))
         poses = integrate(v_x, v_y, omega, dt)
-        if block.fixes is None or block.measured is None:  # _block sets both or neither
+        if block.fixes is None:
             err = poses[..., -1, :] - block.target
             err[..., 2] = wrap_angle(err[..., 2])
         else:
+            assert block.measured is not None  # _block sets both or neither
             err = _turned_error(poses, block.fixes, block.measured, block.target, segments.antenna)
         out.append(err)
     err = np.concatenate(out, axis=1)
