@@ -7,7 +7,7 @@
 # script checks the committed tree (HEAD) out into a scratch worktree, swaps that
 # block for tools/mutmut_kernels.toml, runs mutmut there with numba's JIT off
 # (njit returns the Python function, so mutmut's trampolines run) and prints the
-# survivors with their diffs and mutmut's counts per file; the scratch tree (and with it
+# survivors with their diffs and mutmut's counts per module; the scratch tree (and with it
 # mutants/) is removed at exit. Uncommitted changes are not seen: commit first.
 #
 # Usage (with the project's venv active, from anywhere in the repository):
@@ -46,11 +46,5 @@ echo "$survivors"
 for name in $(echo "$survivors" | sed -n 's/^ *\([^ :]*\): survived$/\1/p'); do
     mutmut show "$name"  # its diff: mutants/ goes with the scratch tree
 done
-python - <<'PY'  # mutmut's counts per file, from its .meta files
-import collections, json, pathlib
-from mutmut.stats import status_by_exit_code
-for meta in sorted(pathlib.Path("mutants/src").rglob("*.py.meta")):
-    codes = list(json.loads(meta.read_text())["exit_code_by_key"].values())
-    counts = collections.Counter(status_by_exit_code[code] for code in codes)
-    print(f"{meta.name[:-5]}: {len(codes)} mutants:", ", ".join(f"{n} {s}" for s, n in counts.items()))
-PY
+# mutmut's verdicts counted per module (tools/mutation.py, as committed)
+python tools/mutation.py counts estimation._kernels estimation._slip_kernels estimation._kalman_kernels

@@ -21,7 +21,7 @@ import random
 from collections import Counter
 from pathlib import Path
 
-from mutmut.__main__ import status_by_exit_code
+from mutmut.stats import status_by_exit_code  # where mutmut defines it (no config read)
 
 SIZE, SEED, WHOLE_UP_TO = 150, 28, 200
 
