@@ -30,7 +30,7 @@ def verdicts(module: str, root: Path = Path("mutants")) -> dict[str, int | None]
     """Return mutmut's exit code of each mutant of ``module`` (``evaluation.calibration``); None if not run."""
     meta = root / "src" / "terrain_odom" / (module.replace(".", "/") + ".py.meta")
     if not meta.is_file():
-        raise SystemExit(f"{meta}: no such file: run mutmut first (it writes the mutants)")
+        raise FileNotFoundError(f"{meta}: no such file: run mutmut first (it writes the mutants)")
     codes: dict[str, int | None] = json.loads(meta.read_text())["exit_code_by_key"]
     return codes
 
@@ -60,7 +60,10 @@ def main() -> None:
     parser.add_argument("--todo", action="store_true", help="sample: only mutants not run yet")
     args = parser.parse_args()
     for module in args.modules:
-        codes = verdicts(module)
+        try:
+            codes = verdicts(module)
+        except FileNotFoundError as exc:
+            parser.error(str(exc))  # one line, exit 2
         chosen = (
             sample(list(codes), args.size)
             if args.action == "sample" or args.sample
